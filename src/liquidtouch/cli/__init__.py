@@ -1,0 +1,85 @@
+"""The ``liquidtouch`` command line: thin commands over the Python API.
+
+Each submodule registers its commands on :data:`app`; heavy imports happen
+inside the commands so that ``--help`` stays fast. Every
+:class:`~liquidtouch.errors.LiquidTouchError` becomes one line
+``error: <message>`` on stderr and exit status 2.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+
+try:  # typer >= 0.25 vendors click
+    from typer._click import exceptions as click_exc
+except ImportError:  # pragma: no cover - older typer uses click itself
+    from click import exceptions as click_exc
+
+from liquidtouch import __version__
+from liquidtouch.cli import experiments, extract, fit, models, simulate
+from liquidtouch.errors import LiquidTouchError
+
+app = typer.Typer(
+    name="liquidtouch",
+    help="Estimate fill height, viscosity and identity of a liquid in a closed bottle "
+    "from GelSight tactile sloshing signals.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    add_completion=False,
+)
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"liquidtouch {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(
+    version: bool = typer.Option(
+        False, "--version", callback=_version, is_eager=True, help="Print the version and exit."
+    ),
+) -> None:
+    """liquidtouch: liquid properties from dynamic tactile sensing."""
+
+
+for _module in (fit, simulate, extract, models, experiments):
+    _module.register(app)
+
+
+def error_exit(message: str) -> int:
+    """Print ``error: message`` on stderr; return the exit status for bad input."""
+    print(f"error: {message}", file=sys.stderr)
+    return 2
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line on ``argv``; return the exit status (never raises on bad input)."""
+    try:
+        result = app(args=argv, prog_name="liquidtouch", standalone_mode=False)
+    except LiquidTouchError as exc:
+        return error_exit(str(exc))
+    except click_exc.NoArgsIsHelpError as exc:
+        typer.echo(exc.ctx.get_help() if exc.ctx else str(exc))
+        return 0
+    except click_exc.UsageError as exc:
+        hint = f" (see '{exc.ctx.command_path} --help')" if exc.ctx else ""
+        return error_exit(exc.format_message() + hint)
+    except click_exc.ClickException as exc:
+        return error_exit(exc.format_message())
+    except typer.Exit as exc:
+        return exc.exit_code
+    except (typer.Abort, KeyboardInterrupt):
+        print("error: interrupted", file=sys.stderr)
+        return 130
+    except FileNotFoundError as exc:
+        return error_exit(f"file not found: {exc.filename or exc}")
+    return result if isinstance(result, int) else 0
+
+
+def run() -> None:
+    """Console-script entry point."""
+    sys.exit(main())

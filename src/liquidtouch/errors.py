@@ -1,0 +1,44 @@
+"""Typed exceptions of liquidtouch.
+
+Every error a user can cause with bad input is a :class:`LiquidTouchError`;
+the command line turns it into one line ``error: <message>`` on stderr and
+exit status 2. Messages say what is wrong and what to do about it.
+"""
+
+from __future__ import annotations
+
+
+class LiquidTouchError(ValueError):
+    """Base class of all input errors raised by liquidtouch."""
+
+
+class SignalError(LiquidTouchError):
+    """A signal is unusable: too short, non-finite, flat, or without oscillation."""
+
+
+class NoOscillationError(SignalError):
+    """The signal holds no damped oscillation (overdamped, or noise only)."""
+
+
+class VideoError(LiquidTouchError):
+    """A video or image source cannot be read, or the sources of one trial disagree."""
+
+
+class MarkerError(LiquidTouchError):
+    """No markers, too few markers, or all markers lost."""
+
+
+class TableError(LiquidTouchError):
+    """A CSV table has missing or wrong columns, or bad values."""
+
+
+class ModelFileError(LiquidTouchError):
+    """A model file is not ours, is corrupt, or is of a newer format version."""
+
+
+class DatasetError(LiquidTouchError):
+    """A trial or dataset directory is malformed."""
+
+
+class CatalogueError(LiquidTouchError):
+    """An unknown liquid, container, preset or sensor name."""

@@ -1,0 +1,49 @@
+"""The package skeleton: version, error handling of the CLI, atomic writes, trial metadata."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+import liquidtouch
+from liquidtouch import atomic
+from liquidtouch.cli import main
+from liquidtouch.dataset import TrialMeta, read_trial_meta, write_trial_meta
+from liquidtouch.errors import DatasetError
+
+
+def test_version(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"liquidtouch {liquidtouch.__version__}"
+
+
+def test_unknown_command_is_a_one_line_error(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["no-such-command"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ")
+
+
+def test_atomic_write_leaves_no_temp_on_failure(tmp_path) -> None:
+    target = tmp_path / "out.json"
+    atomic.write_json(target, {"a": 1})
+    with pytest.raises(RuntimeError), atomic.atomic_path(target) as tmp:
+        tmp.write_text("half")
+        raise RuntimeError("crash")
+    assert json.loads(target.read_text()) == {"a": 1}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.json"]
+
+
+def test_trial_meta_round_trip_and_errors(tmp_path) -> None:
+    meta = TrialMeta(fps=30.0, sensors=["left.mp4"], liquid="water", height_mm=20.0)
+    write_trial_meta(tmp_path, meta)
+    again = read_trial_meta(tmp_path)
+    assert again.labels()["height_mm"] == 20.0 and again.sensors == ["left.mp4"]
+    (tmp_path / "meta.json").write_text('{"fps": "fast"}')
+    with pytest.raises(DatasetError, match="fps"):
+        read_trial_meta(tmp_path)
+    (tmp_path / "meta.json").write_text('{"fps": 30, "sensors": ["../x.mp4"]}')
+    with pytest.raises(DatasetError, match="inside"):
+        read_trial_meta(tmp_path)
+    with pytest.raises(DatasetError, match="missing"):
+        read_trial_meta(tmp_path / "nope")
