@@ -47,3 +47,27 @@ def test_trial_meta_round_trip_and_errors(tmp_path) -> None:
         read_trial_meta(tmp_path)
     with pytest.raises(DatasetError, match="missing"):
         read_trial_meta(tmp_path / "nope")
+
+
+def test_manifest_round_trip_and_validation(tmp_path) -> None:
+    from liquidtouch.dataset import read_manifest, write_manifest
+
+    rows = [
+        {"trial": "train/t000", "liquid": "water", "height_mm": 16.0, "split": "train"},
+        {"trial": "test/t001", "liquid": "olive-oil", "height_mm": 22.5, "split": "test"},
+    ]
+    write_manifest(tmp_path, rows)
+    table = read_manifest(tmp_path)
+    assert list(table["trial"]) == ["train/t000", "test/t001"]
+    assert table["height_mm"].tolist() == [16.0, 22.5]
+    with pytest.raises(DatasetError, match="inside"):
+        write_manifest(tmp_path, [{"trial": "../escape"}])
+    (tmp_path / "manifest.csv").write_text("trial,height_mm\na,16\nb,tall\n")
+    with pytest.raises(DatasetError, match="row 3"):
+        read_manifest(tmp_path)
+    (tmp_path / "manifest.csv").write_text("trial,height_mm\na,16\na,17\n")
+    with pytest.raises(DatasetError, match="twice"):
+        read_manifest(tmp_path)
+    (tmp_path / "manifest.csv").write_text("name,height_mm\na,16\n")
+    with pytest.raises(DatasetError, match="no 'trial' column"):
+        read_manifest(tmp_path)

@@ -88,3 +88,86 @@ def write_trial_meta(trial_dir: str | Path, meta: TrialMeta) -> Path:
     path = Path(trial_dir) / META_NAME
     atomic.write_json(path, meta.model_dump(mode="json"))
     return path
+
+
+MANIFEST_NAME = "manifest.csv"
+NUMERIC_LABELS = (
+    "height_mm",
+    "sugar_concentration",
+    "viscosity_cst",
+    "log10_viscosity_cst",
+    "temperature_c",
+    *TRUTH_COLUMNS,
+)
+
+
+def trial_path(root: str | Path, relative: str) -> Path:
+    """Resolve a manifest's ``trial`` entry under ``root``; refuse paths that leave it."""
+    root = Path(root).resolve()
+    rel = Path(str(relative))
+    if not str(relative).strip() or rel.is_absolute() or ".." in rel.parts:
+        raise DatasetError(f"trial path {relative!r} must be a relative path inside {root}")
+    path = (root / rel).resolve()
+    if root not in path.parents and path != root:
+        raise DatasetError(f"trial path {relative!r} leaves the dataset root {root}")
+    return path
+
+
+def write_manifest(root: str | Path, rows: list[dict[str, object]]) -> Path:
+    """Atomically write ``root/manifest.csv``: one row per trial, ``trial`` first.
+
+    Each row holds ``trial`` (path relative to ``root``) and any label columns.
+    """
+    import pandas as pd
+
+    if not rows:
+        raise DatasetError("a dataset needs at least one trial")
+    table = pd.DataFrame(rows)
+    if "trial" not in table.columns:
+        raise DatasetError("every manifest row needs a 'trial' entry")
+    for rel in table["trial"]:
+        trial_path(root, rel)
+    table = table[["trial", *[c for c in table.columns if c != "trial"]]]
+    path = Path(root) / MANIFEST_NAME
+    atomic.write_text(path, table.to_csv(index=False))
+    return path
+
+
+def read_manifest(root: str | Path):
+    """Read and validate ``root/manifest.csv``; return it as a pandas DataFrame.
+
+    Checks: the file exists and parses, a ``trial`` column, unique trial paths
+    that stay inside ``root``, numeric label columns that are numeric.
+    """
+    import pandas as pd
+
+    root = Path(root)
+    path = root / MANIFEST_NAME
+    if not path.is_file():
+        raise DatasetError(f"{root} is not a dataset directory: {MANIFEST_NAME} is missing")
+    try:
+        table = pd.read_csv(path)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise DatasetError(f"{path} is not a readable CSV: {exc}") from None
+    if "trial" not in table.columns:
+        raise DatasetError(f"{path} has no 'trial' column (columns: {', '.join(table.columns)})")
+    if table.empty:
+        raise DatasetError(f"{path} lists no trials")
+    table["trial"] = table["trial"].astype(str)
+    duplicated = table["trial"][table["trial"].duplicated()]
+    if len(duplicated):
+        raise DatasetError(f"{path} lists trial {duplicated.iloc[0]!r} twice")
+    for rel in table["trial"]:
+        trial_path(root, rel)
+    for column in NUMERIC_LABELS:
+        if column in table.columns:
+            values = pd.to_numeric(table[column], errors="coerce")
+            bad = values.isna() & table[column].notna()
+            if bad.any():
+                row = int(bad.idxmax())
+                raise DatasetError(
+                    f"{path}: column {column} must be numeric; row {row + 2} has "
+                    f"{table[column][row]!r}"
+                )
+            table[column] = values
+    return table
