@@ -1,0 +1,61 @@
+"""Where batch work runs: in-process, a process pool, or a Dask cluster.
+
+Every option is a :class:`concurrent.futures.Executor`, so batch code does not
+care which one it gets.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable, Iterator
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
+from typing import Any
+
+from liquidtouch.errors import LiquidTouchError
+
+
+class SerialExecutor(Executor):
+    """Run each task at once in the calling process (``jobs=1``; easy to debug and profile)."""
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
+        future: Future = Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except BaseException as exc:  # handed to the caller via the future
+            if isinstance(exc, KeyboardInterrupt):
+                raise
+            future.set_exception(exc)
+        return future
+
+
+@contextlib.contextmanager
+def open_executor(jobs: int = 1, dask_address: str | None = None) -> Iterator[Executor]:
+    """Yield an executor: Dask (``dask_address``), a process pool (``jobs > 1``) or serial.
+
+    ``dask_address`` is a scheduler address such as ``tcp://127.0.0.1:8786``;
+    it needs the optional extra ``liquidtouch[dask]``.
+    """
+    if jobs < 1:
+        raise LiquidTouchError(f"--jobs must be at least 1, got {jobs}")
+    if dask_address:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise LiquidTouchError(
+                "--dask needs the optional extra: pip install 'liquidtouch[dask]'"
+            ) from None
+        try:
+            client = Client(dask_address, timeout=10)
+        except OSError as exc:
+            raise LiquidTouchError(
+                f"cannot reach the Dask scheduler at {dask_address}: {exc}"
+            ) from None
+        try:
+            yield client.get_executor()
+        finally:
+            client.close()
+    elif jobs == 1:
+        yield SerialExecutor()
+    else:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            yield pool

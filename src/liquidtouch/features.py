@@ -1,0 +1,169 @@
+"""Feature extraction over a whole dataset: one row of (λ, ω, fit quality, labels) per trial.
+
+Trials run in parallel through any :class:`concurrent.futures.Executor`
+(serial, process pool, Dask). Each finished trial is cached under
+``DATASET/.cache/features/`` keyed by a fingerprint of its inputs, so a trial
+whose inputs did not change is not redone and an interrupted run resumes
+where it stopped. A bad trial is recorded with its error and the run goes on.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from collections.abc import Callable
+from concurrent.futures import as_completed
+from pathlib import Path
+
+import pandas as pd
+
+from liquidtouch import atomic
+from liquidtouch.dataset import META_NAME, read_manifest, read_trial_meta, trial_path
+from liquidtouch.errors import LiquidTouchError
+from liquidtouch.executors import open_executor
+
+#: Bump when extraction or fitting changes in a way that changes features.
+FEATURES_VERSION = 1
+SOURCES = ("gelsight", "wrench")
+FEATURE_COLUMNS = (
+    "decay_rate",
+    "angular_frequency",
+    "fast_decay_rate",
+    "fast_angular_frequency",
+    "decay_rate_std",
+    "angular_frequency_std",
+    "r2",
+    "explained_variance",
+    "n_markers",
+    "frames",
+    "fps",
+)
+CACHE_DIR = Path(".cache") / "features"
+
+
+def trial_features(trial_dir: str | Path, source: str = "gelsight") -> dict[str, float]:
+    """Features of one trial directory: the oscillation fit of its tactile (or wrist) signal."""
+    from liquidtouch.extract import extract_trial
+    from liquidtouch.wrench import wrench_features
+
+    if source == "wrench":
+        return wrench_features(trial_dir)
+    return extract_trial(trial_dir)
+
+
+def _fingerprint(trial_dir: Path, source: str) -> str:
+    """Hash of everything the trial's features depend on (file sizes and mtimes, settings)."""
+    meta = read_trial_meta(trial_dir)
+    inputs = [META_NAME, *(meta.sensors if source == "gelsight" else ["wrench.csv"])]
+    digest = hashlib.sha256(f"v{FEATURES_VERSION}:{source}".encode())
+    for name in inputs:
+        path = trial_dir / name
+        stat = path.stat() if path.exists() else None
+        digest.update(
+            f"|{name}:{stat.st_size if stat else -1}:{stat.st_mtime_ns if stat else -1}".encode()
+        )
+    return digest.hexdigest()
+
+
+def _safe_run(trial_dir: str, source: str) -> dict[str, object]:
+    """Worker: features of one trial, or the error that stopped it (never raises)."""
+    try:
+        return {"features": trial_features(trial_dir, source), "error": None, "cacheable": True}
+    except LiquidTouchError as exc:
+        return {"features": {}, "error": str(exc), "cacheable": True}
+    except Exception as exc:  # a batch survives any one bad trial
+        return {"features": {}, "error": f"{type(exc).__name__}: {exc}", "cacheable": False}
+
+
+def _cache_file(root: Path, trial: str, source: str) -> Path:
+    safe = trial.replace("/", "__")
+    return root / CACHE_DIR / source / f"{safe}.json"
+
+
+def _read_cache(path: Path, fingerprint: str) -> dict[str, object] | None:
+    try:
+        entry = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError):
+        return None
+    return entry if entry.get("fingerprint") == fingerprint else None
+
+
+def extract_features(
+    dataset: str | Path,
+    *,
+    out: str | Path | None = None,
+    jobs: int = 1,
+    dask_address: str | None = None,
+    source: str = "gelsight",
+    progress: bool = True,
+    on_trial: Callable[[str, dict[str, object]], None] | None = None,
+) -> pd.DataFrame:
+    """Extract features of every trial of ``dataset``; write ``out`` (default ``features.csv``).
+
+    Returns the table: the manifest's columns, then :data:`FEATURE_COLUMNS`,
+    then ``error`` (empty for good trials). ``on_trial(trial, result)`` is
+    called as each trial finishes (used by tests and progress reports).
+    """
+    if source not in SOURCES:
+        raise LiquidTouchError(
+            f"unknown feature source {source!r}; choose one of {', '.join(SOURCES)}"
+        )
+    root = Path(dataset)
+    manifest = read_manifest(root)
+    results: dict[str, dict[str, object]] = {}
+    todo: dict[str, tuple[Path, str]] = {}
+    for trial in manifest["trial"]:
+        tdir = trial_path(root, trial)
+        try:
+            fingerprint = _fingerprint(tdir, source)
+        except LiquidTouchError as exc:
+            results[trial] = {"features": {}, "error": str(exc)}
+            continue
+        cached = _read_cache(_cache_file(root, trial, source), fingerprint)
+        if cached is not None:
+            results[trial] = cached
+        else:
+            todo[trial] = (tdir, fingerprint)
+
+    if todo:
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
+
+        columns = (
+            "[progress.description]{task.description}",
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeRemainingColumn(),
+        )
+        with (
+            open_executor(jobs, dask_address) as pool,
+            Progress(*columns, disable=not progress, transient=True) as bar,
+        ):
+            task = bar.add_task(f"features ({source})", total=len(todo))
+            futures = {
+                pool.submit(_safe_run, str(tdir), source): trial
+                for trial, (tdir, _) in todo.items()
+            }
+            for future in as_completed(futures):
+                trial = futures[future]
+                result = future.result()
+                if result.pop("cacheable"):
+                    entry = {"fingerprint": todo[trial][1], **result}
+                    atomic.write_json(_cache_file(root, trial, source), entry)
+                results[trial] = result
+                if on_trial is not None:
+                    on_trial(trial, result)
+                bar.advance(task)
+
+    rows = []
+    for record in manifest.to_dict("records"):
+        result = results[record["trial"]]
+        features = result.get("features") or {}
+        row = dict(record)
+        row.update({name: features.get(name, math.nan) for name in FEATURE_COLUMNS})
+        row["error"] = result.get("error") or ""
+        rows.append(row)
+    table = pd.DataFrame(rows)
+    out_path = Path(out) if out is not None else root / "features.csv"
+    atomic.write_text(out_path, table.to_csv(index=False))
+    return table
