@@ -1,0 +1,326 @@
+"""Fit the damped two-mode oscillation of a tactile signal (DESIGN.md, stage 4).
+
+Model (Huang, Guo, Yuan, RSS 2022)::
+
+    u(t) ≈ B e^{-λτ} cos(ωτ+ψ) + B' e^{-λ'τ} cos(ω'τ+ψ') + c2 τ² + c1 τ + c0,   τ = t - t0
+
+with ``t0`` the first time stamp, ``λ' = λ + Δ`` and ``Δ > 0`` (so the slow mode,
+the reported feature, is the less damped one by construction) and ``ω, ω' > 0``
+inside the frequency band.
+
+Losses
+------
+``loss="paper"`` (default) minimises ``Σ (u − û)² / (u² + δ)``, the paper's loss,
+which weighs the late, small-amplitude part of the decay. Here ``u`` in the
+weight is the signal minus its quadratic drift (so the weight does not depend
+on an arbitrary offset of ``u``) and ``δ = delta_rel · mean(u²)`` with
+``delta_rel = 0.05`` by default: relative to the signal's power, so it does not
+depend on units, and large enough that the few samples near zero crossings do
+not dominate. ``loss="ls"`` is plain least squares: the maximum-likelihood fit
+under white Gaussian noise, and the statistically efficient choice for signals
+that follow the model.
+
+Uncertainty
+-----------
+Standard errors come from the Jacobian ``J`` at the optimum and the residual
+variance ``σ² = Σ (u − û)² / (n − p)``, assuming the residuals are independent
+with a common variance (white noise, model correct). For the paper's weighted
+loss the weights ``W`` are fixed numbers, so the sandwich
+``(JᵀWJ)⁻¹ (σ² JᵀW²J) (JᵀWJ)⁻¹`` is used — the covariance of the weighted
+estimator under the same white-noise assumption (it reduces to ``σ² (JᵀJ)⁻¹``
+for least squares). With ``noise="correlated"`` the middle term is a
+Newey–West (Bartlett-kernel) estimate from the residuals, for signals whose
+noise was low-pass filtered; white-noise errors are then too small.
+
+Model selection
+---------------
+With ``model="two-mode"`` both models are fitted. The two-mode result is kept
+only when the data support the fast mode: lower BIC than the single-mode fit
+and each mode's energy well above the noise. Otherwise the single-mode fit is
+reported (``model == "single-mode"``, fast-mode fields NaN), so an unsupported
+fast mode never degrades the slow-mode estimate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from liquidtouch.errors import NoOscillationError, SignalError
+from liquidtouch.oscillation_example import EXAMPLE_PARAMETERS, example_signal
+from liquidtouch.oscillation_solve import FitState, optimise_single_mode, optimise_two_mode
+
+__all__ = ["EXAMPLE_PARAMETERS", "OscillationFit", "example_signal", "fit_oscillation"]
+
+LOSSES = ("paper", "ls")
+MODELS = ("two-mode", "single-mode")
+NOISE_MODELS = ("white", "correlated")
+DEFAULT_DELTA_REL = 0.05
+MIN_SAMPLES = 20
+MIN_DURATION_S = 2.0
+#: F statistic of the oscillation against a drift-only fit below which the signal is noise
+MIN_OSCILLATION_F = 25.0
+
+
+@dataclass(frozen=True)
+class OscillationFit:
+    """Result of :func:`fit_oscillation`. Rates in 1/s, angular frequencies in rad/s.
+
+    Amplitudes are in the unit of ``u`` and, like the phases [rad] and the drift
+    coefficients ``drift_c0`` [u], ``drift_c1`` [u/s], ``drift_c2`` [u/s²], refer
+    to time measured from ``t0`` (the first time stamp). Fast-mode fields are NaN
+    when the single-mode model was used.
+    """
+
+    decay_rate: float
+    angular_frequency: float
+    amplitude: float
+    phase: float
+    fast_decay_rate: float
+    fast_angular_frequency: float
+    fast_amplitude: float
+    fast_phase: float
+    drift_c0: float
+    drift_c1: float
+    drift_c2: float
+    decay_rate_std: float
+    angular_frequency_std: float
+    fast_decay_rate_std: float
+    fast_angular_frequency_std: float
+    r2: float
+    noise_std: float
+    loss: str
+    delta: float
+    model: str
+    t0: float
+    n_samples: int
+    duration_s: float
+
+    @property
+    def frequency_hz(self) -> float:
+        """Slow-mode frequency ω / 2π [Hz]."""
+        return self.angular_frequency / (2 * math.pi)
+
+    def modes(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The slow mode, the fast mode (zeros if unused) and the drift at times ``t`` [s]."""
+        tau = np.asarray(t, dtype=float) - self.t0
+        slow = (
+            self.amplitude
+            * np.exp(-self.decay_rate * tau)
+            * np.cos(self.angular_frequency * tau + self.phase)
+        )
+        if self.model == "two-mode":
+            fast = (
+                self.fast_amplitude
+                * np.exp(-self.fast_decay_rate * tau)
+                * np.cos(self.fast_angular_frequency * tau + self.fast_phase)
+            )
+        else:
+            fast = np.zeros_like(tau)
+        drift = self.drift_c0 + self.drift_c1 * tau + self.drift_c2 * tau * tau
+        return slow, fast, drift
+
+    def curve(self, t: np.ndarray) -> np.ndarray:
+        """The fitted signal û at times ``t`` [s]."""
+        slow, fast, drift = self.modes(t)
+        return slow + fast + drift
+
+    def to_dict(self) -> dict[str, float | int | str | None]:
+        """JSON-ready dict with the CLI's key names (NaN becomes ``None``)."""
+        out: dict[str, float | int | str | None] = {}
+        for key, value in asdict(self).items():
+            if isinstance(value, float) and not math.isfinite(value):
+                out[key] = None
+            elif isinstance(value, str | int):
+                out[key] = value
+            else:
+                out[key] = float(value)
+        return out
+
+
+def _validate(t: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    t = np.asarray(t, dtype=float)
+    u = np.asarray(u, dtype=float)
+    if t.ndim != 1 or u.ndim != 1 or t.shape != u.shape:
+        raise SignalError(
+            f"t and u must be 1-D arrays of equal length (got shapes {t.shape} and {u.shape})"
+        )
+    if t.size < MIN_SAMPLES:
+        raise SignalError(
+            f"signal too short: {t.size} samples, need at least {MIN_SAMPLES}; record longer"
+        )
+    for name, arr in (("t", t), ("u", u)):
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            raise SignalError(
+                f"{name} holds {int(bad.sum())} NaN/inf value(s) (first at sample "
+                f"{int(np.argmax(bad))}); drop or interpolate them before fitting"
+            )
+    steps = np.diff(t)
+    if (steps <= 0).any():
+        i = int(np.argmax(steps <= 0))
+        raise SignalError(
+            f"time stamps must increase strictly, but t[{i + 1}]={t[i + 1]:g} <= t[{i}]={t[i]:g}; "
+            "sort the samples and remove duplicates"
+        )
+    duration = t[-1] - t[0]
+    if duration < MIN_DURATION_S:
+        raise SignalError(
+            f"signal too short: {duration:.3g} s, need at least {MIN_DURATION_S:g} s of sloshing"
+        )
+    if np.ptp(u) <= 1e-12 * max(1.0, float(np.max(np.abs(u)))):
+        raise SignalError("signal is flat (constant u); nothing moved — check the sensor signal")
+    return t, u
+
+
+def _band(band_hz: tuple[float, float], t: np.ndarray) -> tuple[float, float]:
+    lo, hi = (float(v) for v in band_hz)
+    if not (0 < lo < hi):
+        raise SignalError(f"band_hz must satisfy 0 < low < high (got {band_hz})")
+    nyquist_hz = 0.5 / float(np.median(np.diff(t)))
+    if lo >= 0.9 * nyquist_hz:
+        raise SignalError(
+            f"band low edge {lo:g} Hz is at or above the Nyquist frequency {nyquist_hz:.3g} Hz "
+            "of the samples; sample faster or lower the band"
+        )
+    return 2 * math.pi * lo, 2 * math.pi * min(hi, 0.9 * nyquist_hz)
+
+
+def _check_is_oscillation(state: FitState, drift_cost: float, band: tuple[float, float]) -> None:
+    n, p = state.n, state.n_params
+    f_stat = ((drift_cost - state.cost) / 4) / max(state.cost / (n - p), 1e-300)
+    if f_stat < MIN_OSCILLATION_F:
+        raise NoOscillationError(
+            f"no oscillation above the noise (noise only: the best damped cosine explains "
+            f"too little, F = {f_stat:.3g} < {MIN_OSCILLATION_F:g}); check that the container "
+            "was pushed and the sensor signal is the slosh"
+        )
+    lam, omega = state.rates[0], state.freqs[0]
+    at_edge = min(abs(omega - band[0]) / band[0], abs(omega - band[1]) / band[1]) < 0.01
+    if omega < 2 * lam or at_edge:
+        raise NoOscillationError(
+            f"no oscillation: the signal looks overdamped (best fit λ = {lam:.3g}/s, "
+            f"ω = {omega:.3g} rad/s, fewer than one visible cycle or no peak inside the band "
+            f"{band[0] / (2 * math.pi):.3g}–{band[1] / (2 * math.pi):.3g} Hz)"
+        )
+
+
+def fit_oscillation(
+    t: np.ndarray,
+    u: np.ndarray,
+    *,
+    loss: str = "paper",
+    model: str = "two-mode",
+    band_hz: tuple[float, float] = (0.3, 5.0),
+    delta_rel: float = DEFAULT_DELTA_REL,
+    noise: str = "white",
+) -> OscillationFit:
+    """Fit the damped-oscillation model to a tactile signal ``u`` at times ``t`` [s].
+
+    Parameters
+    ----------
+    t, u : 1-D arrays
+        Time stamps [s] (strictly increasing, need not be uniform) and signal (any unit).
+    loss : ``"paper"`` | ``"ls"``
+        The paper's relative loss ``Σ (u − û)² / (u² + δ)`` or plain least squares.
+    model : ``"two-mode"`` | ``"single-mode"``
+        Model to fit; ``"two-mode"`` falls back to one mode when the data do not
+        support a fast mode (see the module docstring).
+    band_hz : (low, high)
+        Frequency band [Hz] for both modes (high is clipped below Nyquist).
+    delta_rel : float
+        ``δ`` of the paper's loss relative to the detrended signal's mean power.
+    noise : ``"white"`` | ``"correlated"``
+        Noise assumption for the standard errors.
+
+    Raises
+    ------
+    SignalError
+        Too short (< 2 s or < 20 samples), NaN/inf, flat, or non-increasing time.
+    NoOscillationError
+        No oscillation: noise only, or overdamped (the message says which).
+    """
+    if loss not in LOSSES:
+        raise SignalError(f"unknown loss {loss!r}; use one of {', '.join(LOSSES)}")
+    if model not in MODELS:
+        raise SignalError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
+    if noise not in NOISE_MODELS:
+        raise SignalError(f"unknown noise model {noise!r}; use one of {', '.join(NOISE_MODELS)}")
+    if not delta_rel > 0:
+        raise SignalError(f"delta_rel must be > 0 (got {delta_rel})")
+    t, u = _validate(t, u)
+    band = _band(band_hz, t)
+    tau = t - t[0]
+    x = tau / tau[-1]
+    mean, scale = float(u.mean()), float(u.std())
+    u_n = (u - mean) / scale
+
+    drift_design = np.vander(x, 3)
+    drift_coef, *_ = np.linalg.lstsq(drift_design, u_n, rcond=None)
+    u_detrended = u_n - drift_design @ drift_coef
+    power = float(np.mean(u_detrended**2))
+    if power < 1e-20:
+        raise NoOscillationError("no oscillation: the signal is only a slow drift (noise-free)")
+    delta_n = delta_rel * power if loss == "paper" else math.nan
+    weights = 1.0 / (u_detrended**2 + delta_n) if loss == "paper" else np.ones_like(u_n)
+    weights /= weights.mean()
+    sqrt_w = np.sqrt(weights)
+    drift_resid = sqrt_w * (
+        drift_design @ np.linalg.lstsq(drift_design * sqrt_w[:, None], u_n * sqrt_w, rcond=None)[0]
+        - u_n
+    )
+    drift_cost = float(drift_resid @ drift_resid)
+
+    single = optimise_single_mode(tau, x, u_n, u_detrended, sqrt_w, band)
+    _check_is_oscillation(single, drift_cost, band)
+    chosen = single
+    if model == "two-mode":
+        two = optimise_two_mode(tau, x, u_n, sqrt_w, band, single)
+        if two is not None and two.supported_over(single):
+            chosen = two
+    return _build_result(chosen, weights, noise, loss, delta_n * scale**2, t, mean, scale)
+
+
+def _build_result(
+    state: FitState,
+    weights: np.ndarray,
+    noise: str,
+    loss: str,
+    delta: float,
+    t: np.ndarray,
+    mean: float,
+    scale: float,
+) -> OscillationFit:
+    std = state.standard_errors(weights, correlated=noise == "correlated")
+    amps, phases = state.amplitudes_phases()
+    d0, d1, d2 = state.drift()
+    length = t[-1] - t[0]
+    two = state.n_modes == 2
+    nan = math.nan
+    return OscillationFit(
+        decay_rate=float(state.rates[0]),
+        angular_frequency=float(state.freqs[0]),
+        amplitude=float(amps[0] * scale),
+        phase=float(phases[0]),
+        fast_decay_rate=float(state.rates[1]) if two else nan,
+        fast_angular_frequency=float(state.freqs[1]) if two else nan,
+        fast_amplitude=float(amps[1] * scale) if two else nan,
+        fast_phase=float(phases[1]) if two else nan,
+        drift_c0=float(d0 * scale + mean),
+        drift_c1=float(d1 * scale / length),
+        drift_c2=float(d2 * scale / length**2),
+        decay_rate_std=std[0],
+        angular_frequency_std=std[1],
+        fast_decay_rate_std=std[2] if two else nan,
+        fast_angular_frequency_std=std[3] if two else nan,
+        r2=state.r2(),
+        noise_std=state.noise_var() ** 0.5 * scale,
+        loss=loss,
+        delta=delta,
+        model="two-mode" if two else "single-mode",
+        t0=float(t[0]),
+        n_samples=int(t.size),
+        duration_s=float(length),
+    )

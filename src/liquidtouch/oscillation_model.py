@@ -1,0 +1,125 @@
+"""The damped-oscillation model of the tactile signal: curve, analytic Jacobian, linear part.
+
+The model (DESIGN.md, stage 4), in time ``tau`` [s] measured from the first sample::
+
+    u(tau) = sum_k exp(-r_k tau) (a_k cos(w_k tau) + b_k sin(w_k tau)) + d0 + d1 x + d2 x**2
+
+with ``x = tau / T`` (``T`` the record length, for conditioning), ``r_1 = λ`` (slow
+mode), ``r_2 = λ + Δ`` (fast mode, ``Δ > 0``), ``w_k > 0``. The cosine/sine
+amplitudes ``(a, b)`` keep the model linear in everything but the rates and
+frequencies, so those can be solved exactly for any start (variable projection).
+
+Parameter vectors are ordered ``[λ, ω, a1, b1, d0, d1, d2]`` for one mode and
+``[λ, ω, Δ, ω', a1, b1, a2, b2, d0, d1, d2]`` for two modes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+N_DRIFT = 3
+
+
+def n_nonlinear(n_modes: int) -> int:
+    """Number of nonlinear parameters (rates and frequencies) for ``n_modes`` modes."""
+    return 2 * n_modes
+
+
+def rates_and_freqs(theta_nl: np.ndarray, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Decay rates ``r_k`` [1/s] and angular frequencies ``w_k`` [rad/s] of each mode."""
+    if n_modes == 1:
+        return np.array([theta_nl[0]]), np.array([theta_nl[1]])
+    lam, omega, delta, omega_fast = theta_nl[:4]
+    return np.array([lam, lam + delta]), np.array([omega, omega_fast])
+
+
+def basis(tau: np.ndarray, x: np.ndarray, rates: np.ndarray, freqs: np.ndarray) -> np.ndarray:
+    """Design matrix ``(n, 2 * n_modes + 3)`` of the linear parameters."""
+    env = np.exp(-np.outer(tau, rates))
+    phase = np.outer(tau, freqs)
+    cols = np.empty((tau.size, 2 * rates.size + N_DRIFT))
+    cols[:, 0 : 2 * rates.size : 2] = env * np.cos(phase)
+    cols[:, 1 : 2 * rates.size : 2] = env * np.sin(phase)
+    cols[:, -3] = 1.0
+    cols[:, -2] = x
+    cols[:, -1] = x * x
+    return cols
+
+
+def curve(theta: np.ndarray, tau: np.ndarray, x: np.ndarray, n_modes: int) -> np.ndarray:
+    """The model's value at each sample."""
+    k = n_nonlinear(n_modes)
+    rates, freqs = rates_and_freqs(theta[:k], n_modes)
+    return basis(tau, x, rates, freqs) @ theta[k:]
+
+
+def jacobian(theta: np.ndarray, tau: np.ndarray, x: np.ndarray, n_modes: int) -> np.ndarray:
+    """Analytic Jacobian ``d curve / d theta``, shape ``(n, len(theta))``."""
+    k = n_nonlinear(n_modes)
+    rates, freqs = rates_and_freqs(theta[:k], n_modes)
+    design = basis(tau, x, rates, freqs)
+    lin = theta[k:]
+    jac = np.empty((tau.size, theta.size))
+    jac[:, k:] = design
+    # per mode: m = e (a c + b s); dm/dr = -tau m; dm/dw = tau e (b c - a s)
+    d_rate = []
+    d_freq = []
+    for j in range(n_modes):
+        ec, es = design[:, 2 * j], design[:, 2 * j + 1]
+        a, b = lin[2 * j], lin[2 * j + 1]
+        d_rate.append(-tau * (a * ec + b * es))
+        d_freq.append(tau * (b * ec - a * es))
+    if n_modes == 1:
+        jac[:, 0], jac[:, 1] = d_rate[0], d_freq[0]
+    else:
+        # λ moves both modes (λ' = λ + Δ); Δ moves only the fast one
+        jac[:, 0] = d_rate[0] + d_rate[1]
+        jac[:, 1] = d_freq[0]
+        jac[:, 2] = d_rate[1]
+        jac[:, 3] = d_freq[1]
+    return jac
+
+
+def solve_linear(design: np.ndarray, u: np.ndarray, sqrt_w: np.ndarray) -> tuple[np.ndarray, float]:
+    """Weighted least-squares linear parameters for a fixed design; returns (params, cost)."""
+    a = design * sqrt_w[:, None]
+    b = u * sqrt_w
+    params, *_ = np.linalg.lstsq(a, b, rcond=None)
+    resid = a @ params - b
+    return params, float(resid @ resid)
+
+
+def profile_cost_grid(
+    tau: np.ndarray,
+    x: np.ndarray,
+    u: np.ndarray,
+    sqrt_w: np.ndarray,
+    rates: np.ndarray,
+    freqs: np.ndarray,
+) -> np.ndarray:
+    """Single-mode weighted cost on a (rate, freq) grid with the linear part solved exactly.
+
+    Returns the cost array of shape ``(rates.size, freqs.size)``; vectorised with
+    batched normal equations (the grid only seeds the optimiser, so their mild
+    ill-conditioning is harmless).
+    """
+    env = np.exp(-np.outer(rates, tau))  # (R, n)
+    phase = np.outer(freqs, tau)  # (F, n)
+    cos, sin = np.cos(phase), np.sin(phase)
+    n = tau.size
+    # design (R, F, n, 5)
+    design = np.empty((rates.size, freqs.size, n, 5))
+    design[..., 0] = env[:, None, :] * cos[None, :, :]
+    design[..., 1] = env[:, None, :] * sin[None, :, :]
+    design[..., 2] = 1.0
+    design[..., 3] = x
+    design[..., 4] = x * x
+    design *= sqrt_w[:, None]
+    b = u * sqrt_w
+    gram = np.einsum("rfni,rfnj->rfij", design, design)
+    rhs = np.einsum("rfni,n->rfi", design, b)
+    gram += 1e-10 * np.eye(5) * np.trace(gram, axis1=-2, axis2=-1)[..., None, None]
+    params = np.linalg.solve(gram, rhs[..., None])[..., 0]
+    fitted = np.einsum("rfni,rfi->rfn", design, params)
+    resid = fitted - b
+    return np.einsum("rfn,rfn->rf", resid, resid)

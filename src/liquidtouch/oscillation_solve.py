@@ -1,0 +1,213 @@
+"""Nonlinear least-squares solves of the oscillation model, multi-start, with their statistics.
+
+Works on the normalised signal (zero mean, unit standard deviation) and on time
+``tau`` [s] from the first sample; :mod:`liquidtouch.oscillation` converts back.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from liquidtouch import oscillation_model as om
+from liquidtouch.oscillation_start import profile_starts, spectral_peaks
+
+RATE_MAX = 60.0  # 1/s; far above any slosh mode at 30 Hz sampling
+DELTA_MIN = 1e-6  # 1/s; keeps λ' > λ strictly
+#: energy of a mode in units of the noise variance below which the mode is not "seen"
+MIN_MODE_CHI2 = 30.0
+
+
+@dataclass
+class FitState:
+    """An optimum of the model on the normalised signal."""
+
+    n_modes: int
+    theta: np.ndarray
+    tau: np.ndarray
+    x: np.ndarray
+    u: np.ndarray
+    sqrt_w: np.ndarray
+    cost: float  # Σ w (u - û)²
+
+    @property
+    def n(self) -> int:
+        return self.tau.size
+
+    @property
+    def n_params(self) -> int:
+        return self.theta.size
+
+    @property
+    def rates(self) -> np.ndarray:
+        return om.rates_and_freqs(self.theta[: om.n_nonlinear(self.n_modes)], self.n_modes)[0]
+
+    @property
+    def freqs(self) -> np.ndarray:
+        return om.rates_and_freqs(self.theta[: om.n_nonlinear(self.n_modes)], self.n_modes)[1]
+
+    def residual(self) -> np.ndarray:
+        """Unweighted residual ``u - û``."""
+        return self.u - om.curve(self.theta, self.tau, self.x, self.n_modes)
+
+    def noise_var(self) -> float:
+        """Residual variance Σ (u − û)² / (n − p) (unweighted)."""
+        r = self.residual()
+        return float(r @ r) / (self.n - self.n_params)
+
+    def r2(self) -> float:
+        r = self.residual()
+        centred = self.u - self.u.mean()
+        return 1.0 - float(r @ r) / float(centred @ centred)
+
+    def bic(self) -> float:
+        return self.n * math.log(self.cost / self.n) + self.n_params * math.log(self.n)
+
+    def mode_chi2(self) -> np.ndarray:
+        """Energy Σ w m_k² of each mode, in units of the weighted noise variance."""
+        k = om.n_nonlinear(self.n_modes)
+        design = om.basis(self.tau, self.x, self.rates, self.freqs)
+        lin = self.theta[k:]
+        var_w = self.cost / (self.n - self.n_params)
+        out = []
+        for j in range(self.n_modes):
+            m = design[:, 2 * j : 2 * j + 2] @ lin[2 * j : 2 * j + 2]
+            out.append(float(np.sum((self.sqrt_w * m) ** 2)) / var_w)
+        return np.array(out)
+
+    def supported_over(self, single: FitState) -> bool:
+        """True when this two-mode fit is better supported than the single-mode one."""
+        return bool(self.bic() < single.bic() and (self.mode_chi2() >= MIN_MODE_CHI2).all())
+
+    def amplitudes_phases(self) -> tuple[np.ndarray, np.ndarray]:
+        """Amplitude B_k and phase ψ_k of each mode (a cos + b sin = B cos(· + ψ))."""
+        lin = self.theta[om.n_nonlinear(self.n_modes) :]
+        a, b = lin[0 : 2 * self.n_modes : 2], lin[1 : 2 * self.n_modes : 2]
+        return np.hypot(a, b), np.arctan2(-b, a)
+
+    def drift(self) -> np.ndarray:
+        """Drift coefficients (d0, d1, d2) of 1, x, x² (x = tau / T)."""
+        return self.theta[-3:]
+
+    def standard_errors(self, weights: np.ndarray, *, correlated: bool) -> list[float]:
+        """Standard errors of [λ, ω, λ', ω'] (NaN for an absent fast mode)."""
+        jac = om.jacobian(self.theta, self.tau, self.x, self.n_modes)
+        bread = jac.T @ (weights[:, None] * jac)
+        score = weights[:, None] * jac  # per-sample W J
+        if correlated:
+            g = score * self.residual()[:, None]
+            meat = g.T @ g
+            lags = _bartlett_lags(self.residual())
+            for lag in range(1, lags + 1):
+                gamma = g[lag:].T @ g[:-lag]
+                meat += (1 - lag / (lags + 1)) * (gamma + gamma.T)
+            meat *= self.n / (self.n - self.n_params)
+        else:
+            meat = self.noise_var() * (score.T @ score) / 1.0
+        try:
+            inv = np.linalg.inv(bread)
+        except np.linalg.LinAlgError:
+            return [math.nan] * 4
+        cov = inv @ meat @ inv
+        var = np.diag(cov)
+        if self.n_modes == 1:
+            return [_sqrt(var[0]), _sqrt(var[1]), math.nan, math.nan]
+        var_fast_rate = var[0] + var[2] + 2 * cov[0, 2]
+        return [_sqrt(var[0]), _sqrt(var[1]), _sqrt(var_fast_rate), _sqrt(var[3])]
+
+
+def _sqrt(v: float) -> float:
+    return math.sqrt(v) if v >= 0 and math.isfinite(v) else math.nan
+
+
+def _bartlett_lags(resid: np.ndarray) -> int:
+    """Newey–West truncation lag: twice the lag where the residual autocorrelation dies."""
+    r = resid - resid.mean()
+    n = r.size
+    acf = np.correlate(r, r, mode="full")[n - 1 :] / float(r @ r)
+    below = np.nonzero(acf[1:] < 0.1)[0]
+    first = int(below[0]) + 1 if below.size else n // 4
+    return int(min(max(2 * first, 1), n // 4))
+
+
+def _bounds(n_modes: int, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    n_lin = 2 * n_modes + om.N_DRIFT
+    if n_modes == 1:
+        lo_nl, hi_nl = [0.0, band[0]], [RATE_MAX, band[1]]
+    else:
+        lo_nl = [0.0, band[0], DELTA_MIN, band[0]]
+        hi_nl = [RATE_MAX, band[1], 2 * RATE_MAX, band[1]]
+    lo = np.concatenate([lo_nl, np.full(n_lin, -np.inf)])
+    hi = np.concatenate([hi_nl, np.full(n_lin, np.inf)])
+    return lo, hi
+
+
+def _solve(
+    theta_nl: np.ndarray,
+    n_modes: int,
+    tau: np.ndarray,
+    x: np.ndarray,
+    u: np.ndarray,
+    sqrt_w: np.ndarray,
+    band: tuple[float, float],
+) -> FitState:
+    lo, hi = _bounds(n_modes, band)
+    k = om.n_nonlinear(n_modes)
+    span = hi[:k] - lo[:k]
+    theta_nl = np.clip(theta_nl, lo[:k] + 1e-6 * span, hi[:k] - 1e-6 * span)
+    rates, freqs = om.rates_and_freqs(theta_nl, n_modes)
+    lin, _ = om.solve_linear(om.basis(tau, x, rates, freqs), u, sqrt_w)
+    theta0 = np.concatenate([theta_nl, lin])
+
+    def fun(theta: np.ndarray) -> np.ndarray:
+        return sqrt_w * (om.curve(theta, tau, x, n_modes) - u)
+
+    def jac(theta: np.ndarray) -> np.ndarray:
+        return sqrt_w[:, None] * om.jacobian(theta, tau, x, n_modes)
+
+    res = least_squares(
+        fun, theta0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=200
+    )
+    return FitState(n_modes, res.x, tau, x, u, sqrt_w, float(2 * res.cost))
+
+
+def optimise_single_mode(
+    tau: np.ndarray,
+    x: np.ndarray,
+    u: np.ndarray,
+    u_detrended: np.ndarray,
+    sqrt_w: np.ndarray,
+    band: tuple[float, float],
+) -> FitState:
+    """Best single-mode optimum from starts at the spectral peaks and the λ profile."""
+    peaks = spectral_peaks(tau, u_detrended, band)
+    starts = profile_starts(tau, x, u, sqrt_w, peaks, band)
+    fits = [_solve(np.array([lam, omega]), 1, tau, x, u, sqrt_w, band) for _, lam, omega in starts]
+    return min(fits, key=lambda f: f.cost)
+
+
+def optimise_two_mode(
+    tau: np.ndarray,
+    x: np.ndarray,
+    u: np.ndarray,
+    sqrt_w: np.ndarray,
+    band: tuple[float, float],
+    single: FitState,
+) -> FitState | None:
+    """Best two-mode optimum, started from the single-mode fit and its residual's peaks."""
+    lam, omega = float(single.rates[0]), float(single.freqs[0])
+    resid_peaks = spectral_peaks(tau, single.residual(), band, n_peaks=2)
+    gap = max(2.0 * lam, 0.5)
+    starts = [
+        # same frequency, faster decay: the non-linear early decay of one slosh mode
+        (lam, omega, gap, omega * 1.02),
+        # the single fit found the fast mode; the slow one hides in the residual
+        (0.5 * lam, resid_peaks[0], 0.5 * lam + 0.3, omega),
+    ]
+    starts += [(lam, omega, gap, p) for p in resid_peaks]
+    fits = [_solve(np.array(s), 2, tau, x, u, sqrt_w, band) for s in starts]
+    best = min(fits, key=lambda f: f.cost)
+    return best if math.isfinite(best.cost) else None
