@@ -1,0 +1,121 @@
+"""Classifying the liquid from (λ, ω): an RBF-kernel SVM with class probabilities.
+
+Inputs are standardised; ``C`` and ``gamma`` are chosen by stratified
+cross-validation over a small grid unless given. Probabilities come from
+sigmoid (Platt) calibration on cross-validated decision values
+(``CalibratedClassifierCV(SVC(), ensemble=False)``, scikit-learn's replacement
+for ``SVC(probability=True)``). Everything is deterministic, so a model file
+storing the training data and the chosen ``C``/``gamma`` rebuilds it exactly.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from liquidtouch.errors import TableError
+from liquidtouch.properties import _scale, check_features
+
+MIN_ROWS_PER_CLASS = 3
+C_GRID = (0.1, 1.0, 10.0, 100.0, 1000.0)
+GAMMA_GRID = (0.1, 0.3, 1.0, 3.0, 10.0)
+
+
+class LiquidClassifier:
+    """RBF-kernel SVM on standardised (λ, ω) with calibrated class probabilities.
+
+    ``C`` and ``gamma`` (in standardised units) default to ``None``: choose
+    them by cross-validated accuracy on :data:`C_GRID` × :data:`GAMMA_GRID`.
+    """
+
+    model_name = "svm"
+
+    def __init__(self, C: float | None = None, gamma: float | None = None) -> None:
+        self.C = C
+        self.gamma = gamma
+
+    def _folds(self, labels: np.ndarray) -> int:
+        _, counts = np.unique(labels, return_counts=True)
+        return int(min(5, counts.min()))
+
+    def _select(self, Z: np.ndarray, labels: np.ndarray) -> tuple[float, float]:
+        from sklearn.model_selection import GridSearchCV, StratifiedKFold
+        from sklearn.svm import SVC
+
+        grid = {
+            "C": [self.C] if self.C is not None else list(C_GRID),
+            "gamma": [self.gamma] if self.gamma is not None else list(GAMMA_GRID),
+        }
+        if len(grid["C"]) * len(grid["gamma"]) == 1:
+            return float(grid["C"][0]), float(grid["gamma"][0])
+        search = GridSearchCV(SVC(kernel="rbf"), grid, cv=StratifiedKFold(self._folds(labels)))
+        search.fit(Z, labels)
+        return float(search.best_params_["C"]), float(search.best_params_["gamma"])
+
+    def fit(self, X: Any, labels: Any) -> LiquidClassifier:
+        """Fit on (n, 2) features and class names; return ``self``."""
+        from sklearn.calibration import CalibratedClassifierCV
+        from sklearn.model_selection import StratifiedKFold
+        from sklearn.svm import SVC
+
+        X = check_features(X)
+        labels = np.asarray(labels).astype(str).ravel()
+        if labels.shape[0] != X.shape[0]:
+            raise TableError(f"{X.shape[0]} feature rows but {labels.shape[0]} labels")
+        classes, counts = np.unique(labels, return_counts=True)
+        if classes.size < 2:
+            raise TableError(
+                f"classification needs at least 2 classes; got only {classes.tolist()}"
+            )
+        if counts.min() < MIN_ROWS_PER_CLASS:
+            few = ", ".join(f"{c} ({n})" for c, n in zip(classes, counts, strict=True) if n < 3)
+            raise TableError(
+                f"classification needs at least {MIN_ROWS_PER_CLASS} rows per class; "
+                f"too few for: {few} (add trials)"
+            )
+        self.X_train_, self.labels_train_ = X, labels
+        self.x_mean_, self.x_scale_ = _scale(X)
+        Z = (X - self.x_mean_) / self.x_scale_
+        self.C_, self.gamma_ = self._select(Z, labels)
+        self.model_ = CalibratedClassifierCV(
+            SVC(kernel="rbf", C=self.C_, gamma=self.gamma_),
+            method="sigmoid",
+            cv=StratifiedKFold(self._folds(labels)),
+            ensemble=False,
+        ).fit(Z, labels)
+        self.classes_ = self.model_.classes_
+        return self
+
+    def _z(self, X: Any) -> np.ndarray:
+        return (check_features(X) - self.x_mean_) / self.x_scale_
+
+    def predict(self, X: Any) -> np.ndarray:
+        """The most probable class of each row (consistent with :meth:`predict_proba`)."""
+        return self.classes_[np.argmax(self.predict_proba(X), axis=1)]
+
+    def predict_proba(self, X: Any) -> np.ndarray:
+        """Calibrated class probabilities, columns in the order of ``classes_``."""
+        return self.model_.predict_proba(self._z(X))
+
+    def describe(self) -> str:
+        """The chosen hyperparameters and class names."""
+        return (
+            f"RBF SVM, C={self.C_:.3g}, gamma={self.gamma_:.3g} (standardised λ, ω); "
+            f"classes: {', '.join(self.classes_)}"
+        )
+
+    def to_state(self) -> dict[str, Any]:
+        """Plain-data state: chosen hyperparameters and training data."""
+        return {
+            "model": self.model_name,
+            "C": self.C_,
+            "gamma": self.gamma_,
+            "X_train": self.X_train_.tolist(),
+            "labels_train": self.labels_train_.tolist(),
+        }
+
+    @classmethod
+    def from_state(cls, state: dict[str, Any]) -> LiquidClassifier:
+        """Rebuild exactly by the deterministic refit with the stored C and gamma."""
+        return cls(C=state["C"], gamma=state["gamma"]).fit(state["X_train"], state["labels_train"])

@@ -1,0 +1,150 @@
+"""Physics-informed Gaussian-process regression (beyond the paper).
+
+The first sloshing mode of a liquid of depth h in a container of inner
+length L (along the slosh) follows linear potential theory,
+``ω0² = g k tanh(k h)`` with ``k = π / L``, and viscous damping lowers the
+observed frequency slightly, ``ω² = ω0² − λ²``. Hence the fill height implied
+by the dispersion relation::
+
+    h_phys(λ, ω) = atanh((ω² + λ²) / (g k)) / k
+
+The container length is unknown to the model, so the effective wavenumber k
+is fitted on the training data. For viscosity, Stokes boundary-layer damping
+gives ``λ ∝ sqrt(ν ω)``, i.e. ``log10 ν ≈ 2 log10 λ − log10 ω + const``.
+
+:class:`PhysicsGPRegressor` uses the physics feature p(λ, ω) twice: the GP's
+prior mean is ``b0 + b1 p`` (least squares), and p is a third GP input. The
+GP then only learns what the simple physics misses, which needs fewer points
+and extrapolates along the physics outside the training range.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from liquidtouch.errors import TableError
+from liquidtouch.properties import GPRegressor
+
+GRAVITY_M_S2 = 9.81
+# effective container lengths searched when fitting k = π / L
+_LENGTH_BOUNDS_M = (0.02, 2.0)
+# which physics feature suits which label column
+PRIOR_OF_TARGET = {
+    "height_mm": "height",
+    "log10_viscosity_cst": "viscosity",
+    "viscosity_cst": "viscosity",
+    "sugar_concentration": "viscosity",
+}
+
+
+def dispersion_height_mm(
+    decay_rate: np.ndarray, angular_frequency: np.ndarray, wavenumber: float
+) -> np.ndarray:
+    """Fill height [mm] implied by ``ω² + λ² = g k tanh(k h)`` for wavenumber ``k`` [1/m].
+
+    Frequencies at or above the deep-liquid limit ``sqrt(g k)`` are clipped
+    just below it (the height would be infinite).
+    """
+    omega0_sq = np.square(angular_frequency) + np.square(decay_rate)
+    ratio = np.clip(omega0_sq / (GRAVITY_M_S2 * wavenumber), 0.0, 1.0 - 1e-9)
+    return 1000.0 * np.arctanh(ratio) / wavenumber
+
+
+def fit_wavenumber(
+    decay_rate: np.ndarray, angular_frequency: np.ndarray, height_mm: np.ndarray
+) -> float:
+    """Effective wavenumber k = π / L [1/m] that best explains the heights (least squares)."""
+    from scipy.optimize import minimize_scalar
+
+    def loss(log_k: float) -> float:
+        h = dispersion_height_mm(decay_rate, angular_frequency, float(np.exp(log_k)))
+        return float(np.mean(np.square(h - height_mm)))
+
+    lo, hi = np.pi / _LENGTH_BOUNDS_M[1], np.pi / _LENGTH_BOUNDS_M[0]
+    # the loss can have plateaus where everything clips: seed the bounded search from a grid
+    grid = np.linspace(np.log(lo), np.log(hi), 60)
+    best = grid[int(np.argmin([loss(g) for g in grid]))]
+    step = grid[1] - grid[0]
+    result = minimize_scalar(
+        loss, bounds=(max(best - step, grid[0]), min(best + step, grid[-1])), method="bounded"
+    )
+    return float(np.exp(result.x))
+
+
+def stokes_viscosity_feature(decay_rate: np.ndarray, angular_frequency: np.ndarray) -> np.ndarray:
+    """``2 log10 λ − log10 ω``: log10 kinematic viscosity up to a constant (Stokes layer)."""
+    # an undamped fit (λ = 0) would give -inf; 1e-4 1/s is far below any liquid's damping
+    return 2.0 * np.log10(np.maximum(decay_rate, 1e-4)) - np.log10(angular_frequency)
+
+
+class PhysicsGPRegressor(GPRegressor):
+    """GP regression with a physics prior mean and a physics feature as extra input.
+
+    ``prior="height"`` uses the dispersion-relation height (fitted wavenumber);
+    ``prior="viscosity"`` uses the Stokes-layer viscosity feature. Use
+    :func:`prior_for_target` to choose from a label column's name.
+    """
+
+    model_name = "physics-gpr"
+
+    def __init__(self, prior: str = "height", n_restarts: int = 5, random_state: int = 0) -> None:
+        if prior not in ("height", "viscosity"):
+            raise TableError(f"unknown physics prior {prior!r}; use 'height' or 'viscosity'")
+        super().__init__(n_restarts=n_restarts, random_state=random_state)
+        self.prior = prior
+
+    def _physics_feature(self, X: np.ndarray) -> np.ndarray:
+        if self.prior == "height":
+            return dispersion_height_mm(X[:, 0], X[:, 1], self.wavenumber_)
+        return stokes_viscosity_feature(X[:, 0], X[:, 1])
+
+    def _fit_prior(self, X: np.ndarray, y: np.ndarray) -> None:
+        self.wavenumber_ = fit_wavenumber(X[:, 0], X[:, 1], y) if self.prior == "height" else 0.0
+        p = self._physics_feature(X)
+        design = np.column_stack([np.ones_like(p), p])
+        self.prior_coef_, *_ = np.linalg.lstsq(design, y, rcond=None)
+
+    def _prior_mean(self, X: np.ndarray) -> np.ndarray:
+        return self.prior_coef_[0] + self.prior_coef_[1] * self._physics_feature(X)
+
+    def _inputs(self, X: np.ndarray) -> np.ndarray:
+        return np.column_stack([X, self._physics_feature(X)])
+
+    def _prior_state(self) -> dict[str, Any]:
+        return {
+            "kind": self.prior,
+            "wavenumber": self.wavenumber_,
+            "coef": [float(c) for c in self.prior_coef_],
+        }
+
+    def _set_prior_state(self, state: dict[str, Any]) -> None:
+        self.prior = state["kind"]
+        self.wavenumber_ = float(state["wavenumber"])
+        self.prior_coef_ = np.asarray(state["coef"], dtype=float)
+
+    def describe(self) -> str:
+        """Summary: the physics prior's parameters and the residual kernel."""
+        b0, b1 = self.prior_coef_
+        if self.prior == "height":
+            length_m = np.pi / self.wavenumber_
+            head = f"prior {b0:+.3g} {b1:+.3g}·h_phys (effective L = {1000 * length_m:.0f} mm)"
+        else:
+            head = f"prior {b0:+.3g} {b1:+.3g}·(2 log10 λ − log10 ω)"
+        return f"{head}; residual GP {super().describe()}"
+
+    @classmethod
+    def _construct(cls, state: dict[str, Any]) -> PhysicsGPRegressor:
+        return cls(state["prior"]["kind"], state["n_restarts"], state["random_state"])
+
+
+def prior_for_target(target: str) -> str:
+    """The physics prior for a label column; raise :class:`TableError` if there is none."""
+    try:
+        return PRIOR_OF_TARGET[target]
+    except KeyError:
+        known = ", ".join(PRIOR_OF_TARGET)
+        raise TableError(
+            f"no physics prior for column {target!r} (known: {known}); use --model gpr"
+        ) from None

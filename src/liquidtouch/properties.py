@@ -1,0 +1,259 @@
+"""Regression of liquid properties from the slow sloshing mode's (λ, ω).
+
+Estimators follow scikit-learn conventions: ``fit(X, y)`` with ``X`` an
+(n, 2) array of (decay_rate λ [1/s], angular_frequency ω [rad/s]) and ``y``
+one numeric label (``height_mm``, ``sugar_concentration``,
+``log10_viscosity_cst``, ...), and ``predict(X, return_std=...)``.
+
+- :class:`GPRegressor` — Gaussian-process regression with an anisotropic RBF +
+  white-noise kernel on standardised inputs and targets (the paper's model).
+- :class:`QuadraticRegressor` — the paper's 6-parameter quadratic in (λ, ω).
+
+Every estimator can be written as a plain dict (``to_state``) holding its
+hyperparameters and training data, and rebuilt exactly from it
+(``from_state``): the rebuild refits deterministically with the stored
+hyperparameters (no optimiser), so predictions are bit-identical.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+import numpy as np
+
+from liquidtouch.errors import ModelFileError, TableError
+
+MIN_ROWS_GPR = 5
+MIN_ROWS_QUADRATIC = 7  # six coefficients plus one degree of freedom for the noise
+
+
+def check_features(X: Any, n_columns: int = 2) -> np.ndarray:
+    """Validate and return ``X`` as a finite float (n, 2) array of (λ, ω)."""
+    X = np.asarray(X, dtype=float)
+    if X.ndim != 2 or X.shape[1] != n_columns:
+        raise TableError(
+            f"features must be an (n, {n_columns}) array of (decay_rate, angular_frequency); "
+            f"got shape {X.shape}"
+        )
+    if not np.isfinite(X).all():
+        raise TableError("features contain NaN or infinite values; drop or fix those rows")
+    return X
+
+
+def check_training(X: Any, y: Any, min_rows: int, what: str) -> tuple[np.ndarray, np.ndarray]:
+    """Validate a training set: finite (n, 2) ``X``, finite ``y`` of length n, n >= ``min_rows``."""
+    X = check_features(X)
+    y = np.asarray(y, dtype=float).ravel()
+    if y.shape[0] != X.shape[0]:
+        raise TableError(f"{X.shape[0]} feature rows but {y.shape[0]} target values")
+    if not np.isfinite(y).all():
+        raise TableError("the target contains NaN or infinite values; drop or fix those rows")
+    if X.shape[0] < min_rows:
+        raise TableError(
+            f"{what} needs at least {min_rows} training rows; got {X.shape[0]} (add trials)"
+        )
+    return X, y
+
+
+def _scale(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    mean = values.mean(axis=0)
+    scale = values.std(axis=0)
+    # a constant column carries no information; keep it finite instead of dividing by zero
+    return mean, np.where(scale > 0, scale, 1.0)
+
+
+class GPRegressor:
+    """Gaussian-process regression of one property from (λ, ω).
+
+    Kernel ``C · RBF(ℓ_λ, ℓ_ω) + White(σ²)`` on standardised inputs and a
+    standardised target; hyperparameters by maximum marginal likelihood with
+    ``n_restarts`` random restarts (seeded by ``random_state``). Subclasses may
+    add a prior mean and extra physics inputs (:mod:`liquidtouch.physics_prior`).
+    """
+
+    model_name = "gpr"
+    min_rows = MIN_ROWS_GPR
+
+    def __init__(self, n_restarts: int = 5, random_state: int = 0) -> None:
+        self.n_restarts = n_restarts
+        self.random_state = random_state
+
+    # hooks for physics-informed subclasses ---------------------------------
+    def _fit_prior(self, X: np.ndarray, y: np.ndarray) -> None:
+        """Fit the prior mean's parameters (none for the plain GP)."""
+
+    def _prior_mean(self, X: np.ndarray) -> np.ndarray:
+        return np.zeros(X.shape[0])
+
+    def _inputs(self, X: np.ndarray) -> np.ndarray:
+        return X
+
+    def _prior_state(self) -> dict[str, Any] | None:
+        return None
+
+    def _set_prior_state(self, state: dict[str, Any] | None) -> None:
+        """Restore the prior's parameters (none for the plain GP)."""
+
+    # -------------------------------------------------------------------------
+    def _kernel(self, constant: float, length_scale: list[float], noise_level: float, fixed: bool):
+        from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
+
+        bounds = "fixed" if fixed else None
+        return ConstantKernel(constant, bounds or (1e-3, 1e3)) * RBF(
+            length_scale, bounds or (1e-2, 1e3)
+        ) + WhiteKernel(noise_level, bounds or (1e-8, 1.0))
+
+    def _fit_gp(self, kernel: Any, optimise: bool) -> None:
+        from sklearn.exceptions import ConvergenceWarning
+        from sklearn.gaussian_process import GaussianProcessRegressor
+
+        self.gp_ = GaussianProcessRegressor(
+            kernel=kernel,
+            optimizer="fmin_l_bfgs_b" if optimise else None,
+            n_restarts_optimizer=self.n_restarts if optimise else 0,
+            random_state=self.random_state,
+        )
+        Z = (self._inputs(self.X_train_) - self.x_mean_) / self.x_scale_
+        r = (self.y_train_ - self._prior_mean(self.X_train_) - self.y_mean_) / self.y_scale_
+        with warnings.catch_warnings():
+            # a hyperparameter at its bound is a legitimate optimum on tiny data sets
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            self.gp_.fit(Z, r)
+
+    def fit(self, X: Any, y: Any) -> GPRegressor:
+        """Fit on (n, 2) features ``X`` and targets ``y``; return ``self``."""
+        self.X_train_, self.y_train_ = check_training(X, y, self.min_rows, "a GP regressor")
+        self._fit_prior(self.X_train_, self.y_train_)
+        self.x_mean_, self.x_scale_ = _scale(self._inputs(self.X_train_))
+        residual = self.y_train_ - self._prior_mean(self.X_train_)
+        self.y_mean_, self.y_scale_ = float(residual.mean()), float(residual.std() or 1.0)
+        n_inputs = self.x_mean_.shape[0]
+        self._fit_gp(self._kernel(1.0, [1.0] * n_inputs, 0.1, fixed=False), optimise=True)
+        return self
+
+    @property
+    def kernel_params_(self) -> dict[str, Any]:
+        """Fitted kernel: ``constant``, ``length_scale`` (standardised), ``noise_level``."""
+        params = self.gp_.kernel_.get_params()
+        length_scale = np.atleast_1d(params["k1__k2__length_scale"]).astype(float)
+        return {
+            "constant": float(params["k1__k1__constant_value"]),
+            "length_scale": [float(v) for v in length_scale],
+            "noise_level": float(params["k2__noise_level"]),
+        }
+
+    def predict(self, X: Any, return_std: bool = False):
+        """Predicted target (and its standard deviation, including the noise) at ``X``."""
+        X = check_features(X)
+        Z = (self._inputs(X) - self.x_mean_) / self.x_scale_
+        prior = self._prior_mean(X)
+        if not return_std:
+            return prior + self.y_mean_ + self.y_scale_ * self.gp_.predict(Z)
+        mean, std = self.gp_.predict(Z, return_std=True)
+        return prior + self.y_mean_ + self.y_scale_ * mean, self.y_scale_ * std
+
+    def describe(self) -> str:
+        """A one-line summary of the fitted kernel (in standardised units)."""
+        k = self.kernel_params_
+        scales = ", ".join(f"{v:.3g}" for v in k["length_scale"])
+        return f"{k['constant']:.3g}·RBF(ℓ=[{scales}]) + White({k['noise_level']:.3g})"
+
+    def to_state(self) -> dict[str, Any]:
+        """Plain-data state: hyperparameters, scaling, kernel and training data."""
+        return {
+            "model": self.model_name,
+            "n_restarts": self.n_restarts,
+            "random_state": self.random_state,
+            "kernel": self.kernel_params_,
+            "prior": self._prior_state(),
+            "x_mean": self.x_mean_.tolist(),
+            "x_scale": self.x_scale_.tolist(),
+            "y_mean": self.y_mean_,
+            "y_scale": self.y_scale_,
+            "X_train": self.X_train_.tolist(),
+            "y_train": self.y_train_.tolist(),
+        }
+
+    @classmethod
+    def _construct(cls, state: dict[str, Any]) -> GPRegressor:
+        return cls(n_restarts=state["n_restarts"], random_state=state["random_state"])
+
+    @classmethod
+    def from_state(cls, state: dict[str, Any]) -> GPRegressor:
+        """Rebuild exactly: refit the stored kernel on the stored data without optimiser."""
+        self = cls._construct(state)
+        self.X_train_ = np.asarray(state["X_train"], dtype=float)
+        self.y_train_ = np.asarray(state["y_train"], dtype=float)
+        self._set_prior_state(state["prior"])
+        self.x_mean_ = np.asarray(state["x_mean"], dtype=float)
+        self.x_scale_ = np.asarray(state["x_scale"], dtype=float)
+        self.y_mean_, self.y_scale_ = float(state["y_mean"]), float(state["y_scale"])
+        k = state["kernel"]
+        kernel = self._kernel(k["constant"], k["length_scale"], k["noise_level"], fixed=True)
+        self._fit_gp(kernel, optimise=False)
+        return self
+
+
+class QuadraticRegressor:
+    """The paper's 6-parameter model ``y = a0 + a1 λ + a2 ω + a3 λ² + a4 λω + a5 ω²``.
+
+    Least squares on standardised (λ, ω) for conditioning; the predictive
+    standard deviation is the ordinary-least-squares one,
+    ``s · sqrt(1 + φᵀ (ΦᵀΦ)⁻¹ φ)``.
+    """
+
+    model_name = "quadratic"
+    min_rows = MIN_ROWS_QUADRATIC
+
+    @staticmethod
+    def _design(Z: np.ndarray) -> np.ndarray:
+        z1, z2 = Z[:, 0], Z[:, 1]
+        return np.column_stack([np.ones_like(z1), z1, z2, z1 * z1, z1 * z2, z2 * z2])
+
+    def fit(self, X: Any, y: Any) -> QuadraticRegressor:
+        """Least-squares fit on (n, 2) features ``X`` and targets ``y``; return ``self``."""
+        self.X_train_, self.y_train_ = check_training(X, y, self.min_rows, "the quadratic model")
+        self.x_mean_, self.x_scale_ = _scale(self.X_train_)
+        design = self._design((self.X_train_ - self.x_mean_) / self.x_scale_)
+        self.coef_, *_ = np.linalg.lstsq(design, self.y_train_, rcond=None)
+        residual = self.y_train_ - design @ self.coef_
+        dof = max(design.shape[0] - design.shape[1], 1)
+        self.noise_variance_ = float(residual @ residual / dof)
+        self.covariance_ = np.linalg.pinv(design.T @ design)
+        return self
+
+    def predict(self, X: Any, return_std: bool = False):
+        """Predicted target (and its OLS predictive standard deviation) at ``X``."""
+        design = self._design((check_features(X) - self.x_mean_) / self.x_scale_)
+        mean = design @ self.coef_
+        if not return_std:
+            return mean
+        leverage = np.einsum("ij,jk,ik->i", design, self.covariance_, design)
+        return mean, np.sqrt(self.noise_variance_ * (1.0 + leverage))
+
+    def describe(self) -> str:
+        """The fitted coefficients (on standardised λ, ω)."""
+        names = ("1", "λ", "ω", "λ²", "λω", "ω²")
+        terms = " ".join(f"{c:+.4g}·{n}" for c, n in zip(self.coef_, names, strict=True))
+        return f"quadratic in standardised (λ, ω): {terms}"
+
+    def to_state(self) -> dict[str, Any]:
+        """Plain-data state: training data (the fit is deterministic) and the coefficients."""
+        return {
+            "model": self.model_name,
+            "coef": self.coef_.tolist(),
+            "X_train": self.X_train_.tolist(),
+            "y_train": self.y_train_.tolist(),
+        }
+
+    @classmethod
+    def from_state(cls, state: dict[str, Any]) -> QuadraticRegressor:
+        """Rebuild by refitting on the stored data; the stored coefficients must agree."""
+        self = cls().fit(state["X_train"], state["y_train"])
+        if not np.allclose(self.coef_, state["coef"], rtol=1e-9, atol=1e-12):
+            raise ModelFileError(
+                "the quadratic model's stored coefficients do not match its training data "
+                "(the model file was edited or is corrupt); retrain it"
+            )
+        return self

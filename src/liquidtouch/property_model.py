@@ -1,0 +1,183 @@
+"""A trained property model: one regressor per label column, or a liquid classifier.
+
+:class:`PropertyModel` is what ``liquidtouch train`` / ``classify`` /
+``transfer`` write and ``predict`` reads (see :mod:`liquidtouch.modelfile`).
+It may carry a container-transfer :class:`FeatureMap` applied to (λ, ω)
+before the trained estimators (:mod:`liquidtouch.transfer`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from liquidtouch.classify import LiquidClassifier
+from liquidtouch.errors import TableError
+from liquidtouch.features_io import feature_matrix
+from liquidtouch.physics_prior import PhysicsGPRegressor, prior_for_target
+from liquidtouch.properties import GPRegressor, QuadraticRegressor, check_features
+
+REGRESSORS: dict[str, type] = {
+    "gpr": GPRegressor,
+    "quadratic": QuadraticRegressor,
+    "physics-gpr": PhysicsGPRegressor,
+}
+
+
+@dataclass(frozen=True)
+class FeatureMap:
+    """Affine per-feature map ``(λ, ω) → (α1 λ + α2, β1 ω + β2)``; identity by default."""
+
+    alpha: tuple[float, float] = (1.0, 0.0)
+    beta: tuple[float, float] = (1.0, 0.0)
+
+    def apply(self, X: np.ndarray) -> np.ndarray:
+        """Map an (n, 2) array of (λ, ω)."""
+        return np.column_stack(
+            [self.alpha[0] * X[:, 0] + self.alpha[1], self.beta[0] * X[:, 1] + self.beta[1]]
+        )
+
+    def then(self, inner: FeatureMap) -> FeatureMap:
+        """The map ``x → self.apply(inner.apply(x))``."""
+        a1, a2 = self.alpha
+        b1, b2 = self.beta
+        return FeatureMap(
+            (a1 * inner.alpha[0], a1 * inner.alpha[1] + a2),
+            (b1 * inner.beta[0], b1 * inner.beta[1] + b2),
+        )
+
+    @property
+    def is_identity(self) -> bool:
+        return self.alpha == (1.0, 0.0) and self.beta == (1.0, 0.0)
+
+
+class PropertyModel:
+    """Regressors (one per target column) or a classifier, plus an optional feature map."""
+
+    def __init__(
+        self,
+        regressors: Mapping[str, Any] | None = None,
+        classifier: LiquidClassifier | None = None,
+        label: str | None = None,
+        feature_map: FeatureMap | None = None,
+    ) -> None:
+        if bool(regressors) == (classifier is not None):
+            raise ValueError("a PropertyModel holds either regressors or a classifier")
+        self.regressors = dict(regressors or {})
+        self.classifier = classifier
+        self.label = label
+        self.feature_map = feature_map or FeatureMap()
+
+    @property
+    def kind(self) -> str:
+        """``"regression"`` or ``"classification"``."""
+        return "classification" if self.classifier is not None else "regression"
+
+    @property
+    def targets(self) -> list[str]:
+        """The predicted columns (target names, or the class label column)."""
+        return [self.label or "liquid"] if self.classifier is not None else list(self.regressors)
+
+    def _mapped(self, X: Any) -> np.ndarray:
+        return self.feature_map.apply(check_features(X))
+
+    def predict(self, X: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """Regression: ``{target: (mean, std)}`` at the (n, 2) features ``X``."""
+        if self.classifier is not None:
+            raise TableError("this is a classification model; use predict_proba / predict_table")
+        Xm = self._mapped(X)
+        return {t: r.predict(Xm, return_std=True) for t, r in self.regressors.items()}
+
+    def predict_proba(self, X: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Classification: ``(predicted class, probabilities (n, n_classes))``."""
+        if self.classifier is None:
+            raise TableError("this is a regression model; use predict / predict_table")
+        proba = self.classifier.predict_proba(self._mapped(X))
+        return self.classifier.classes_[np.argmax(proba, axis=1)], proba
+
+    def predict_table(self, table: pd.DataFrame) -> pd.DataFrame:
+        """``table`` + ``predicted_<target>``, ``_std`` (or ``predicted_<label>``, ``probability_<c>``)."""
+        X = feature_matrix(table)
+        out = table.copy()
+        if self.classifier is not None:
+            predicted, proba = self.predict_proba(X)
+            out[f"predicted_{self.targets[0]}"] = predicted
+            for j, name in enumerate(self.classifier.classes_):
+                out[f"probability_{name}"] = proba[:, j]
+            return out
+        for target, (mean, std) in self.predict(X).items():
+            out[f"predicted_{target}"] = mean
+            out[f"predicted_{target}_std"] = std
+        return out
+
+    def training_mae(self) -> dict[str, float]:
+        """Mean absolute error on the training data (accuracy for a classifier)."""
+        if self.classifier is not None:
+            clf = self.classifier
+            return {"accuracy": float(np.mean(clf.predict(clf.X_train_) == clf.labels_train_))}
+        return {
+            t: float(np.mean(np.abs(r.predict(r.X_train_) - r.y_train_)))
+            for t, r in self.regressors.items()
+        }
+
+    def summary(self) -> list[str]:
+        """Human-readable lines: per target, training MAE and the fitted model."""
+        lines = []
+        fit_quality = self.training_mae()
+        if self.classifier is not None:
+            n = self.classifier.X_train_.shape[0]
+            lines.append(
+                f"{self.targets[0]}: {n} rows, training accuracy "
+                f"{100 * fit_quality['accuracy']:.1f} %; {self.classifier.describe()}"
+            )
+        for target, reg in self.regressors.items():
+            lines.append(
+                f"{target}: {reg.X_train_.shape[0]} rows, training MAE "
+                f"{fit_quality[target]:.4g}; {reg.describe()}"
+            )
+        if not self.feature_map.is_identity:
+            a, b = self.feature_map.alpha, self.feature_map.beta
+            lines.append(
+                f"container transfer: α = ({a[0]:.4g}, {a[1]:+.4g}), β = ({b[0]:.4g}, {b[1]:+.4g})"
+            )
+        return lines
+
+
+def make_regressor(model: str, target: str, random_state: int = 0) -> Any:
+    """A fresh regressor of kind ``model`` (gpr, quadratic, physics-gpr) for ``target``."""
+    if model not in REGRESSORS:
+        raise TableError(f"unknown model {model!r}; choose one of {', '.join(REGRESSORS)}")
+    if model == "physics-gpr":
+        return PhysicsGPRegressor(prior_for_target(target), random_state=random_state)
+    if model == "gpr":
+        return GPRegressor(random_state=random_state)
+    return QuadraticRegressor()
+
+
+def train_regression(
+    X: Any,
+    targets: Mapping[str, Any],
+    model: str = "gpr",
+    progress: Callable[[str], None] | None = None,
+) -> PropertyModel:
+    """Fit one regressor of kind ``model`` per target; ``targets`` maps column → values.
+
+    ``progress(target)`` is called after each target (for progress bars).
+    """
+    if not targets:
+        raise TableError("give at least one target column to train on")
+    regressors = {}
+    for target, y in targets.items():
+        regressors[target] = make_regressor(model, target).fit(X, y)
+        if progress is not None:
+            progress(target)
+    return PropertyModel(regressors=regressors)
+
+
+def train_classifier(X: Any, labels: Any, label: str = "liquid") -> PropertyModel:
+    """Fit the RBF-SVM liquid classifier on features ``X`` and class names ``labels``."""
+    return PropertyModel(classifier=LiquidClassifier().fit(X, labels), label=label)
