@@ -100,7 +100,7 @@ class PropertyModel:
         return self.classifier.classes_[np.argmax(proba, axis=1)], proba
 
     def predict_table(self, table: pd.DataFrame) -> pd.DataFrame:
-        """``table`` + ``predicted_<target>``, ``_std`` (or ``predicted_<label>``, ``probability_<c>``)."""
+        """``table`` plus predicted columns (and their std, or class probabilities)."""
         X = feature_matrix(table)
         out = table.copy()
         if self.classifier is not None:
