@@ -1,0 +1,320 @@
+"""Simulated GelSight sensors: marker motion from finger loads, frame timing, video files.
+
+The gel under the container is sheared by the tangential force and twisted by the
+moment about its normal. Markers move with a Gaussian-weighted displacement field
+centred on the contact:
+
+    d(p) = w(p) · [ c_s · F_img  +  (R(c_t · M) − I)(p − p_c) ],   w(p) = exp(−|p − p_c|² / 2σ²)
+
+with ``c_s`` the shear compliance [px/N], ``c_t`` the twist compliance [rad/(N·mm)],
+``p_c`` the contact centre and ``σ`` growing with the grasp preload (Hertz:
+contact radius ∝ F_n^(1/3)).
+
+Image conventions (pixels, x right, y down): the ``left`` sensor (finger 0) sees
+world x as image +x, the ``right`` sensor (finger 1) sees world x as image −x (its
+camera faces the other way), and world y (up) is image −y for both. So the same
+world shear moves the two sensors' markers in opposite horizontal senses. A
+positive twist moment (counter-clockwise seen from the container) appears as a
+clockwise rotation in each sensor's image, since the camera looks at the gel
+from behind.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from liquidtouch.atomic import atomic_path
+from liquidtouch.errors import LiquidTouchError
+from liquidtouch.sim.loads import FingerLoads
+from liquidtouch.sim.sensors import SensorProfile, get_sensor_profile
+
+SENSOR_NAMES = ("left", "right")
+IMAGE_X_SIGN = np.array([1.0, -1.0])
+"""Image-x sign of world x for (left, right): the two cameras are mirrored."""
+PTS_RATE_HZ = 90_000
+"""Time base of the videos' timestamps (1/90000 s); stored timestamps are multiples of it."""
+
+
+@dataclass(frozen=True)
+class ContactGeometry:
+    """Where and how large the contact is on each sensor's image (rest state).
+
+    Attributes
+    ----------
+    center_px : (2, 2) contact centre per sensor, image (x, y) [px].
+    radius_px : (2,) contact (imprint) radius per sensor [px].
+    field_sigma_px : (2,) Gaussian width of the displacement field per sensor [px].
+    """
+
+    center_px: np.ndarray
+    radius_px: np.ndarray
+    field_sigma_px: np.ndarray
+
+
+@dataclass(frozen=True)
+class SensorRecording:
+    """What :func:`write_sensor_videos` wrote.
+
+    Attributes
+    ----------
+    out_dir : directory holding the files.
+    files : video file names, ``["left.mp4", "right.mp4"]`` (finger 0, finger 1).
+    truth_file : name of the ground-truth marker tracks (``truth_tracks.npz``).
+    sensor : sensor profile name.
+    fps : nominal frame rate [Hz]; the real one is a little lower (see ``timestamps_s``).
+    n_frames : frames per video (after dropped frames).
+    timestamps_s : (n_frames,) presentation time of each frame [s], shared by both videos.
+    frame_index : (n_frames,) index of each frame on the nominal clock (gaps = dropped frames).
+    width_px, height_px : frame size.
+    """
+
+    out_dir: Path
+    files: list[str]
+    truth_file: str
+    sensor: str
+    fps: float
+    n_frames: int
+    timestamps_s: np.ndarray
+    frame_index: np.ndarray
+    width_px: int
+    height_px: int
+    extra: dict = field(default_factory=dict)
+
+
+def marker_rest_positions(
+    profile: SensorProfile, rng: np.random.Generator | None = None
+) -> np.ndarray:
+    """Rest positions of the markers in view, (N, 2) image (x, y) [px], row-major order.
+
+    The grid spans the gel (``gel_size_mm``) at ``marker_pitch_mm`` centred on the
+    image; markers whose centre lies closer than radius + 2 px to the border are
+    left out. With ``rng``, each marker gets a small printing irregularity.
+    """
+    pitch_px = profile.marker_pitch_mm / profile.mm_per_px
+    half_counts = [
+        int(np.floor(size / 2 / profile.marker_pitch_mm)) for size in profile.gel_size_mm
+    ]
+    kx = np.arange(-half_counts[0], half_counts[0] + 1)
+    ky = np.arange(-half_counts[1], half_counts[1] + 1)
+    gy, gx = np.meshgrid(ky, kx, indexing="ij")
+    cx, cy = (profile.width_px - 1) / 2, (profile.height_px - 1) / 2
+    pos = np.stack([cx + gx.ravel() * pitch_px, cy + gy.ravel() * pitch_px], axis=1)
+    margin = profile.marker_radius_px + 2.0
+    inside = (
+        (pos[:, 0] >= margin)
+        & (pos[:, 0] <= profile.width_px - 1 - margin)
+        & (pos[:, 1] >= margin)
+        & (pos[:, 1] <= profile.height_px - 1 - margin)
+    )
+    pos = pos[inside]
+    if rng is not None and profile.marker_rest_jitter_px > 0:
+        pos = pos + rng.normal(0.0, profile.marker_rest_jitter_px, pos.shape)
+    return pos
+
+
+def contact_geometry(loads: FingerLoads, profile: SensorProfile) -> ContactGeometry:
+    """Contact centre, imprint radius and displacement-field width on each sensor image."""
+    center_mm = np.asarray(loads.contact_center_mm, dtype=float)
+    cx, cy = (profile.width_px - 1) / 2, (profile.height_px - 1) / 2
+    center_px = np.stack(
+        [
+            cx + IMAGE_X_SIGN * center_mm[:, 0] / profile.mm_per_px,
+            cy - center_mm[:, 1] / profile.mm_per_px,
+        ],
+        axis=1,
+    )
+    preload = np.clip(np.asarray(loads.normal_force_n, dtype=float), 0.05, None)
+    radius_mm = profile.contact_radius_mm_ref * np.cbrt(preload / profile.preload_ref_n)
+    radius_px = radius_mm / profile.mm_per_px
+    return ContactGeometry(center_px, radius_px, radius_px * profile.field_spread)
+
+
+def _loads_at(loads: FingerLoads, t_frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Shear (T, 2, 2) [N] and twist (T, 2) [N·mm] linearly interpolated at ``t_frames``."""
+    t = np.asarray(loads.t_s, dtype=float)
+    shear = np.asarray(loads.shear_force_n, dtype=float).reshape(len(t), 4)
+    twist = np.asarray(loads.twist_moment_nmm, dtype=float)
+    shear_t = np.stack([np.interp(t_frames, t, shear[:, j]) for j in range(4)], axis=1)
+    twist_t = np.stack([np.interp(t_frames, t, twist[:, j]) for j in range(2)], axis=1)
+    return shear_t.reshape(-1, 2, 2), twist_t
+
+
+def marker_positions(
+    loads: FingerLoads,
+    profile: SensorProfile | str,
+    t_frames: np.ndarray,
+    *,
+    rest_px: np.ndarray | None = None,
+) -> np.ndarray:
+    """Marker positions of both sensors at the frame times, (2, T, N, 2) image (x, y) [px].
+
+    Axis 0 is the sensor (left, right); ``rest_px`` (N, 2) defaults to the regular
+    grid of :func:`marker_rest_positions`. Loads are interpolated linearly at
+    ``t_frames`` [s] (the loads' time axis starts at 0).
+    """
+    profile = get_sensor_profile(profile)
+    t_frames = np.asarray(t_frames, dtype=float)
+    if t_frames.ndim != 1 or not np.all(np.isfinite(t_frames)):
+        raise LiquidTouchError("t_frames must be a 1-D array of finite times in seconds")
+    rest = marker_rest_positions(profile) if rest_px is None else np.asarray(rest_px, float)
+    shear, twist = _loads_at(loads, t_frames)
+    geom = contact_geometry(loads, profile)
+    out = np.empty((2, len(t_frames), len(rest), 2))
+    for s in range(2):
+        rel = rest - geom.center_px[s]  # (N, 2)
+        weight = np.exp(-np.sum(rel**2, axis=1) / (2 * geom.field_sigma_px[s] ** 2))
+        shear_img = profile.shear_compliance_px_per_n * np.stack(
+            [IMAGE_X_SIGN[s] * shear[:, s, 0], -shear[:, s, 1]], axis=1
+        )  # (T, 2)
+        angle = profile.twist_compliance_rad_per_nmm * twist[:, s]  # (T,), clockwise on screen
+        cos_m1, sin = np.cos(angle) - 1.0, np.sin(angle)
+        twist_dx = cos_m1[:, None] * rel[None, :, 0] - sin[:, None] * rel[None, :, 1]
+        twist_dy = sin[:, None] * rel[None, :, 0] + cos_m1[:, None] * rel[None, :, 1]
+        disp = shear_img[:, None, :] + np.stack([twist_dx, twist_dy], axis=2)
+        out[s] = rest[None] + weight[None, :, None] * disp
+    return out
+
+
+def contact_offsets(
+    loads: FingerLoads, profile: SensorProfile | str, t_frames: np.ndarray
+) -> np.ndarray:
+    """Displacement of each contact centre (where the imprint moves), (2, T, 2) [px]."""
+    profile = get_sensor_profile(profile)
+    shear, _ = _loads_at(loads, np.asarray(t_frames, dtype=float))
+    return np.stack(
+        [
+            profile.shear_compliance_px_per_n
+            * np.stack([IMAGE_X_SIGN[s] * shear[:, s, 0], -shear[:, s, 1]], axis=1)
+            for s in range(2)
+        ]
+    )
+
+
+def frame_timestamps(
+    duration_s: float,
+    profile: SensorProfile | str,
+    rng: np.random.Generator,
+    *,
+    jitter: bool = True,
+    drops: bool = True,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Frame times [s] and nominal frame indices of a recording lasting ``duration_s``.
+
+    With ``jitter`` the clock runs at ``rate_factor`` × nominal rate and each frame
+    is shifted by Gaussian jitter (clipped to ±30 % of a period, so times stay
+    increasing); with ``drops`` frames are dropped independently with
+    ``drop_probability`` (never the first). Times are rounded to the video time
+    base (1/90000 s) so that stored timestamps equal the decoded PTS.
+    """
+    profile = get_sensor_profile(profile)
+    if not np.isfinite(duration_s) or duration_s <= 0:
+        raise LiquidTouchError(f"recording duration must be positive, got {duration_s}")
+    period = 1.0 / (profile.fps * (profile.rate_factor if jitter else 1.0))
+    n = int(np.floor(duration_s / period + 1e-9)) + 1
+    index = np.arange(n)
+    t = index * period
+    if jitter and profile.jitter_std_s > 0:
+        noise = rng.normal(0.0, profile.jitter_std_s, n)
+        noise[0] = 0.0
+        t = t + np.clip(noise, -0.3 * period, 0.3 * period)
+        t = np.clip(t, 0.0, duration_s)
+    if drops and profile.drop_probability > 0:
+        keep = rng.random(n) >= profile.drop_probability
+        keep[0] = True
+        t, index = t[keep], index[keep]
+    t = np.round(t * PTS_RATE_HZ) / PTS_RATE_HZ
+    keep = np.concatenate([[True], np.diff(t) > 0])
+    return t[keep], index[keep]
+
+
+def write_sensor_videos(
+    loads: FingerLoads,
+    out_dir: Path,
+    *,
+    sensor: str = "default",
+    seed: int = 0,
+    jitter: bool = True,
+    noise: bool = True,
+    progress: bool = False,
+) -> SensorRecording:
+    """Render both sensors' videos for ``loads`` into ``out_dir``.
+
+    Writes ``left.mp4`` and ``right.mp4`` (H.264, per-frame timestamps as PTS in a
+    1/90000 s time base) and ``truth_tracks.npz`` (plain arrays, load with
+    ``allow_pickle=False``): ``timestamps_s`` (T,), ``frame_index`` (T,),
+    ``positions_px`` (2, T, N, 2) sensor × frame × marker × (x, y),
+    ``rest_positions_px`` (2, N, 2), ``marker_ids`` (N,), ``sensors`` (2,),
+    ``contact_center_px`` (2, 2), ``contact_radius_px`` (2,), ``contact_offset_px``
+    (2, T, 2), ``mm_per_px``, ``fps_nominal``, ``profile``.
+    All files are written atomically. ``jitter`` False gives exact nominal
+    timestamps without drops; ``noise`` False renders clean frames.
+    """
+    from liquidtouch.sim.render import encode_video, iter_frames, make_background
+
+    profile = get_sensor_profile(sensor)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(seed)
+    timestamps, frame_index = frame_timestamps(
+        loads.duration_s, profile, rng, jitter=jitter, drops=jitter
+    )
+    t_frames = timestamps + float(loads.t_s[0])
+    geom = contact_geometry(loads, profile)
+    offsets = contact_offsets(loads, profile, t_frames)
+    rests = np.stack([marker_rest_positions(profile, rng) for _ in range(2)])
+    positions = np.stack(
+        [marker_positions(loads, profile, t_frames, rest_px=rests[s])[s] for s in range(2)]
+    )
+    files = [f"{name}.mp4" for name in SENSOR_NAMES]
+    for s, name in enumerate(files):
+        sensor_rng = np.random.default_rng([seed, s + 1])
+        background = make_background(profile, sensor_rng)
+        frames = iter_frames(
+            positions[s],
+            profile,
+            sensor_rng,
+            background=background,
+            contact_center_px=geom.center_px[s],
+            contact_radius_px=float(geom.radius_px[s]),
+            contact_offsets_px=offsets[s],
+            noise=noise,
+        )
+        encode_video(
+            out_dir / name,
+            frames,
+            timestamps,
+            profile.fps,
+            n_frames=len(timestamps),
+            progress_label=f"rendering {name}" if progress else None,
+        )
+    with atomic_path(out_dir / "truth_tracks.npz") as tmp, open(tmp, "wb") as fh:
+        np.savez_compressed(
+            fh,
+            timestamps_s=timestamps,
+            frame_index=frame_index,
+            positions_px=positions.astype(np.float32),
+            rest_positions_px=rests,
+            marker_ids=np.arange(rests.shape[1]),
+            sensors=np.array(SENSOR_NAMES),
+            contact_center_px=geom.center_px,
+            contact_radius_px=geom.radius_px,
+            contact_offset_px=offsets,
+            mm_per_px=np.float64(profile.mm_per_px),
+            fps_nominal=np.float64(profile.fps),
+            profile=np.array(profile.name),
+        )
+    return SensorRecording(
+        out_dir=out_dir,
+        files=files,
+        truth_file="truth_tracks.npz",
+        sensor=profile.name,
+        fps=profile.fps,
+        n_frames=len(timestamps),
+        timestamps_s=timestamps,
+        frame_index=frame_index,
+        width_px=profile.width_px,
+        height_px=profile.height_px,
+    )

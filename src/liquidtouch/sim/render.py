@@ -1,0 +1,378 @@
+"""GelSight frame rendering and H.264 encoding.
+
+A frame is: a static background (uneven coloured LED lighting, vignetting, faint
+dust), times the container's contact imprint (a soft tinted patch with a shaded
+rim, shifted sub-pixel with the gel), times the markers' ink transmittance, times
+a per-frame LED flicker gain, plus sensor noise. The background and imprint are
+computed once per video; per frame only the imprint's bounding box is warped and
+the markers are drawn as small patches evaluated from a radial look-up table at
+their exact sub-pixel offsets, all markers at once with fancy indexing.
+
+A marker's darkening is radially symmetric about its intended position and its
+edge is a Gaussian-blurred step (``marker_edge_px``), so the pixel-sampled blob
+is effectively band-limited: its intensity-weighted centroid equals the intended
+position to ~1e-4 px (before uint8 rounding and codec).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+from numpy.lib.stride_tricks import as_strided
+
+from liquidtouch.atomic import atomic_path
+from liquidtouch.errors import LiquidTouchError
+from liquidtouch.sim.sensors import SensorProfile, get_sensor_profile
+
+_LUT_PER_PX2 = 64  # radial look-up table resolution in squared pixels
+
+
+def make_background(
+    profile: SensorProfile | str, rng: np.random.Generator, *, lighting: bool = True
+) -> np.ndarray:
+    """Static illumination of the gel, float32 (H, W, 3) in grey levels (RGB).
+
+    ``lighting=False`` gives a flat grey (useful for measuring marker centroids).
+    The per-sensor randomness (``rng``) varies the LED colours and adds a smooth
+    unevenness and a few faint dust specks.
+    """
+    import cv2
+
+    profile = get_sensor_profile(profile)
+    h, w = profile.height_px, profile.width_px
+    if not lighting:
+        return np.full((h, w, 3), 110.0, dtype=np.float32)
+    # the lighting is smooth: evaluate it on a coarse grid and upsample
+    step = 4
+    hc, wc = -(-h // step), -(-w // step)
+    yy, xx = np.mgrid[0:hc, 0:wc].astype(np.float32)
+    xn, yn = xx * step / (w - 1), yy * step / (h - 1)
+    diag = float(np.hypot(w, h))
+    img = np.empty((hc, wc, 3), dtype=np.float32)
+    img[:] = np.asarray(profile.base_rgb, dtype=np.float32)
+    for led in profile.leds:
+        cx = led.center[0] + rng.normal(0, 0.03)
+        cy = led.center[1] + rng.normal(0, 0.03)
+        d2 = ((xn - cx) * w) ** 2 + ((yn - cy) * h) ** 2
+        lobe = np.exp(-d2 / (2 * (led.width * diag) ** 2))
+        colour = np.asarray(led.rgb, dtype=np.float32) * rng.uniform(0.9, 1.1, 3)
+        img += lobe[..., None] * colour.astype(np.float32)
+    # smooth unevenness of the gel's coating: a coarse random field, upsampled
+    coarse = rng.normal(0.0, 1.0, (5, 7, 3)).astype(np.float32)
+    img *= 1.0 + 0.04 * cv2.resize(coarse, (wc, hc), interpolation=cv2.INTER_CUBIC)
+    r2 = ((xn - 0.5) ** 2 + (yn - 0.5) ** 2) / 0.5
+    img *= (1.0 - profile.vignette * r2**1.5)[..., None]
+    img = cv2.resize(img, (w, h), interpolation=cv2.INTER_LINEAR)
+    # faint dust specks: small soft spots, far lighter than the markers
+    for _ in range(rng.integers(2, 6)):
+        sx, sy = rng.uniform(8, w - 8), rng.uniform(8, h - 8)
+        rad = rng.uniform(0.8, 1.8)
+        x0, y0 = int(sx) - 6, int(sy) - 6
+        py, px = np.mgrid[y0 : y0 + 13, x0 : x0 + 13]
+        spot = np.exp(-((px - sx) ** 2 + (py - sy) ** 2) / (2 * rad**2)).astype(np.float32)
+        img[y0 : y0 + 13, x0 : x0 + 13] *= (1.0 - rng.uniform(0.1, 0.25) * spot)[..., None]
+    return np.clip(img, 0.0, 255.0)
+
+
+def make_imprint(
+    profile: SensorProfile | str, radius_px: float, *, grooves: bool = True
+) -> np.ndarray:
+    """Multiplicative gain (h, h, 3) of the container's contact imprint, centred in the patch.
+
+    The patch is square, just large enough for the rim; outside the
+    contact the gain is 1. The contact is a slightly wide ellipse, tinted and a
+    little brighter, with a rim lit on one side and shaded on the other (the LEDs
+    shine at a grazing angle) and, with ``grooves``, faint parallel grooves.
+    """
+    from scipy.special import erfc
+
+    profile = get_sensor_profile(profile)
+    edge_px = max(2.0, 0.06 * radius_px)
+    half = int(np.ceil(1.15 * radius_px + 4 * edge_px))
+    yy, xx = np.mgrid[-half : half + 1, -half : half + 1].astype(np.float32)
+    a, b = 1.15 * radius_px, 0.87 * radius_px
+    rho_px = (np.sqrt((xx / a) ** 2 + (yy / b) ** 2) - 1.0) * radius_px
+    mask = 0.5 * erfc(rho_px / (np.sqrt(2.0) * edge_px))
+    rim = np.exp(-(rho_px**2) / (2 * edge_px**2))
+    # light from upper-left: rim facing it is lit, the opposite side shaded
+    direction = (-(xx + yy) / np.sqrt(2.0)) / np.maximum(np.hypot(xx, yy), 1.0)
+    gain = np.ones((*xx.shape, 3), dtype=np.float32)
+    gain += mask[..., None] * np.array([0.10, -0.03, 0.09], dtype=np.float32)
+    gain += (0.08 * rim * direction)[..., None]
+    if grooves:
+        period_px = 0.9 / profile.mm_per_px
+        gain += (0.02 * mask * np.sin(2 * np.pi * yy / period_px))[..., None]
+    return gain.astype(np.float32)
+
+
+def _marker_lut(profile: SensorProfile) -> tuple[np.ndarray, int]:
+    """Ink factor 1 − coverage·(1 − transmittance) against squared distance; patch half-size."""
+    from scipy.special import erfc
+
+    half = int(np.ceil(profile.marker_radius_px + 3.5 * profile.marker_edge_px))
+    d2 = np.arange(0, 2 * (half + 1) ** 2 * _LUT_PER_PX2 + 2) / _LUT_PER_PX2
+    coverage = 0.5 * erfc(
+        (np.sqrt(d2) - profile.marker_radius_px) / (np.sqrt(2.0) * profile.marker_edge_px)
+    )
+    factor = 1.0 - coverage * (1.0 - profile.marker_transmittance)
+    return factor.astype(np.float32), half
+
+
+def iter_frames(
+    positions_px: np.ndarray,
+    profile: SensorProfile | str,
+    rng: np.random.Generator,
+    *,
+    background: np.ndarray | None = None,
+    contact_center_px: np.ndarray | None = None,
+    contact_radius_px: float | None = None,
+    contact_offsets_px: np.ndarray | None = None,
+    noise: bool = True,
+    flicker: bool = True,
+) -> Iterator[np.ndarray]:
+    """Yield uint8 RGB frames (H, W, 3), one per row of ``positions_px`` (T, N, 2) [px].
+
+    ``background`` defaults to :func:`make_background`. The imprint is drawn when
+    ``contact_center_px`` and ``contact_radius_px`` are given, shifted each frame
+    by ``contact_offsets_px`` (T, 2). ``noise`` adds sensor noise; ``flicker``
+    varies the LED brightness from frame to frame. Each yielded array is reused
+    by the next frame: copy it to keep it.
+    """
+    import cv2
+
+    profile = get_sensor_profile(profile)
+    positions_px = np.asarray(positions_px, dtype=np.float64)
+    if positions_px.ndim != 3 or positions_px.shape[2] != 2:
+        raise LiquidTouchError("positions_px must have shape (frames, markers, 2)")
+    if not np.all(np.isfinite(positions_px)):
+        raise LiquidTouchError("marker positions contain NaN or infinite values")
+    n_frames = positions_px.shape[0]
+    h, w = profile.height_px, profile.width_px
+    if background is None:
+        background = make_background(profile, rng)
+    if background.shape != (h, w, 3):
+        raise LiquidTouchError(f"background must have shape {(h, w, 3)}, got {background.shape}")
+    lut, half = _marker_lut(profile)
+    pad = half + 2
+    hp, wp = h + 2 * pad, w + 2 * pad
+    bg = cv2.copyMakeBorder(
+        np.ascontiguousarray(background, dtype=np.float32), pad, pad, pad, pad, cv2.BORDER_REFLECT
+    )
+    # buf holds the frame being drawn; only the regions touched by the imprint and
+    # the markers are restored from bg after each frame, never the whole image
+    buf = bg.copy()
+    visible = buf[pad : pad + h, pad : pad + w]
+    summed = np.empty((h, w, 3), dtype=np.float32)
+    out = np.empty((h, w, 3), dtype=np.uint8)
+    k = np.arange(2 * half + 1)
+    # every marker's (K, K, 3) patch as a writeable window into buf, indexed by its
+    # top-left corner: one gather and one scatter draw all markers (their patches
+    # never overlap: the marker pitch is far larger than a patch)
+    size = 2 * half + 1
+    windows = as_strided(
+        buf,
+        shape=(hp - size + 1, wp - size + 1, size, size, 3),
+        strides=buf.strides[:2] * 2 + buf.strides[2:],
+        writeable=True,
+    )
+    bg_windows = as_strided(bg, shape=windows.shape, strides=windows.strides, writeable=False)
+    bounds = np.array([wp - half - 1, hp - half - 1])
+
+    imprint = _ImprintLayer.build(profile, contact_center_px, contact_radius_px, pad, (hp, wp))
+    if contact_offsets_px is None:
+        contact_offsets_px = np.zeros((n_frames, 2))
+    contact_offsets_px = np.asarray(contact_offsets_px, dtype=float)
+    if contact_offsets_px.shape != (n_frames, 2):
+        raise LiquidTouchError(f"contact_offsets_px must have shape ({n_frames}, 2)")
+
+    use_noise = noise and profile.noise_std > 0
+    if use_noise:
+        npad = 48
+        noise_tile = rng.normal(0.0, profile.noise_std, (h + npad, w + npad, 3)).astype(np.float32)
+        offsets = rng.integers(0, npad, (n_frames, 2))
+    gains = _flicker_gains(profile.flicker_std if flicker else 0.0, n_frames, rng)
+
+    for i in range(n_frames):
+        if imprint is not None:
+            imprint.apply(buf, contact_offsets_px[i])
+        pos = positions_px[i] + pad
+        pos = pos[np.all((pos >= half) & (pos < bounds), axis=1)]
+        corner = np.floor(pos).astype(np.intp) - half  # (N, 2) top-left (x, y)
+        dx2 = (corner[:, 0:1] + k - pos[:, 0:1]) ** 2  # (N, K)
+        dy2 = (corner[:, 1:2] + k - pos[:, 1:2]) ** 2
+        d2 = dy2[:, :, None] + dx2[:, None, :]
+        factor = lut[(d2 * _LUT_PER_PX2 + 0.5).astype(np.intp)]
+        patches = windows[corner[:, 1], corner[:, 0]]
+        patches *= factor[..., None]
+        windows[corner[:, 1], corner[:, 0]] = patches
+        if use_noise:
+            oy, ox = offsets[i]
+            cv2.add(visible, noise_tile[oy : oy + h, ox : ox + w], dst=summed)
+            source = summed
+        else:
+            source = visible
+        # rounds to nearest and saturates to 0..255 (values are never negative here)
+        cv2.convertScaleAbs(source, dst=out, alpha=float(gains[i]))
+        yield out
+        windows[corner[:, 1], corner[:, 0]] = bg_windows[corner[:, 1], corner[:, 0]]
+        if imprint is not None:
+            imprint.restore(buf, bg)
+
+
+def _flicker_gains(flicker_std: float, n_frames: int, rng: np.random.Generator) -> np.ndarray:
+    """Per-frame LED brightness gain: an AR(1) wander around 1 with std ``flicker_std``."""
+    if flicker_std <= 0:
+        return np.ones(n_frames)
+    from scipy.signal import lfilter
+
+    rho = 0.8
+    innov = rng.normal(0.0, flicker_std * np.sqrt(1 - rho**2), n_frames)
+    innov[0] = rng.normal(0.0, flicker_std)
+    return 1.0 + lfilter([1.0], [1.0, -rho], innov)
+
+
+class _ImprintLayer:
+    """The contact imprint's gain patch, shifted with the gel (cached at 1/8 px steps)."""
+
+    _STEPS_PER_PX = 8
+
+    def __init__(self, gain: np.ndarray, box: tuple[int, int, int, int], sub: np.ndarray):
+        self.gain, self.box, self.sub = gain, box, sub
+        self._cache: dict[tuple[int, int], np.ndarray] = {}
+
+    @classmethod
+    def build(cls, profile, center_px, radius_px, pad, padded_shape) -> _ImprintLayer | None:
+        if center_px is None or radius_px is None:
+            return None
+        gain = make_imprint(profile, float(radius_px))
+        ih = gain.shape[0] // 2
+        hp, wp = padded_shape
+        cx, cy = (float(c) + pad for c in center_px)
+        cxi, cyi = round(cx), round(cy)
+        x0, x1 = max(cxi - ih, 0), min(cxi + ih + 1, wp)
+        y0, y1 = max(cyi - ih, 0), min(cyi + ih + 1, hp)
+        if x0 >= x1 or y0 >= y1:
+            return None
+        gain = np.ascontiguousarray(
+            gain[y0 - (cyi - ih) : y1 - (cyi - ih), x0 - (cxi - ih) : x1 - (cxi - ih)]
+        )
+        return cls(gain, (y0, y1, x0, x1), np.array([cx - cxi, cy - cyi]))
+
+    def shifted(self, offset_px: np.ndarray) -> np.ndarray:
+        import cv2
+
+        key = tuple(np.round((offset_px + self.sub) * self._STEPS_PER_PX).astype(int))
+        moved = self._cache.get(key)
+        if moved is None:
+            dx, dy = np.asarray(key, dtype=float) / self._STEPS_PER_PX
+            shift = np.array([[1.0, 0.0, dx], [0.0, 1.0, dy]], dtype=np.float32)
+            moved = cv2.warpAffine(
+                self.gain,
+                shift,
+                (self.gain.shape[1], self.gain.shape[0]),
+                flags=cv2.INTER_LINEAR,
+                borderMode=cv2.BORDER_CONSTANT,
+                borderValue=(1.0, 1.0, 1.0),
+            )
+            if len(self._cache) < 256:
+                self._cache[key] = moved
+        return moved
+
+    def apply(self, buf: np.ndarray, offset_px: np.ndarray) -> None:
+        import cv2
+
+        y0, y1, x0, x1 = self.box
+        region = buf[y0:y1, x0:x1]
+        cv2.multiply(region, self.shifted(offset_px), dst=region)
+
+    def restore(self, buf: np.ndarray, bg: np.ndarray) -> None:
+        y0, y1, x0, x1 = self.box
+        np.copyto(buf[y0:y1, x0:x1], bg[y0:y1, x0:x1])
+
+
+def render_frames(
+    positions_px: np.ndarray,
+    profile: SensorProfile | str,
+    rng: np.random.Generator,
+    **kwargs,
+) -> np.ndarray:
+    """All frames at once, uint8 (T, H, W, 3); see :func:`iter_frames` for the options.
+
+    Holds every frame in memory (T × H × W × 3 bytes): prefer :func:`iter_frames`
+    for long recordings.
+    """
+    return np.stack([f.copy() for f in iter_frames(positions_px, profile, rng, **kwargs)])
+
+
+def encode_video(
+    path: Path,
+    frames: Iterable[np.ndarray],
+    timestamps_s: np.ndarray,
+    fps: float,
+    *,
+    n_frames: int | None = None,
+    crf: int = 20,
+    preset: str = "ultrafast",
+    threads: int = 1,
+    progress_label: str | None = None,
+) -> None:
+    """Write RGB uint8 ``frames`` as an H.264 (yuv420p) MP4 at ``path``, atomically.
+
+    Each frame's PTS is its timestamp in a 1/90000 s time base, so decoding
+    gives ``timestamps_s`` back; ``fps`` is the nominal rate written in the stream.
+    """
+    import av
+    import cv2
+
+    from liquidtouch.sim.gelsight import PTS_RATE_HZ
+
+    timestamps_s = np.asarray(timestamps_s, dtype=float)
+    pts = np.round(timestamps_s * PTS_RATE_HZ).astype(np.int64)
+    if len(pts) and np.any(np.diff(pts) <= 0):
+        raise LiquidTouchError("frame timestamps must be strictly increasing")
+    time_base = Fraction(1, PTS_RATE_HZ)
+    n_frames = len(pts) if n_frames is None else n_frames
+    progress = None
+    if progress_label:
+        from rich.progress import Progress
+
+        progress = Progress(transient=True)
+        progress.start()
+        task = progress.add_task(progress_label, total=n_frames)
+    try:
+        with atomic_path(path) as tmp:
+            container = av.open(str(tmp), mode="w")
+            try:
+                stream = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1000))
+                stream.pix_fmt = "yuv420p"
+                stream.time_base = time_base
+                stream.codec_context.time_base = time_base
+                stream.codec_context.thread_count = threads
+                stream.options = {"preset": preset, "crf": str(crf)}
+                count = 0
+                for i, rgb in enumerate(frames):
+                    if i >= len(pts):
+                        raise LiquidTouchError("more frames than timestamps")
+                    if i == 0:
+                        stream.height, stream.width = rgb.shape[:2]
+                    yuv = cv2.cvtColor(rgb, cv2.COLOR_RGB2YUV_I420)
+                    frame = av.VideoFrame.from_ndarray(yuv, format="yuv420p")
+                    frame.pts = int(pts[i])
+                    frame.time_base = time_base
+                    for packet in stream.encode(frame):
+                        container.mux(packet)
+                    count += 1
+                    if progress is not None:
+                        progress.advance(task)
+                for packet in stream.encode():
+                    container.mux(packet)
+            finally:
+                container.close()
+            if count != len(pts):
+                raise LiquidTouchError(f"got {count} frames for {len(pts)} timestamps")
+    finally:
+        if progress is not None:
+            progress.stop()

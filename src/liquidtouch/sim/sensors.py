@@ -1,0 +1,135 @@
+"""GelSight sensor profiles: image geometry, marker grid, gel compliance, lighting, timing.
+
+Two profiles ship:
+
+- ``"default"``: 640 × 480 px at 30 fps seeing a 20 × 15 mm field of view of a
+  20 × 20 mm gel, i.e. 0.03125 mm/px (32 px/mm). Markers at 1.8 mm pitch
+  (57.6 px), radius 5.5 px (blob area ≈ 95 px): an 11 × 9 grid in view.
+- ``"mini"``: a GelSight Mini, 320 × 240 px at 25 fps over 19.2 × 14.4 mm,
+  i.e. 0.06 mm/px; markers at 1.8 mm pitch (30 px), radius 5.9 px (area ≈ 110 px,
+  as in the real Mini recording in ``../shared/data/real``).
+
+Compliances are chosen inside the realistic range 3–40 px/N, so that a 0.1 N
+slosh force moves the markers at the contact centre by ~0.5–1.2 px.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from liquidtouch.errors import CatalogueError
+
+
+@dataclass(frozen=True)
+class LedLobe:
+    """One coloured LED's contribution to the gel's illumination.
+
+    Attributes
+    ----------
+    center : (x, y) in units of the image width/height (0..1; may lie outside).
+    rgb : colour added at the lobe's peak, 0..255 levels.
+    width : Gaussian width of the lobe in units of the image diagonal.
+    """
+
+    center: tuple[float, float]
+    rgb: tuple[float, float, float]
+    width: float
+
+
+@dataclass(frozen=True)
+class SensorProfile:
+    """Everything the renderer needs to know about one GelSight sensor model."""
+
+    name: str
+    width_px: int
+    height_px: int
+    fps: float
+    mm_per_px: float
+    marker_pitch_mm: float = 1.8
+    gel_size_mm: tuple[float, float] = (20.0, 20.0)
+    marker_radius_px: float = 5.5
+    marker_edge_px: float = 0.8
+    """Standard deviation of the marker's blurred edge [px] (soft, anti-aliased)."""
+    marker_transmittance: float = 0.22
+    """Fraction of the light a marker's ink lets through at its centre."""
+    marker_rest_jitter_px: float = 0.25
+    """Printing irregularity of the marker grid [px]."""
+    shear_compliance_px_per_n: float = 10.0
+    twist_compliance_rad_per_nmm: float = 0.004
+    contact_radius_mm_ref: float = 4.0
+    """Contact (imprint) radius at the reference preload; scales with preload^(1/3) (Hertz)."""
+    preload_ref_n: float = 5.0
+    field_spread: float = 1.3
+    """Gaussian width of the displacement field in units of the contact radius."""
+    base_rgb: tuple[float, float, float] = (40.0, 62.0, 78.0)
+    leds: tuple[LedLobe, ...] = field(default_factory=tuple)
+    vignette: float = 0.35
+    """Relative darkening at the image corners."""
+    noise_std: float = 1.2
+    """Sensor noise [grey levels, per channel]."""
+    flicker_std: float = 0.003
+    """Relative frame-to-frame brightness flicker of the LEDs."""
+    jitter_std_s: float = 0.0015
+    """Standard deviation of the frame timestamps' jitter [s]."""
+    drop_probability: float = 0.01
+    """Probability that a frame is dropped."""
+    rate_factor: float = 0.985
+    """Real frame rate / nominal (real sensors run a little slow)."""
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """(height, width, 3) of one RGB frame."""
+        return (self.height_px, self.width_px, 3)
+
+
+_MINI_LEDS = (
+    LedLobe(center=(0.55, 0.55), rgb=(70.0, 40.0, 70.0), width=0.30),
+    LedLobe(center=(0.0, -0.1), rgb=(-20.0, 25.0, 35.0), width=0.35),
+    LedLobe(center=(1.05, 0.95), rgb=(0.0, 30.0, 5.0), width=0.30),
+    LedLobe(center=(0.5, 0.0), rgb=(0.0, 18.0, 25.0), width=0.30),
+)
+
+_DEFAULT_LEDS = (
+    LedLobe(center=(0.5, 0.55), rgb=(75.0, 50.0, 70.0), width=0.32),
+    LedLobe(center=(-0.05, 0.5), rgb=(10.0, 35.0, 45.0), width=0.30),
+    LedLobe(center=(1.05, 0.5), rgb=(25.0, 40.0, 5.0), width=0.30),
+    LedLobe(center=(0.5, -0.05), rgb=(0.0, 20.0, 35.0), width=0.28),
+)
+
+SENSOR_PROFILES: dict[str, SensorProfile] = {
+    "default": SensorProfile(
+        name="default",
+        width_px=640,
+        height_px=480,
+        fps=30.0,
+        mm_per_px=0.03125,
+        marker_radius_px=5.5,
+        shear_compliance_px_per_n=12.0,
+        twist_compliance_rad_per_nmm=0.004,
+        leds=_DEFAULT_LEDS,
+    ),
+    "mini": SensorProfile(
+        name="mini",
+        width_px=320,
+        height_px=240,
+        fps=25.0,
+        mm_per_px=0.06,
+        marker_radius_px=5.9,
+        marker_edge_px=0.9,
+        shear_compliance_px_per_n=6.0,
+        twist_compliance_rad_per_nmm=0.004,
+        leds=_MINI_LEDS,
+        noise_std=1.0,
+    ),
+}
+
+
+def get_sensor_profile(sensor: str | SensorProfile) -> SensorProfile:
+    """Return the profile called ``sensor`` (or ``sensor`` itself if already a profile)."""
+    if isinstance(sensor, SensorProfile):
+        return sensor
+    try:
+        return SENSOR_PROFILES[sensor]
+    except KeyError:
+        known = ", ".join(sorted(SENSOR_PROFILES))
+        raise CatalogueError(f"unknown sensor {sensor!r}; choose one of: {known}") from None
