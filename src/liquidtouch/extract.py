@@ -1,0 +1,207 @@
+"""End to end: GelSight videos (or a trial directory) → marker tracks → ``u(t)`` → fit.
+
+``extract_signal(paths)`` gives the :class:`~liquidtouch.signal.TactileSignal`;
+``extract(paths)`` also keeps the tracks and runs
+:func:`~liquidtouch.oscillation.fit_oscillation`; ``extract_trial(trial_dir)``
+gives the feature row used by dataset feature tables.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from liquidtouch.errors import VideoError
+from liquidtouch.markers import MarkerTracks, track_markers
+from liquidtouch.signal import TactileSignal, tactile_signal
+
+PathLike = str | os.PathLike[str]
+RATE_TOLERANCE = 0.01  # relative frame-rate difference allowed between the videos of a trial
+
+
+@dataclass
+class Extraction:
+    """Everything ``extract`` computed: per-sensor tracks, the signal and its fit."""
+
+    tracks: list[MarkerTracks]
+    signal: TactileSignal
+    fit: object  # liquidtouch.oscillation.OscillationFit
+
+    def to_dict(self) -> dict[str, object]:
+        """The fit's keys plus ``explained_variance``, ``n_markers``, ``fps``, ``frames``."""
+        out = dict(self.fit.to_dict())
+        out.update(
+            explained_variance=float(self.signal.explained_variance),
+            n_markers=int(self.signal.n_markers),
+            fps=float(self.signal.fps),
+            frames=len(self.signal.t),
+        )
+        return out
+
+
+def resolve_sources(paths: PathLike | Sequence[PathLike]) -> list[tuple[str, Path]]:
+    """``(sensor name, source)`` pairs from video files, image folders or one trial directory."""
+    from liquidtouch.dataset import META_NAME, read_trial_meta
+
+    items = [paths] if isinstance(paths, str | os.PathLike) else list(paths)
+    if not items:
+        raise VideoError("no video given; pass video files, image folders or a trial directory")
+    items = [Path(p) for p in items]
+    if len(items) == 1 and items[0].is_dir() and (items[0] / META_NAME).is_file():
+        trial = items[0]
+        meta = read_trial_meta(trial)
+        if not meta.sensors:
+            raise VideoError(f"{trial / META_NAME} lists no sensor videos ('sensors')")
+        return [(Path(name).stem, trial / name) for name in meta.sensors]
+    names = [p.stem or p.name for p in items]
+    if len(set(names)) < len(names):  # two sensors called e.g. "video": number them
+        names = [f"{name}{k}" for k, name in enumerate(names)]
+    for path in items:
+        if not path.exists():
+            raise VideoError(f"{path} does not exist; give a video file, image folder or trial")
+    return list(zip(names, items, strict=True))
+
+
+def track_sources(
+    sources: Sequence[tuple[str, Path]], *, fps: float = 30.0, progress: bool = False
+) -> list[MarkerTracks]:
+    """Track the markers of every source; a rich progress bar (on stderr) when ``progress``."""
+    from liquidtouch.frames import iter_frames, video_info
+
+    tracks = []
+    for sensor, source in sources:
+        total = None
+        if source.is_file():
+            total = video_info(source).frames or None
+        frames = iter_frames(source, fps=fps)
+        if progress:
+            tracks.append(_track_with_bar(frames, sensor, total))
+        else:
+            tracks.append(track_markers(frames, sensor))
+    check_consistent(tracks)
+    return tracks
+
+
+def _track_with_bar(frames, sensor: str, total: int | None) -> MarkerTracks:
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
+
+    columns = (
+        "[progress.description]{task.description}",
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeRemainingColumn(),
+    )
+    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(f"tracking {sensor}", total=total)
+        return track_markers(frames, sensor, on_frame=lambda _: bar.advance(task))
+
+
+def check_consistent(tracks: Sequence[MarkerTracks]) -> None:
+    """The videos of one trial must have the same frame count (±1) and frame rate (±1 %)."""
+    if len(tracks) < 2:
+        return
+    first = tracks[0]
+    rate0 = 1.0 / float(np.median(np.diff(first.t))) if len(first.t) > 1 else float("nan")
+    for tr in tracks[1:]:
+        if abs(len(tr.t) - len(first.t)) > 1:
+            raise VideoError(
+                f"videos of one trial differ in length: {first.sensor} has {len(first.t)} "
+                f"frames, {tr.sensor} has {len(tr.t)}; give the videos of one recording"
+            )
+        rate = 1.0 / float(np.median(np.diff(tr.t))) if len(tr.t) > 1 else float("nan")
+        if not abs(rate - rate0) <= RATE_TOLERANCE * rate0:
+            raise VideoError(
+                f"videos of one trial differ in frame rate: {first.sensor} {rate0:.3f} fps, "
+                f"{tr.sensor} {rate:.3f} fps; give the videos of one recording"
+            )
+
+
+def extract(
+    paths: PathLike | Sequence[PathLike],
+    *,
+    lowpass_hz: float | None = 3.0,
+    n_markers: int = 16,
+    fps: float = 30.0,
+    progress: bool = False,
+    fit: bool = True,
+) -> Extraction:
+    """Tracks, tactile signal and (when ``fit``) the oscillation fit of one trial's videos.
+
+    ``fps`` is the frame rate of image folders (video files carry their own timestamps).
+    """
+    tracks = track_sources(resolve_sources(paths), fps=fps, progress=progress)
+    signal = tactile_signal(tracks, lowpass_hz=lowpass_hz, n_markers=n_markers)
+    result = None
+    if fit:
+        from liquidtouch.oscillation import fit_oscillation
+
+        result = fit_oscillation(signal.t, signal.u)
+    return Extraction(tracks=tracks, signal=signal, fit=result)
+
+
+def extract_signal(
+    paths: PathLike | Sequence[PathLike],
+    *,
+    lowpass_hz: float | None = 3.0,
+    n_markers: int = 16,
+    fps: float = 30.0,
+    progress: bool = False,
+) -> TactileSignal:
+    """The tactile signal ``u(t)`` of video files, image folders, or a trial directory."""
+    return extract(
+        paths, lowpass_hz=lowpass_hz, n_markers=n_markers, fps=fps, progress=progress, fit=False
+    ).signal
+
+
+def extract_trial(trial_dir: PathLike) -> dict[str, object]:
+    """Feature row of a trial directory: the fit's keys plus signal facts (see ``Extraction``)."""
+    return extract(trial_dir).to_dict()
+
+
+def plot_extraction(extraction: Extraction, path: PathLike) -> None:
+    """PNG: first frames with markers (chosen ones highlighted), marker motions, u(t) and fit."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from liquidtouch.atomic import atomic_path
+
+    tracks, signal = extraction.tracks, extraction.signal
+    fig, axes = plt.subplots(
+        2, max(2, len(tracks)), figsize=(5 * max(2, len(tracks)), 8), squeeze=False
+    )
+    for ax, tr in zip(axes[0], tracks, strict=False):
+        if tr.first_frame is not None:
+            ax.imshow(tr.first_frame, cmap="gray")
+        ax.plot(*tr.reference.T, "o", mfc="none", mec="tab:blue", ms=6, label="markers")
+        chosen = [i for name, i in signal.markers if name == tr.sensor]
+        ax.plot(*tr.reference[chosen].T, "o", color="tab:red", ms=6, label="chosen")
+        ax.set_title(f"{tr.sensor}: {tr.n_markers} markers, {len(chosen)} chosen")
+        ax.legend(loc="upper right", fontsize=8)
+    motion = axes[1][0]
+    for k in range(signal.n_markers):
+        motion.plot(signal.t, signal.motion[:, k, 0], lw=0.8, color="tab:blue", alpha=0.6)
+        motion.plot(signal.t, signal.motion[:, k, 1], lw=0.8, color="tab:orange", alpha=0.6)
+    motion.set(xlabel="t [s]", ylabel="displacement [px] (x blue, y orange)")
+    motion.set_title(f"filtered motion of the {signal.n_markers} chosen markers")
+    sig = axes[1][1]
+    sig.plot(signal.t, signal.u, color="k", lw=1, label="u(t)")
+    if extraction.fit is not None:
+        fit = extraction.fit
+        sig.plot(signal.t, fit.curve(signal.t), color="tab:red", lw=1, label="fit")
+        sig.set_title(
+            f"λ = {fit.decay_rate:.3g} 1/s, ω = {fit.angular_frequency:.3g} rad/s, "
+            f"EV = {signal.explained_variance:.1%}"
+        )
+    sig.set(xlabel="t [s]", ylabel="u [px]")
+    sig.legend(fontsize=8)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=90)
+    plt.close(fig)
