@@ -323,7 +323,8 @@ class MarkerTracker:
             & (np.hypot(*(refined.positions - guess).T) <= self.gate_px)
         )
         positions = np.where(ok[:, None], refined.positions, np.nan)
-        ok &= ~self._crowded(positions, ok)
+        residual = np.hypot(*(refined.positions - guess).T)
+        ok &= ~self._crowded(positions, ok, residual)
         positions[~ok] = np.nan
         self.since_reacquire += 1
         lost = ~ok
@@ -335,15 +336,16 @@ class MarkerTracker:
         self.last[valid] = positions[valid]
         return positions
 
-    def _crowded(self, positions: np.ndarray, ok: np.ndarray) -> np.ndarray:
-        """Markers within half a spacing of another one (two windows locked on one blob)."""
+    def _crowded(self, positions: np.ndarray, ok: np.ndarray, residual: np.ndarray) -> np.ndarray:
+        """Of two markers within half a spacing (two windows on one blob), the one that jumped."""
         from scipy.spatial import cKDTree
 
         crowded = np.zeros(len(positions), bool)
         index = np.flatnonzero(ok)
         if len(index) > 1:
             pairs = cKDTree(positions[index]).query_pairs(self.gate_px, output_type="ndarray")
-            crowded[index[pairs.ravel()]] = True
+            a, b = index[pairs[:, 0]], index[pairs[:, 1]]
+            crowded[np.where(residual[a] > residual[b], a, b)] = True
         return crowded
 
     def _reacquire(self, image: np.ndarray, positions: np.ndarray, lost: np.ndarray) -> np.ndarray:

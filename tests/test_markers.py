@@ -1,0 +1,175 @@
+"""Marker detection and tracking: synthetic blobs with known positions, real GelSight data."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+from scipy.special import erf
+
+from liquidtouch.errors import MarkerError
+from liquidtouch.markers import (
+    MarkerTracks,
+    detect_markers,
+    load_tracks,
+    save_tracks,
+    track_markers,
+)
+
+SHARED = Path(__file__).resolve().parents[2] / "shared"
+REAL = SHARED / "data" / "real"
+
+
+def render_blobs(positions: np.ndarray, shape=(160, 200), radius=4.5, gain=1.0, noise=0.0, seed=0):
+    """Soft dark discs (anti-aliased edge) on a lit gradient background, uint8."""
+    height, width = shape
+    yy, xx = np.mgrid[0:height, 0:width].astype(float)
+    light = gain * (150 + 60 * xx / width + 20 * np.sin(yy / 40))
+    ink = np.zeros(shape)
+    for x, y in positions:
+        r = np.hypot(xx - x, yy - y)
+        ink = np.maximum(ink, 0.5 * (1 - erf((r - radius) / 0.9)))
+    image = light * (1 - 0.75 * ink)
+    if noise:
+        image = image + np.random.default_rng(seed).normal(0, noise, shape)
+    return np.clip(np.rint(image), 0, 255).astype(np.uint8)
+
+
+def grid(shape=(160, 200), pitch=24.0, jitter=0.3, seed=0):
+    rng = np.random.default_rng(seed)
+    ys, xs = np.mgrid[20 : shape[0] - 15 : pitch, 20 : shape[1] - 15 : pitch]
+    pts = np.stack([xs.ravel(), ys.ravel()], axis=1).astype(float)
+    return pts + rng.uniform(-jitter, jitter, pts.shape)
+
+
+def test_detect_subpixel_without_grid_size():
+    truth = grid()
+    found = detect_markers(render_blobs(truth))
+    assert len(found.positions) == len(truth)
+    dist, _ = cKDTree(found.positions).query(truth)
+    assert np.median(dist) < 0.03
+    assert dist.max() < 0.06
+    assert found.diameter_px == pytest.approx(9.0, rel=0.2)
+
+
+def test_detect_invariant_to_lighting_gain():
+    truth = grid()
+    bright = detect_markers(render_blobs(truth, gain=1.0)).positions
+    dim = detect_markers(render_blobs(truth, gain=0.7)).positions
+    dist, _ = cKDTree(bright).query(dim)
+    assert dist.max() < 0.05
+
+
+def test_no_markers_and_too_few():
+    assert len(detect_markers(np.full((100, 120), 180, np.uint8)).positions) == 0
+    with pytest.raises(MarkerError, match="no markers"):
+        track_markers([(0.0, np.full((100, 120), 180, np.uint8))])
+    few = render_blobs(np.array([[50.0, 50.0], [100.0, 60.0]]))
+    with pytest.raises(MarkerError, match="only 2 markers"):
+        track_markers([(0.0, few)])
+
+
+def test_tracking_follows_known_motion_and_stands_still():
+    rest = grid()
+    t = np.arange(60) / 30.0
+    shift = np.stack([3.0 * np.exp(-0.8 * t) * np.sin(9 * t), 1.5 * np.sin(5 * t)], axis=1)
+    shift[:20] = 0.0  # still first, then moving
+    frames = [
+        (ti, render_blobs(rest + s, noise=1.0, seed=k))
+        for k, (ti, s) in enumerate(zip(t, shift, strict=True))
+    ]
+    tracks = track_markers(frames, "syn")
+    assert tracks.valid.all()
+    _, match = cKDTree(rest).query(tracks.reference)
+    truth = rest[match][None] + shift[:, None]
+    err = np.hypot(*(tracks.positions - truth).transpose(2, 0, 1))
+    assert np.median(err) < 0.05
+    assert err.max() < 0.25
+    assert tracks.positions[:20].std(axis=0).max() < 0.05  # noise only: stands still
+
+
+def test_markers_leaving_view_are_lost_and_reacquired():
+    rest = grid()
+    shifts = np.concatenate(
+        [np.zeros(5), np.linspace(0, 40, 10), np.linspace(40, 0, 10), np.zeros(5)]
+    )
+    frames = [(k / 30, render_blobs(rest + np.array([s, 0.0]))) for k, s in enumerate(shifts)]
+    tracks = track_markers(frames, "syn", reacquire_every=1)
+    right_column = tracks.reference[:, 0] > 160
+    peak = int(np.argmax(shifts))
+    assert not tracks.valid[peak, right_column].any()  # pushed out of the image: lost, not invented
+    assert np.isnan(tracks.positions[peak, right_column]).all()
+    assert tracks.valid[-1].all()  # back in view: re-acquired
+    np.testing.assert_allclose(tracks.positions[-1], tracks.reference, atol=0.05)
+
+
+def test_tracks_npz_round_trip(tmp_path):
+    tracks = MarkerTracks(
+        t=np.arange(3.0),
+        positions=np.ones((3, 4, 2)),
+        valid=np.ones((3, 4), bool),
+        reference=np.array([[0.0, 0], [10, 0], [0, 10], [10, 10]]),
+        sensor="left",
+    )
+    save_tracks(tmp_path / "tr.npz", [tracks])
+    (back,) = load_tracks(tmp_path / "tr.npz")
+    assert back.sensor == "left" and back.spacing_px == 10.0
+    np.testing.assert_array_equal(back.positions, tracks.positions)
+
+
+@pytest.mark.skipif(not REAL.is_dir(), reason="../shared real recordings absent")
+def test_real_gelsight_mini_press():
+    from liquidtouch.frames import iter_video
+
+    tracks = track_markers(iter_video(REAL / "gelsight_mini_press.avi"), "mini")
+    assert tracks.n_markers >= 78  # ~80 (10x8 grid; the top row is cut by the border)
+    x, y = tracks.reference.T
+    margin = tracks.diameter_px / 2 + 1
+    whole = (x > margin) & (y > margin) & (x < 319 - margin) & (y < 239 - margin)
+    still = np.nanstd(tracks.positions[:51], axis=0).max(axis=1)
+    assert whole.sum() >= 68
+    assert still[whole].max() < 0.05
+    assert np.median(still) < 0.03
+    # No swaps: markers keep their order (no two within half a spacing), motion is large.
+    moved = np.nanmax(np.hypot(*(tracks.positions - tracks.reference).transpose(2, 0, 1)))
+    assert moved > 15
+    for frame in tracks.positions[::5]:
+        ok = np.isfinite(frame[:, 0])
+        dist, _ = cKDTree(frame[ok]).query(frame[ok], k=2)
+        assert dist[:, 1].min() > 0.5 * tracks.spacing_px
+
+
+@pytest.mark.skipif(not REAL.is_dir(), reason="../shared real recordings absent")
+@pytest.mark.parametrize("name", ["a", "b"])
+def test_real_fots_labels(name):
+    import cv2
+    import pandas as pd
+
+    image = cv2.imread(str(REAL / "fots" / f"{name}.png"), cv2.IMREAD_GRAYSCALE)
+    labels = pd.read_csv(REAL / "fots" / f"{name}.csv")
+    # The images show the markers at M + d (M alone matches < 50 %); labels are integers.
+    where = labels[["Mx", "My"]].to_numpy(float) + labels[["dx", "dy"]].to_numpy(float)
+    found = detect_markers(image).positions
+    assert len(found) == len(labels)
+    dist, _ = cKDTree(found).query(where)
+    assert (dist <= 1.5).mean() >= 0.90
+    assert np.median(dist) < 1.0
+
+
+@pytest.mark.skipif(not REAL.is_dir(), reason="../shared real recordings absent")
+@pytest.mark.xfail(
+    strict=True,
+    reason="known shortfall: the fast release near frame 197 (12 px/frame) loses markers",
+)
+def test_real_gelsight_mini_press_no_loss_in_view():
+    from liquidtouch.frames import iter_video
+
+    tracks = track_markers(iter_video(REAL / "gelsight_mini_press.avi"), "mini")
+    # Through the press: a marker is lost only at the image border (out of view), never inside.
+    lost = ~tracks.valid
+    previous = np.roll(np.where(tracks.valid[..., None], tracks.positions, np.nan), 1, axis=0)
+    for k, i in zip(*np.nonzero(lost[1:] & tracks.valid[:-1]), strict=True):
+        px, py = previous[k + 1, i]
+        assert min(px, py, 319 - px, 239 - py) < 2 * tracks.diameter_px, (k, i, px, py)
