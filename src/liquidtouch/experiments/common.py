@@ -1,0 +1,60 @@
+"""Shared pieces of the paper's experiments: feature tables, splits, errors, figures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from liquidtouch import atomic
+
+#: The regression targets of the paper and their short names in tables.
+TARGETS = {"height_mm": "h [mm]", "sugar_concentration": "c [wt%]", "log10_viscosity_cst": "μ"}
+FEATURES = ["decay_rate", "angular_frequency"]
+
+
+def usable(table: pd.DataFrame) -> pd.DataFrame:
+    """Rows whose feature extraction succeeded (finite λ and ω, no error)."""
+    ok = np.isfinite(table[FEATURES].to_numpy(dtype=float)).all(axis=1)
+    if "error" in table.columns:
+        ok &= table["error"].fillna("").astype(str).eq("").to_numpy()
+    return table[ok].reset_index(drop=True)
+
+
+def split(table: pd.DataFrame, name: str) -> pd.DataFrame:
+    """The ``train`` or ``test`` rows of ``table`` (all rows when it has no ``split``)."""
+    if "split" not in table.columns:
+        return table
+    return table[table["split"] == name].reset_index(drop=True)
+
+
+def X(table: pd.DataFrame) -> np.ndarray:
+    """The (n, 2) feature matrix (λ [1/s], ω [rad/s])."""
+    return table[FEATURES].to_numpy(dtype=float)
+
+
+def mae(predicted: np.ndarray, truth: np.ndarray) -> float:
+    """Mean absolute error (NaN when there is nothing to compare)."""
+    predicted, truth = np.asarray(predicted, float), np.asarray(truth, float)
+    return float(np.mean(np.abs(predicted - truth))) if len(truth) else float("nan")
+
+
+def save_figure(fig, path: Path) -> Path:
+    """Save a matplotlib figure atomically as PNG and close it."""
+    import matplotlib.pyplot as plt
+
+    with atomic.atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png")
+    plt.close(fig)
+    return path
+
+
+def pyplot():
+    """matplotlib.pyplot on the Agg backend (no display needed)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
