@@ -7,8 +7,8 @@ care which one it gets.
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator
-from concurrent.futures import Executor, Future, ProcessPoolExecutor
+from collections.abc import Callable, Hashable, Iterator, Mapping
+from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
 from typing import Any
 
 from liquidtouch.errors import LiquidTouchError
@@ -59,3 +59,20 @@ def open_executor(jobs: int = 1, dask_address: str | None = None) -> Iterator[Ex
     else:
         with ProcessPoolExecutor(max_workers=jobs) as pool:
             yield pool
+
+
+def run_each(
+    pool: Executor, fn: Callable[..., Any], tasks: Mapping[Hashable, tuple]
+) -> Iterator[tuple[Hashable, Future]]:
+    """Run ``fn(*args)`` for each ``key: args`` of ``tasks``; yield ``(key, future)`` as each ends.
+
+    On a :class:`SerialExecutor` tasks run one at a time as the caller
+    consumes them, so progress bars move and an interrupted run stops at once.
+    """
+    if isinstance(pool, SerialExecutor):
+        for key, args in tasks.items():
+            yield key, pool.submit(fn, *args)
+        return
+    futures = {pool.submit(fn, *args): key for key, args in tasks.items()}
+    for future in as_completed(futures):
+        yield futures[future], future

@@ -13,7 +13,6 @@ import hashlib
 import json
 import math
 from collections.abc import Callable
-from concurrent.futures import as_completed
 from pathlib import Path
 
 import pandas as pd
@@ -21,7 +20,7 @@ import pandas as pd
 from liquidtouch import atomic
 from liquidtouch.dataset import META_NAME, read_manifest, read_trial_meta, trial_path
 from liquidtouch.errors import LiquidTouchError
-from liquidtouch.executors import open_executor
+from liquidtouch.executors import open_executor, run_each
 
 #: Bump when extraction or fitting changes in a way that changes features.
 FEATURES_VERSION = 1
@@ -140,12 +139,8 @@ def extract_features(
             Progress(*columns, disable=not progress, transient=True) as bar,
         ):
             task = bar.add_task(f"features ({source})", total=len(todo))
-            futures = {
-                pool.submit(_safe_run, str(tdir), source): trial
-                for trial, (tdir, _) in todo.items()
-            }
-            for future in as_completed(futures):
-                trial = futures[future]
+            tasks = {trial: (str(tdir), source) for trial, (tdir, _) in todo.items()}
+            for trial, future in run_each(pool, _safe_run, tasks):
                 result = future.result()
                 if result.pop("cacheable"):
                     entry = {"fingerprint": todo[trial][1], **result}

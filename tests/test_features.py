@@ -1,0 +1,113 @@
+"""Feature extraction over a dataset: parallel, cached, resumable, surviving a bad trial."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from liquidtouch.cli import main
+from liquidtouch.dataset import write_manifest
+from liquidtouch.features import CACHE_DIR, extract_features
+
+TRIALS = [  # (name, liquid, height_mm, seed)
+    ("a/water_h20", "water", 20.0, 1),
+    ("a/olive_h30", "olive-oil", 30.0, 2),
+    ("b/water_h36", "water", 36.0, 3),
+]
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Three good simulated trials (GelSight Mini videos) and one with a corrupt video."""
+    from liquidtouch.sim.trial import simulate_trial
+    from liquidtouch.sim.trial_io import write_trial
+
+    root = tmp_path_factory.mktemp("dataset")
+    rows = []
+    for name, liquid, height_mm, seed in TRIALS:
+        trial = simulate_trial(liquid, height_mm=height_mm, seed=seed, duration_s=9.0)
+        write_trial(trial, root / name, sensor="mini")
+        rows.append({"trial": name, "split": "train", **trial.labels()})
+    shutil.copytree(root / TRIALS[0][0], root / "b/corrupt")
+    (root / "b/corrupt/left.mp4").write_bytes(b"this is not a video" * 100)
+    rows.append({**rows[0], "trial": "b/corrupt"})
+    write_manifest(root, rows)
+    return root
+
+
+def _fresh_copy(dataset: Path, tmp_path: Path) -> Path:
+    copy = tmp_path / "data"
+    shutil.copytree(dataset, copy, ignore=shutil.ignore_patterns(".cache"))
+    return copy
+
+
+def test_features_match_truth_and_bad_trial_is_reported(dataset: Path, tmp_path: Path) -> None:
+    root = _fresh_copy(dataset, tmp_path)
+    table = extract_features(root, jobs=1, progress=False).set_index("trial")
+    good = table.loc[[name for name, *_ in TRIALS]]
+    assert (good["error"] == "").all()
+    np.testing.assert_allclose(good["angular_frequency"], good["true_angular_frequency"], rtol=0.03)
+    np.testing.assert_allclose(good["decay_rate"], good["true_decay_rate"], rtol=0.35)
+    assert good["explained_variance"].min() > 0.8
+    bad = table.loc["b/corrupt"]
+    assert "left.mp4" in bad["error"] and np.isnan(bad["decay_rate"])
+    written = (root / "features.csv").read_text()
+    assert written.splitlines()[0].startswith("trial,")
+
+
+def test_rerun_and_resume_redo_nothing_that_was_finished(dataset: Path, tmp_path: Path) -> None:
+    root = _fresh_copy(dataset, tmp_path)
+    done: list[str] = []
+
+    def interrupt_after_first(trial: str, result: dict) -> None:
+        done.append(trial)
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        extract_features(root, jobs=1, progress=False, on_trial=interrupt_after_first)
+    assert len(done) == 1 and not (root / "features.csv").exists()
+
+    redone: list[str] = []
+    extract_features(root, jobs=1, progress=False, on_trial=lambda t, r: redone.append(t))
+    assert len(redone) == len(TRIALS) and done[0] not in redone  # 4 trials, 1 finished before
+
+    again: list[str] = []
+    extract_features(root, jobs=1, progress=False, on_trial=lambda t, r: again.append(t))
+    assert again == []
+
+    video = root / TRIALS[1][0] / "right.mp4"
+    video.touch()  # a changed input is redone
+    changed: list[str] = []
+    extract_features(root, jobs=1, progress=False, on_trial=lambda t, r: changed.append(t))
+    assert changed == [TRIALS[1][0]]
+    assert (root / CACHE_DIR / "gelsight").is_dir()
+
+
+def test_process_pool_and_dask_give_the_serial_features(dataset: Path, tmp_path: Path) -> None:
+    distributed = pytest.importorskip("distributed")
+    serial = extract_features(_fresh_copy(dataset, tmp_path / "s"), progress=False)
+    pooled = extract_features(_fresh_copy(dataset, tmp_path / "p"), jobs=2, progress=False)
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        on_dask = extract_features(
+            _fresh_copy(dataset, tmp_path / "d"),
+            dask_address=cluster.scheduler_address,
+            progress=False,
+        )
+    for other in (pooled, on_dask):
+        np.testing.assert_array_equal(other["decay_rate"], serial["decay_rate"])
+        assert list(other["error"]) == list(serial["error"])
+
+
+def test_features_cli_reports_failures(dataset: Path, tmp_path: Path, capsys) -> None:
+    root = _fresh_copy(dataset, tmp_path)
+    assert main(["features", str(root), "--out", str(tmp_path / "f.csv")]) == 0
+    captured = capsys.readouterr()
+    assert "3 of 4 trials extracted" in captured.out
+    assert "failed: b/corrupt" in captured.err
+    assert main(["features", str(tmp_path / "nowhere")]) == 2
+    assert capsys.readouterr().err.startswith("error: ")
