@@ -1,0 +1,61 @@
+"""End to end from video files through the CLI: synthetic videos written with PyAV, error paths."""
+
+from __future__ import annotations
+
+import json
+
+import av
+import numpy as np
+import pytest
+
+from liquidtouch.cli import main
+from liquidtouch.errors import VideoError
+from liquidtouch.frames import iter_video
+from tests.test_markers import grid, render_blobs
+
+LAM, OMEGA = 0.7, 2 * np.pi * 1.2
+
+
+def write_video(path, n_frames=150, fps=30, amplitude=2.0):
+    rest = grid()
+    with av.open(str(path), "w") as out:
+        stream = out.add_stream("libx264", rate=fps, options={"crf": "10"})
+        stream.width, stream.height, stream.pix_fmt = 200, 160, "yuv420p"
+        for k in range(n_frames):
+            t = k / fps
+            shift = amplitude * np.exp(-LAM * t) * np.cos(OMEGA * t)
+            grey = render_blobs(rest + np.array([shift, 0.3 * shift]))
+            frame = av.VideoFrame.from_ndarray(np.dstack([grey] * 3), format="rgb24")
+            out.mux(stream.encode(frame))
+        out.mux(stream.encode())
+    return path
+
+
+def test_extract_cli_json_and_outputs(tmp_path, capsys):
+    video = write_video(tmp_path / "left.mp4")
+    times = [t for t, _ in iter_video(video)]
+    assert np.allclose(np.diff(times), 1 / 30)
+    rc = main(["extract", str(video), "--json", "--signal-out", str(tmp_path / "u.csv")])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["n_markers"] == 16 and out["frames"] == 150 and out["fps"] == pytest.approx(30)
+    assert out["explained_variance"] > 0.95
+    assert out["angular_frequency"] == pytest.approx(OMEGA, rel=0.02)
+    assert (tmp_path / "u.csv").read_text().startswith("t,u")
+
+
+def test_extract_errors(tmp_path, capsys):
+    empty = tmp_path / "empty.mp4"
+    empty.write_bytes(b"")
+    text = tmp_path / "notes.mp4"
+    text.write_text("not a video")
+    for bad in (tmp_path / "missing.mp4", empty, text):
+        assert main(["extract", str(bad)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("error: ") and err.count("\n") == 1
+    a = write_video(tmp_path / "a.mp4", n_frames=90)
+    b = write_video(tmp_path / "b.mp4", n_frames=60)
+    assert main(["extract", str(a), str(b)]) == 2
+    assert "differ in length" in capsys.readouterr().err
+    with pytest.raises(VideoError, match="is not a file"):
+        list(iter_video(tmp_path))  # a folder is not a video file
