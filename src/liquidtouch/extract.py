@@ -139,8 +139,9 @@ def extract(
     result = None
     if fit:
         from liquidtouch.oscillation import fit_oscillation
+        from liquidtouch.segment import free_decay
 
-        result = fit_oscillation(signal.t, signal.u)
+        result = fit_oscillation(*free_decay(signal.t, signal.u))
     return Extraction(tracks=tracks, signal=signal, fit=result)
 
 

@@ -54,9 +54,10 @@ def wrench_signal(
 def wrench_features(trial_dir: str | Path) -> dict[str, float]:
     """Feature row of a trial's wrist F/T signal (the same keys as the GelSight features)."""
     from liquidtouch.oscillation import fit_oscillation
+    from liquidtouch.segment import free_decay
 
     t_s, force_n = read_wrench_csv(Path(trial_dir) / WRENCH_NAME)
     t, u, explained = wrench_signal(t_s, force_n)
-    row = dict(fit_oscillation(t, u).to_dict())
+    row = dict(fit_oscillation(*free_decay(t, u)).to_dict())
     row.update(explained_variance=explained, n_markers=0, fps=30.0, frames=len(t))
     return row
