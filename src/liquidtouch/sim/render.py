@@ -165,7 +165,6 @@ def iter_frames(
     # the markers are restored from bg after each frame, never the whole image
     buf = bg.copy()
     visible = buf[pad : pad + h, pad : pad + w]
-    summed = np.empty((h, w, 3), dtype=np.float32)
     out = np.empty((h, w, 3), dtype=np.uint8)
     k = np.arange(2 * half + 1)
     # every marker's (K, K, 3) patch as a writeable window into buf, indexed by its
@@ -191,7 +190,11 @@ def iter_frames(
     use_noise = noise and profile.noise_std > 0
     if use_noise:
         npad = 48
-        noise_tile = rng.normal(0.0, profile.noise_std, (h + npad, w + npad, 3)).astype(np.float32)
+        # integer noise, as after the camera's ADC, split into its positive and negative
+        # parts so that it can be added to the uint8 frame with saturation
+        noise_tile = np.rint(rng.normal(0.0, profile.noise_std, (h + npad, w + npad, 3)))
+        noise_up = np.clip(noise_tile, 0, 255).astype(np.uint8)
+        noise_down = np.clip(-noise_tile, 0, 255).astype(np.uint8)
         offsets = rng.integers(0, npad, (n_frames, 2))
     gains = _flicker_gains(profile.flicker_std if flicker else 0.0, n_frames, rng)
 
@@ -208,14 +211,12 @@ def iter_frames(
         patches = windows[corner[:, 1], corner[:, 0]]
         patches *= factor[..., None]
         windows[corner[:, 1], corner[:, 0]] = patches
+        # rounds to nearest and saturates to 0..255 (values are never negative here)
+        cv2.convertScaleAbs(visible, dst=out, alpha=float(gains[i]))
         if use_noise:
             oy, ox = offsets[i]
-            cv2.add(visible, noise_tile[oy : oy + h, ox : ox + w], dst=summed)
-            source = summed
-        else:
-            source = visible
-        # rounds to nearest and saturates to 0..255 (values are never negative here)
-        cv2.convertScaleAbs(source, dst=out, alpha=float(gains[i]))
+            cv2.add(out, noise_up[oy : oy + h, ox : ox + w], dst=out)
+            cv2.subtract(out, noise_down[oy : oy + h, ox : ox + w], dst=out)
         yield out
         windows[corner[:, 1], corner[:, 0]] = bg_windows[corner[:, 1], corner[:, 0]]
         if imprint is not None:
@@ -359,7 +360,8 @@ def encode_video(
                     if i == 0:
                         stream.height, stream.width = rgb.shape[:2]
                     yuv = cv2.cvtColor(rgb, cv2.COLOR_RGB2YUV_I420)
-                    frame = av.VideoFrame.from_ndarray(yuv, format="yuv420p")
+                    # wraps the fresh I420 array without a copy (a new array every frame)
+                    frame = av.VideoFrame.from_numpy_buffer(yuv, format="yuv420p")
                     frame.pts = int(pts[i])
                     frame.time_base = time_base
                     for packet in stream.encode(frame):
