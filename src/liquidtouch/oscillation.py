@@ -14,9 +14,12 @@ Losses
 which weighs the late, small-amplitude part of the decay. Here ``u`` in the
 weight is the signal minus its quadratic drift (so the weight does not depend
 on an arbitrary offset of ``u``) and ``δ = delta_rel · mean(u²)`` with
-``delta_rel = 0.05`` by default: relative to the signal's power, so it does not
-depend on units, and large enough that the few samples near zero crossings do
-not dominate. ``loss="ls"`` is plain least squares: the maximum-likelihood fit
+``delta_rel = 1`` by default: relative to the signal's power, so it does not
+depend on units. Because the weights come from the noisy data, the paper's
+loss is biased towards faster decay when the late signal is near the noise
+(Monte-Carlo, λ=0.4/s, noise 5 % of the amplitude: +18 % at ``delta_rel=0.05``,
++4 % at 0.5, +2 % at 1); ``delta_rel = 1`` keeps the late-decay emphasis while
+keeping that bias small. ``loss="ls"`` is plain least squares: the maximum-likelihood fit
 under white Gaussian noise, and the statistically efficient choice for signals
 that follow the model.
 
@@ -57,11 +60,12 @@ __all__ = ["EXAMPLE_PARAMETERS", "OscillationFit", "example_signal", "fit_oscill
 LOSSES = ("paper", "ls")
 MODELS = ("two-mode", "single-mode")
 NOISE_MODELS = ("white", "correlated")
-DEFAULT_DELTA_REL = 0.05
+DEFAULT_DELTA_REL = 1.0
 MIN_SAMPLES = 20
 MIN_DURATION_S = 2.0
-#: F statistic of the oscillation against a drift-only fit below which the signal is noise
-MIN_OSCILLATION_F = 25.0
+#: energy of the fitted oscillation over the local noise level below which it is noise
+#: (pure white or low-passed noise reaches ~18 at most)
+MIN_OSCILLATION_SNR = 30.0
 
 
 @dataclass(frozen=True)
@@ -188,14 +192,13 @@ def _band(band_hz: tuple[float, float], t: np.ndarray) -> tuple[float, float]:
     return 2 * math.pi * lo, 2 * math.pi * min(hi, 0.9 * nyquist_hz)
 
 
-def _check_is_oscillation(state: FitState, drift_cost: float, band: tuple[float, float]) -> None:
-    n, p = state.n, state.n_params
-    f_stat = ((drift_cost - state.cost) / 4) / max(state.cost / (n - p), 1e-300)
-    if f_stat < MIN_OSCILLATION_F:
+def _check_is_oscillation(state: FitState, band: tuple[float, float]) -> None:
+    snr = float(state.mode_snr()[0])
+    if snr < MIN_OSCILLATION_SNR:
         raise NoOscillationError(
-            f"no oscillation above the noise (noise only: the best damped cosine explains "
-            f"too little, F = {f_stat:.3g} < {MIN_OSCILLATION_F:g}); check that the container "
-            "was pushed and the sensor signal is the slosh"
+            f"no oscillation above the noise (noise only: the best damped cosine's energy is "
+            f"{snr:.3g}× the local noise level, need {MIN_OSCILLATION_SNR:g}); check that the "
+            "container was pushed and that the signal is the slosh"
         )
     lam, omega = state.rates[0], state.freqs[0]
     at_edge = min(abs(omega - band[0]) / band[0], abs(omega - band[1]) / band[1]) < 0.01
@@ -267,14 +270,8 @@ def fit_oscillation(
     weights = 1.0 / (u_detrended**2 + delta_n) if loss == "paper" else np.ones_like(u_n)
     weights /= weights.mean()
     sqrt_w = np.sqrt(weights)
-    drift_resid = sqrt_w * (
-        drift_design @ np.linalg.lstsq(drift_design * sqrt_w[:, None], u_n * sqrt_w, rcond=None)[0]
-        - u_n
-    )
-    drift_cost = float(drift_resid @ drift_resid)
-
     single = optimise_single_mode(tau, x, u_n, u_detrended, sqrt_w, band)
-    _check_is_oscillation(single, drift_cost, band)
+    _check_is_oscillation(single, band)
     chosen = single
     if model == "two-mode":
         two = optimise_two_mode(tau, x, u_n, sqrt_w, band, single)

@@ -116,10 +116,10 @@ def profile_cost_grid(
     design[..., 4] = x * x
     design *= sqrt_w[:, None]
     b = u * sqrt_w
-    gram = np.einsum("rfni,rfnj->rfij", design, design)
-    rhs = np.einsum("rfni,n->rfi", design, b)
+    design_t = np.swapaxes(design, -1, -2)
+    gram = design_t @ design
+    rhs = design_t @ b
     gram += 1e-10 * np.eye(5) * np.trace(gram, axis1=-2, axis2=-1)[..., None, None]
     params = np.linalg.solve(gram, rhs[..., None])[..., 0]
-    fitted = np.einsum("rfni,rfi->rfn", design, params)
-    resid = fitted - b
-    return np.einsum("rfn,rfn->rf", resid, resid)
+    # cost = |b|² - rhs·params at the normal-equation solution
+    return float(b @ b) - np.sum(rhs * params, axis=-1)

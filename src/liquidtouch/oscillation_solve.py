@@ -78,9 +78,40 @@ class FitState:
             out.append(float(np.sum((self.sqrt_w * m) ** 2)) / var_w)
         return np.array(out)
 
+    def is_weighted(self) -> bool:
+        return bool(np.ptp(self.sqrt_w) > 0)
+
+    def mode_snr(self) -> np.ndarray:
+        """Energy Σ m_k² of each mode over the residual's local noise level at its frequency.
+
+        The noise level is the residual periodogram averaged within ±0.5 Hz of the
+        mode: for white noise it is the residual variance, for low-passed noise it is
+        the (larger) in-band level, so noise that merely looks oscillatory is not
+        mistaken for a mode.
+        """
+        k = om.n_nonlinear(self.n_modes)
+        design = om.basis(self.tau, self.x, self.rates, self.freqs)
+        lin = self.theta[k:]
+        dt = self.tau[-1] / (self.n - 1)
+        grid = dt * np.arange(self.n)
+        resid = np.interp(grid, self.tau, self.residual())
+        periodogram = np.abs(np.fft.rfft(resid)) ** 2 / (self.n - self.n_params)
+        omega_bins = 2 * np.pi * np.fft.rfftfreq(self.n, dt)
+        out = []
+        for j in range(self.n_modes):
+            near = np.abs(omega_bins - self.freqs[j]) <= 2 * np.pi * 0.5
+            local_var = 2 * float(periodogram[near].mean()) if near.any() else self.noise_var()
+            m = design[:, 2 * j : 2 * j + 2] @ lin[2 * j : 2 * j + 2]
+            out.append(float(m @ m) / max(local_var, 1e-300))
+        return np.array(out)
+
     def supported_over(self, single: FitState) -> bool:
         """True when this two-mode fit is better supported than the single-mode one."""
-        return bool(self.bic() < single.bic() and (self.mode_chi2() >= MIN_MODE_CHI2).all())
+        return bool(
+            self.bic() < single.bic()
+            and (self.mode_chi2() >= MIN_MODE_CHI2).all()
+            and (self.mode_snr() >= MIN_MODE_CHI2).all()
+        )
 
     def amplitudes_phases(self) -> tuple[np.ndarray, np.ndarray]:
         """Amplitude B_k and phase ψ_k of each mode (a cos + b sin = B cos(· + ψ))."""
@@ -105,8 +136,13 @@ class FitState:
                 gamma = g[lag:].T @ g[:-lag]
                 meat += (1 - lag / (lags + 1)) * (gamma + gamma.T)
             meat *= self.n / (self.n - self.n_params)
+        elif self.is_weighted():
+            # the paper's weights come from the noisy data; the residual-based
+            # (heteroscedasticity-robust) sandwich keeps the std honest there
+            g = score * self.residual()[:, None]
+            meat = (g.T @ g) * self.n / (self.n - self.n_params)
         else:
-            meat = self.noise_var() * (score.T @ score) / 1.0
+            meat = self.noise_var() * (score.T @ score)
         try:
             inv = np.linalg.inv(bread)
         except np.linalg.LinAlgError:
@@ -124,13 +160,17 @@ def _sqrt(v: float) -> float:
 
 
 def _bartlett_lags(resid: np.ndarray) -> int:
-    """Newey–West truncation lag: twice the lag where the residual autocorrelation dies."""
+    """Newey–West truncation lag: 4× the lag where the residual autocorrelation dies, ≥ 10.
+
+    The Bartlett kernel down-weights long lags, so a generous lag is needed for
+    low-passed noise (checked by Monte-Carlo in the tests).
+    """
     r = resid - resid.mean()
     n = r.size
     acf = np.correlate(r, r, mode="full")[n - 1 :] / float(r @ r)
     below = np.nonzero(acf[1:] < 0.1)[0]
     first = int(below[0]) + 1 if below.size else n // 4
-    return int(min(max(2 * first, 1), n // 4))
+    return int(min(max(4 * first, 10), n // 4))
 
 
 def _bounds(n_modes: int, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
@@ -183,7 +223,7 @@ def optimise_single_mode(
     band: tuple[float, float],
 ) -> FitState:
     """Best single-mode optimum from starts at the spectral peaks and the λ profile."""
-    peaks = spectral_peaks(tau, u_detrended, band)
+    peaks = spectral_peaks(tau, u_detrended, band, n_peaks=2)
     starts = profile_starts(tau, x, u, sqrt_w, peaks, band)
     fits = [_solve(np.array([lam, omega]), 1, tau, x, u, sqrt_w, band) for _, lam, omega in starts]
     return min(fits, key=lambda f: f.cost)
@@ -207,7 +247,7 @@ def optimise_two_mode(
         # the single fit found the fast mode; the slow one hides in the residual
         (0.5 * lam, resid_peaks[0], 0.5 * lam + 0.3, omega),
     ]
-    starts += [(lam, omega, gap, p) for p in resid_peaks]
+    starts += [(lam, omega, gap, p) for p in resid_peaks if abs(p / omega - 1) > 0.05]
     fits = [_solve(np.array(s), 2, tau, x, u, sqrt_w, band) for s in starts]
     best = min(fits, key=lambda f: f.cost)
     return best if math.isfinite(best.cost) else None

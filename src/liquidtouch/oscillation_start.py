@@ -18,7 +18,7 @@ import numpy as np
 from liquidtouch.oscillation_model import profile_cost_grid
 
 #: decay rates [1/s] tried on the profile grid
-RATE_GRID = np.geomspace(0.01, 8.0, 28)
+RATE_GRID = np.geomspace(0.01, 8.0, 22)
 
 
 def detrend(x: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -70,7 +70,7 @@ def profile_starts(
     """Best (cost, λ, ω) of the single-mode profile grid around each spectral peak."""
     starts = []
     for peak in peaks:
-        freqs = peak * np.linspace(0.9, 1.1, 9)
+        freqs = peak * np.linspace(0.93, 1.07, 7)
         freqs = np.clip(freqs, band_rad_s[0], band_rad_s[1])
         cost = profile_cost_grid(tau, x, u, sqrt_w, RATE_GRID, freqs)
         i, j = np.unravel_index(np.argmin(cost), cost.shape)
