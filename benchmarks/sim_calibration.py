@@ -36,7 +36,7 @@ def features(trial) -> tuple[float, float]:
     sos = butter(4, 3.0, fs=1.0 / (t[1] - t[0]), output="sos")
     u = sosfiltfilt(sos, f)
     keep = t >= trial.params.push_end_s + 0.3
-    step = int(round((t[1] - t[0]) ** -1 / 30.0))
+    step = round((t[1] - t[0]) ** -1 / 30.0)
     tt, uu = t[keep][::step], u[keep][::step]
     fit = fit_oscillation(tt, uu)
     return fit.decay_rate, fit.angular_frequency

@@ -1,9 +1,133 @@
-"""Commands of this group (filled in by their issue)."""
+"""``liquidtouch simulate``: simulated trials and the paper's datasets."""
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import typer
+
+simulate_app = typer.Typer(
+    help="Simulate sloshing trials (loads, wrist wrench, GelSight videos) and whole datasets.",
+    no_args_is_help=True,
+)
+
+
+@simulate_app.command("trial")
+def trial_command(
+    liquid: str = typer.Option(
+        ..., "--liquid", help="water, olive-oil, corn-oil, mirin, detergent or sugar-water."
+    ),
+    height_mm: float = typer.Option(..., "--height-mm", help="Fill height [mm]."),
+    out: Path = typer.Option(..., "--out", help="Trial directory to write."),
+    container: str = typer.Option(
+        "grooved-cuboid", "--container", help="grooved-cuboid, cuboid, cylinder or glass."
+    ),
+    sugar_concentration: float | None = typer.Option(
+        None, "--sugar-concentration", help="Sugar-water only: g sugar per 100 g water."
+    ),
+    seed: int = typer.Option(0, "--seed", help="Random seed (trial conditions and noise)."),
+    temperature_c: float | None = typer.Option(
+        None, "--temperature-c", help="Liquid temperature [°C] (default: drawn around 21 °C)."
+    ),
+    video: bool = typer.Option(
+        True, "--video/--no-video", help="Render the GelSight videos (left.mp4, right.mp4)."
+    ),
+    sensor: str = typer.Option("default", "--sensor", help="GelSight sensor profile name."),
+    plot: bool = typer.Option(False, "--plot", help="Also save loads.png in the trial directory."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object on stdout."),
+) -> None:
+    """Simulate one trial (lift, lateral push, hold) and write meta.json, force.csv, wrench.csv.
+
+    meta.json holds the labels and the ground truth: the small-amplitude decay
+    rate and angular frequency of the slow slosh mode.
+    """
+    from liquidtouch.sim.trial import simulate_trial
+    from liquidtouch.sim.trial_io import plot_trial, write_trial
+
+    trial = simulate_trial(
+        liquid,
+        height_mm=height_mm,
+        container=container,
+        sugar_concentration=sugar_concentration,
+        seed=seed,
+        temperature_c=temperature_c,
+    )
+    directory = write_trial(trial, out, video=video, sensor=sensor)
+    files = sorted(p.name for p in directory.iterdir() if not p.name.startswith("."))
+    if plot:
+        plot_trial(trial, directory / "loads.png")
+        files = sorted({*files, "loads.png"})
+    summary = {"trial": str(directory), "files": files, **trial.labels()}
+    if as_json:
+        typer.echo(json.dumps(summary))
+        return
+    typer.echo(
+        f"wrote {directory}: {', '.join(files)}\n"
+        f"  true decay rate {trial.true_decay_rate:.4f} 1/s, "
+        f"angular frequency {trial.true_angular_frequency:.4f} rad/s, "
+        f"viscosity {trial.viscosity_cst:.3g} cSt at {trial.temperature_c:.1f} °C"
+    )
+
+
+@simulate_app.command("dataset")
+def dataset_command(
+    preset: str = typer.Option(..., "--preset", help="Preset name (see 'simulate presets')."),
+    out: Path = typer.Option(..., "--out", help="Dataset directory to write."),
+    jobs: int = typer.Option(1, "--jobs", min=1, help="Worker processes."),
+    quick: bool = typer.Option(False, "--quick", help="A small deterministic subset."),
+    video: bool = typer.Option(True, "--video/--no-video", help="Render GelSight videos."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object on stdout."),
+) -> None:
+    """Simulate every trial of a preset (a dataset of the paper) and write manifest.csv.
+
+    A failing trial is reported and left out; the rest are written.
+    """
+    from liquidtouch.sim.presets import simulate_dataset
+
+    result = simulate_dataset(
+        preset, out, jobs=jobs, video=video, quick=quick, progress=not as_json
+    )
+    summary = {
+        "root": str(result.root),
+        "manifest": str(result.manifest),
+        "n_trials": result.n_trials,
+        "failures": [{"trial": t, "error": e} for t, e in result.failures],
+    }
+    if as_json:
+        typer.echo(json.dumps(summary))
+        return
+    typer.echo(f"wrote {result.n_trials} trials and {result.manifest}")
+    for name, error in result.failures:
+        typer.echo(f"failed: {name}: {error}", err=True)
+
+
+@simulate_app.command("presets")
+def presets_command(
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object on stdout."),
+) -> None:
+    """List the dataset presets with their sizes (full and --quick)."""
+    from liquidtouch.sim.presets import PRESETS, get_preset
+
+    table = {}
+    for name, description in PRESETS.items():
+        full, quick = get_preset(name), get_preset(name, quick=True)
+        table[name] = {
+            "description": description,
+            "train": sum(s.split == "train" for s in full),
+            "test": sum(s.split == "test" for s in full),
+            "quick": len(quick),
+        }
+    if as_json:
+        typer.echo(json.dumps({"presets": table}))
+        return
+    for name, row in table.items():
+        typer.echo(
+            f"{name:15s} train {row['train']:4d}  test {row['test']:4d}  "
+            f"quick {row['quick']:3d}  {row['description']}"
+        )
 
 
 def register(app: typer.Typer) -> None:
-    """Register this module's commands on ``app``."""
+    """Register the ``simulate`` command group on ``app``."""
+    app.add_typer(simulate_app, name="simulate")

@@ -66,12 +66,12 @@ CONTAINER_HEIGHTS_MM = {
 }
 CLASS_LIQUIDS = ("water", "olive-oil", "detergent")
 OTHER_LIQUIDS = ("olive-oil", "corn-oil", "mirin")
-QUICK_SIZES = {  # (train, test) kept per group with quick=True
-    "classification": (24, 30),
+QUICK_SIZES = {  # (train, test) kept per group (liquid or container) with quick=True
+    "classification": (8, 10),
     "sugar": (36, 24),
-    "other-liquids": (0, 18),
-    "containers": (20, 12),
-    "force-torque": (24, 30),
+    "other-liquids": (0, 12),
+    "containers": (12, 8),
+    "force-torque": (8, 10),
 }
 
 

@@ -36,7 +36,7 @@ import numpy as np
 
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.sim.containers import get_container
-from liquidtouch.sim.liquids import LiquidProperties, get_liquid
+from liquidtouch.sim.liquids import get_liquid
 from liquidtouch.sim.loads import FingerLoads
 from liquidtouch.sim.slosh import (
     GRAVITY_M_S2,
@@ -241,7 +241,7 @@ def simulate_trial(
     )
     true_lambda, true_omega = system.slow_mode()
 
-    n = int(round(duration_s * sample_rate_hz)) + 1
+    n = round(duration_s * sample_rate_hz) + 1
     t = np.arange(n) / sample_rate_hz
     push = _min_jerk_acceleration(
         params.push_distance_mm * 1e-3, params.push_start_s, params.push_duration_s
