@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from liquidtouch.errors import TableError
-from liquidtouch.properties import check_features
+from liquidtouch.properties import check_features, single_threaded_blas
 from liquidtouch.property_model import FeatureMap, PropertyModel
 
 MIN_TUNE_ROWS = 4  # four parameters (α1, α2, β1, β2)
@@ -104,9 +104,10 @@ def fit_transfer(
             t: float(np.mean(np.abs(model.regressors[t].predict(Xm) - y))) for t, y in ys.items()
         }
 
-    result = least_squares(
-        residuals, identity, loss="soft_l1", f_scale=f_scale, x_scale=units, method="trf"
-    )
+    with single_threaded_blas():
+        result = least_squares(
+            residuals, identity, loss="soft_l1", f_scale=f_scale, x_scale=units, method="trf"
+        )
     theta = result.x
     new_map = FeatureMap((float(theta[0]), float(theta[1])), (float(theta[2]), float(theta[3])))
     transferred = PropertyModel(regressors=model.regressors, feature_map=inner.then(new_map))
