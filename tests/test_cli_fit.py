@@ -1,0 +1,142 @@
+"""``liquidtouch fit``: JSON keys and values, table, plot, and one-line errors with exit 2."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from liquidtouch.cli import main
+from liquidtouch.errors import TableError
+from liquidtouch.oscillation import EXAMPLE_PARAMETERS, example_signal
+from liquidtouch.signal_io import read_signal_csv, write_signal_csv
+
+KEYS = (
+    "decay_rate",
+    "angular_frequency",
+    "fast_decay_rate",
+    "fast_angular_frequency",
+    "decay_rate_std",
+    "angular_frequency_std",
+    "fast_decay_rate_std",
+    "fast_angular_frequency_std",
+    "r2",
+)
+
+
+@pytest.fixture
+def signal_csv(tmp_path):
+    path = tmp_path / "signal.csv"
+    write_signal_csv(path, *example_signal(seed=1))
+    return path
+
+
+def one_error_line(capsys: pytest.CaptureFixture[str]) -> str:
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), captured.err
+    assert captured.out == ""
+    return lines[0]
+
+
+@pytest.mark.parametrize("loss", ["paper", "ls"])
+def test_fit_json_keys_and_values(signal_csv, capsys, loss: str) -> None:
+    assert main(["fit", str(signal_csv), "--json", "--loss", loss]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in KEYS:
+        assert isinstance(out[key], float), key
+    p = EXAMPLE_PARAMETERS
+    assert abs(out["decay_rate"] - p["decay_rate"]) < 4 * out["decay_rate_std"]
+    assert abs(out["angular_frequency"] - p["angular_frequency"]) < 4 * out["angular_frequency_std"]
+    assert out["loss"] == loss and out["model"] == "two-mode"
+
+
+def test_single_mode_json_has_null_fast_mode(signal_csv, capsys) -> None:
+    assert main(["fit", str(signal_csv), "--json", "--model", "single-mode"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["model"] == "single-mode" and out["fast_decay_rate"] is None
+    assert set(KEYS) <= set(out)
+
+
+def test_fit_table_and_plot(signal_csv, tmp_path, capsys) -> None:
+    png = tmp_path / "plots" / "fit.png"
+    assert main(["fit", str(signal_csv), "--plot", str(png)]) == 0
+    out = capsys.readouterr().out
+    assert "slow" in out and "fast" in out and "R²" in out
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert [p.name for p in png.parent.iterdir()] == ["fit.png"]  # no temp file left
+
+
+def test_fit_builtin_example(capsys) -> None:
+    assert main(["fit", "--example", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert abs(out["decay_rate"] - EXAMPLE_PARAMETERS["decay_rate"]) < 4 * out["decay_rate_std"]
+
+
+def test_signal_csv_round_trip(tmp_path) -> None:
+    t, u = example_signal()
+    write_signal_csv(tmp_path / "s.csv", t, u)
+    t2, u2 = read_signal_csv(tmp_path / "s.csv")
+    np.testing.assert_allclose(t2, t, rtol=1e-8)
+    np.testing.assert_allclose(u2, u, rtol=1e-8, atol=1e-12)
+    with pytest.raises(TableError):
+        write_signal_csv(tmp_path / "bad.csv", t, u[:-1])
+
+
+def _csv(tmp_path, text: str):
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    return str(path)
+
+
+def _rows(f) -> str:
+    t = np.arange(390) / 30
+    return "".join(f"{a},{b}\n" for a, b in zip(t, f(t), strict=True))
+
+
+@pytest.mark.parametrize(
+    ("content", "match"),
+    [
+        ("time,value\n0,1\n1,2\n", "missing column"),
+        ("t,u\n0,1\n0.1,abc\n0.2,3\n", "non-numeric"),
+        ("t,u\n0,1\n0.1,\n0.2,3\n", "column 'u'"),
+        ("t,u\n0,1\n0.1,nan\n0.2,3\n", "NaN"),
+        ("", "not a readable CSV"),
+        ("t,u\n" + _rows(lambda t: 0 * t + 1.0), "flat"),
+        ("t,u\n" + _rows(lambda t: np.cos(9 * t))[:200], "too short"),
+        ("t,u\n" + _rows(lambda t: np.random.default_rng(0).normal(size=t.size)), "noise only"),
+        ("t,u\n" + _rows(lambda t: np.exp(-t / 0.7)), "overdamped"),
+        ("t,u\n1,1\n0,2\n" + _rows(lambda t: np.cos(9 * t)), "increase strictly"),
+    ],
+)
+def test_bad_signal_csv_is_one_error_line(tmp_path, capsys, content: str, match: str) -> None:
+    assert main(["fit", _csv(tmp_path, content), "--json"]) == 2
+    assert match in one_error_line(capsys)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["fit", "/nonexistent/signal.csv"],
+        ["fit"],
+        ["fit", "--example", "--loss", "l1"],
+        ["fit", "--example", "--model", "three"],
+        ["fit", "--example", "--band-low", "9", "--band-high", "2"],
+    ],
+)
+def test_bad_arguments_are_one_error_line(capsys, args: list[str]) -> None:
+    assert main(args) == 2
+    one_error_line(capsys)
+
+
+def test_signal_and_example_together_is_an_error(signal_csv, capsys) -> None:
+    assert main(["fit", str(signal_csv), "--example"]) == 2
+    assert "exactly one" in one_error_line(capsys)
+
+
+def test_help_documents_options(capsys) -> None:
+    assert main(["fit", "--help"]) == 0
+    out = capsys.readouterr().out
+    for option in ("--json", "--loss", "--model", "--plot"):
+        assert option in out
