@@ -104,7 +104,7 @@ def make_imprint(
     gain += (0.08 * rim * direction)[..., None]
     if grooves:
         period_px = 0.9 / profile.mm_per_px
-        gain += (0.02 * mask * np.sin(2 * np.pi * yy / period_px))[..., None]
+        gain += (0.012 * mask * np.sin(2 * np.pi * yy / period_px))[..., None]
     return gain.astype(np.float32)
 
 
