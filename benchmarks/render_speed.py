@@ -20,6 +20,7 @@ Ratios are against baseline A in the same run.
 from __future__ import annotations
 
 import argparse
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -147,7 +148,9 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=300, help="frames per measurement")
     args = parser.parse_args()
     cv2.setNumThreads(1)
+    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     print(f"# Renderer speed ({args.frames} frames per measurement, one core)\n")
+    print(f"Machine: {os.cpu_count()} CPUs, load average {load} at start (shared machine).\n")
     with tempfile.TemporaryDirectory() as tmp:
         for name in ("default", "mini"):
             profile = get_sensor_profile(name)

@@ -200,7 +200,7 @@ def iter_frames(
 
     for i in range(n_frames):
         if imprint is not None:
-            imprint.apply(buf, contact_offsets_px[i])
+            imprint.apply(buf, bg, contact_offsets_px[i])
         pos = positions_px[i] + pad
         pos = pos[np.all((pos >= half) & (pos < bounds), axis=1)]
         corner = np.floor(pos).astype(np.intp) - half  # (N, 2) top-left (x, y)
@@ -219,8 +219,6 @@ def iter_frames(
             cv2.subtract(out, noise_down[oy : oy + h, ox : ox + w], dst=out)
         yield out
         windows[corner[:, 1], corner[:, 0]] = bg_windows[corner[:, 1], corner[:, 0]]
-        if imprint is not None:
-            imprint.restore(buf, bg)
 
 
 def _flicker_gains(flicker_std: float, n_frames: int, rng: np.random.Generator) -> np.ndarray:
@@ -282,16 +280,15 @@ class _ImprintLayer:
                 self._cache[key] = moved
         return moved
 
-    def apply(self, buf: np.ndarray, offset_px: np.ndarray) -> None:
+    def apply(self, buf: np.ndarray, bg: np.ndarray, offset_px: np.ndarray) -> None:
+        """Set the imprint's box of ``buf`` to ``bg`` times the shifted imprint.
+
+        Writing from ``bg`` also wipes whatever the previous frame drew there.
+        """
         import cv2
 
         y0, y1, x0, x1 = self.box
-        region = buf[y0:y1, x0:x1]
-        cv2.multiply(region, self.shifted(offset_px), dst=region)
-
-    def restore(self, buf: np.ndarray, bg: np.ndarray) -> None:
-        y0, y1, x0, x1 = self.box
-        np.copyto(buf[y0:y1, x0:x1], bg[y0:y1, x0:x1])
+        cv2.multiply(bg[y0:y1, x0:x1], self.shifted(offset_px), dst=buf[y0:y1, x0:x1])
 
 
 def render_frames(
