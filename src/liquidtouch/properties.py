@@ -47,7 +47,8 @@ def single_threaded_blas() -> Any:
 
 def check_features(X: Any, n_columns: int = 2) -> np.ndarray:
     """Validate and return ``X`` as a finite float (n, 2) array of (λ, ω)."""
-    X = np.asarray(X, dtype=float)
+    # one memory layout, so that a refit on stored data repeats the same float operations
+    X = np.ascontiguousarray(X, dtype=float)
     if X.ndim != 2 or X.shape[1] != n_columns:
         raise TableError(
             f"features must be an (n, {n_columns}) array of (decay_rate, angular_frequency); "
