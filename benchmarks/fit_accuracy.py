@@ -1,0 +1,200 @@
+"""Accuracy and speed of the oscillation fit against a naive curve_fit baseline (issue 2).
+
+Run: ``.venv/bin/python benchmarks/fit_accuracy.py [--quick]``; prints markdown tables.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+import warnings
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import curve_fit
+
+from liquidtouch import oscillation_model as om
+from liquidtouch.errors import LiquidTouchError
+from liquidtouch.oscillation import fit_oscillation
+
+FPS, DURATION_S = 30.0, 13.0
+T = np.arange(round(FPS * DURATION_S)) / FPS
+DRIFT = (0.1, -0.02, 0.0015)
+
+
+def naive_fit(t: np.ndarray, u: np.ndarray) -> tuple[float, float]:
+    """One damped cosine + constant, curve_fit, FFT-peak start (the baseline)."""
+    centred = u - u.mean()
+    freqs = np.fft.rfftfreq(t.size, t[1] - t[0])
+    peak = freqs[1 + np.argmax(np.abs(np.fft.rfft(centred))[1:])]
+
+    def f(t, amp, lam, omega, phase, c):
+        return amp * np.exp(-lam * t) * np.cos(omega * t + phase) + c
+
+    p0 = [np.abs(centred).max(), 0.5, 2 * np.pi * peak, 0.0, u.mean()]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        p, _ = curve_fit(f, t, u, p0=p0, maxfev=5000)
+    return abs(p[1]), abs(p[2])
+
+
+def crb(lam, omega, amp, phase, fast, sigma) -> tuple[float, float]:
+    """Cramér–Rao bound (std) of λ, ω for the exact model under white noise σ."""
+    x = T / T[-1]
+    a, b = amp * math.cos(phase), -amp * math.sin(phase)
+    d = [DRIFT[0], DRIFT[1] * T[-1], DRIFT[2] * T[-1] ** 2]
+    if fast is None:
+        theta, n_modes = np.array([lam, omega, a, b, *d]), 1
+    else:
+        fl, fw, fa, fp = fast
+        theta = np.array(
+            [lam, omega, fl - lam, fw, a, b, fa * math.cos(fp), -fa * math.sin(fp), *d]
+        )
+        n_modes = 2
+    jac = om.jacobian(theta, T, x, n_modes)
+    cov = sigma**2 * np.linalg.inv(jac.T @ jac)
+    return math.sqrt(cov[0, 0]), math.sqrt(cov[1, 1])
+
+
+def model_signal(lam, omega, amp, phase, fast, sigma, rng) -> np.ndarray:
+    u = amp * np.exp(-lam * T) * np.cos(omega * T + phase)
+    if fast is not None:
+        fl, fw, fa, fp = fast
+        u = u + fa * np.exp(-fl * T) * np.cos(fw * T + fp)
+    u = u + DRIFT[0] + DRIFT[1] * T + DRIFT[2] * T * T
+    return u + rng.normal(0, sigma, T.size)
+
+
+def nonlinear_signal(lam0, omega0, kappa, sigma, rng) -> tuple[np.ndarray, float, float]:
+    """ε'' + 2λ0 (1 + κ ε²) ε' + w0² ε = 0 (damping grows with amplitude); u = ε''."""
+    w0sq = omega0**2 + lam0**2
+
+    def rhs(_t, y):
+        eps, vel = y
+        return [vel, -2 * lam0 * (1 + kappa * eps * eps) * vel - w0sq * eps]
+
+    sol = solve_ivp(rhs, (0, T[-1]), [1.0, 0.0], t_eval=T, rtol=1e-9, atol=1e-11)
+    eps, vel = sol.y
+    acc = -2 * lam0 * (1 + kappa * eps * eps) * vel - w0sq * eps
+    acc = acc / np.abs(acc).max()
+    u = acc + DRIFT[0] + DRIFT[1] * T + DRIFT[2] * T * T + rng.normal(0, sigma, T.size)
+    return u, lam0, omega0
+
+
+METHODS = {
+    "ours ls two-mode": lambda t, u: _ours(t, u, "ls", "two-mode", 1.0),
+    "ours paper two-mode (δ=1)": lambda t, u: _ours(t, u, "paper", "two-mode", 1.0),
+    "ours paper two-mode (δ=0.05)": lambda t, u: _ours(t, u, "paper", "two-mode", 0.05),
+    "ours ls single-mode": lambda t, u: _ours(t, u, "ls", "single-mode", 1.0),
+    "naive curve_fit": naive_fit,
+}
+
+
+def _ours(t, u, loss, model, delta_rel):
+    fit = fit_oscillation(t, u, loss=loss, model=model, delta_rel=delta_rel)
+    return fit.decay_rate, fit.angular_frequency
+
+
+def run_method(method, t, u):
+    start = time.perf_counter()
+    try:
+        lam, omega = method(t, u)
+    except (LiquidTouchError, RuntimeError):
+        lam, omega = math.nan, math.nan
+    return lam, omega, time.perf_counter() - start
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--quick", action="store_true", help="fewer signals")
+    args = parser.parse_args()
+    n_seeds = 8 if args.quick else 20
+    rng = np.random.default_rng(2022)
+    sigma = 0.05
+    # exact-model parameter sets: (λ, ω, amplitude, phase, fast mode or None)
+    sets = [
+        (0.05, 6.0, 1.0, 0.3, None),
+        (0.3, 12.0, 1.0, -1.0, None),
+        (1.0, 8.0, 1.0, 2.0, None),
+        (1.5, 19.0, 1.0, 0.5, None),
+        (0.3, 10.0, 1.0, 0.4, (1.5, 12.5, 0.7, -1.1)),
+        (0.8, 16.0, 1.0, 1.2, (2.5, 17.0, 0.8, 0.3)),
+    ]
+    print(f"# fit_accuracy — {n_seeds} noise seeds per set, 30 Hz, 13 s, σ = {sigma}\n")
+    print("## Exact-model signals: RMSE / Cramér–Rao bound (1.0 = statistically perfect)\n")
+    names = list(METHODS)
+    print("| λ | ω | fast mode | " + " | ".join(f"{n} λ / ω" for n in names) + " |")
+    print("|" + "---|" * (3 + len(names)))
+    errors = {n: [] for n in names}
+    times = {n: [] for n in names}
+    ratios = {n: [] for n in names}
+    for lam, omega, amp, phase, fast in sets:
+        bound = crb(lam, omega, amp, phase, fast, sigma)
+        est = {n: [] for n in names}
+        for _ in range(n_seeds):
+            u = model_signal(lam, omega, amp, phase, fast, sigma, rng)
+            for n in names:
+                el, ew, dt = run_method(METHODS[n], T, u)
+                est[n].append((el, ew))
+                times[n].append(dt)
+                errors[n].append((abs(el - lam) / lam, abs(ew - omega) / omega))
+        cells = []
+        for n in names:
+            e = np.array(est[n])
+            rmse_l = math.sqrt(np.nanmean((e[:, 0] - lam) ** 2))
+            rmse_w = math.sqrt(np.nanmean((e[:, 1] - omega) ** 2))
+            ratios[n].append((rmse_l / bound[0], rmse_w / bound[1]))
+            cells.append(f"{rmse_l / bound[0]:.2f} / {rmse_w / bound[1]:.2f}")
+        label = "—" if fast is None else f"λ'={fast[0]}, ω'={fast[1]}"
+        print(f"| {lam} | {omega} | {label} | " + " | ".join(cells) + " |")
+    print(
+        "| **median** | | | "
+        + " | ".join(
+            "**{:.2f} / {:.2f}**".format(*np.median(np.array(ratios[n]), axis=0)) for n in names
+        )
+        + " |\n"
+    )
+
+    print("## Non-linear oscillator: ε'' + 2λ0(1 + κε²)ε' + ω0²ε = 0, u = ε'' + drift + noise\n")
+    print("Error of λ against the small-amplitude λ0 (and of ω against ω0).\n")
+    nl_err = {n: [] for n in names}
+    n_nl = 12 if args.quick else 30
+    for _ in range(n_nl):
+        lam0 = float(np.exp(rng.uniform(np.log(0.1), np.log(1.0))))
+        omega0 = float(rng.uniform(6, 18))
+        kappa = float(rng.uniform(2, 6))  # early damping 3-7× the small-amplitude one
+        u, lam0, omega0 = nonlinear_signal(lam0, omega0, kappa, 0.01, rng)
+        for n in names:
+            el, ew, dt = run_method(METHODS[n], T, u)
+            nl_err[n].append((abs(el - lam0) / lam0, abs(ew - omega0) / omega0))
+            times[n].append(dt)
+    print("| method | median λ err | p90 λ err | median ω err | p90 ω err | failures |")
+    print("|---|---|---|---|---|---|")
+    for n in names:
+        e = np.array(nl_err[n])
+        fails = int(np.isnan(e[:, 0]).sum())
+        q = np.nanpercentile(e, [50, 90], axis=0)
+        print(
+            f"| {n} | {100 * q[0, 0]:.1f} % | {100 * q[1, 0]:.1f} % | "
+            f"{100 * q[0, 1]:.2f} % | {100 * q[1, 1]:.2f} % | {fails}/{len(e)} |"
+        )
+
+    print("\n## All exact-model signals: relative errors, and time per fit\n")
+    print("| method | median λ err | p90 λ err | median ω err | p90 ω err | ms / fit | vs naive |")
+    print("|---|---|---|---|---|---|---|")
+    naive_ms = 1000 * np.median(times["naive curve_fit"])
+    for n in names:
+        e = np.array(errors[n])
+        q = np.nanpercentile(e, [50, 90], axis=0)
+        ms = 1000 * np.median(times[n])
+        print(
+            f"| {n} | {100 * q[0, 0]:.2f} % | {100 * q[1, 0]:.2f} % | {100 * q[0, 1]:.3f} % | "
+            f"{100 * q[1, 1]:.3f} % | {ms:.0f} | {ms / naive_ms:.1f}× |"
+        )
+    print(f"\ncommand: `{' '.join([sys.executable.split('/')[-1], *sys.argv])}`")
+
+
+if __name__ == "__main__":
+    main()
