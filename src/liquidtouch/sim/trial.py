@@ -56,6 +56,30 @@ WRENCH_COLUMNS = ("fx_n", "fy_n", "fz_n", "tx_nm", "ty_nm", "tz_nm")
 
 
 @dataclass(frozen=True)
+class Variability:
+    """Spread of the calibrated trial-to-trial variations and noise (defaults: see module doc).
+
+    Pass ``Variability(...)`` to :func:`simulate_trial` to study or re-calibrate
+    them; ``Variability.none()`` gives the clean physics (no label noise, no
+    contact or wrist noise; the push and grasp still vary with the seed).
+    """
+
+    temperature_sd_c: float = 1.2
+    fill_error_sd_mm: float = 0.3
+    wall_factor_log_sd: float = 0.08
+    contact_line_range: tuple[float, float] = (0.5, 2.5)
+    contact_noise_n: float = 1.5e-3
+    contact_noise_nmm: float = 0.05
+    wrist_force_noise_n: float = 1.2
+    wrist_torque_noise_nm: float = 0.06
+
+    @classmethod
+    def none(cls) -> Variability:
+        """No label noise and no sensor noise."""
+        return cls(0.0, 0.0, 0.0, (1.0, 1.0), 0.0, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
 class TrialParameters:
     """The random conditions of one trial (see the module docstring for distributions)."""
 
@@ -129,15 +153,20 @@ class SimulatedTrial:
 
 
 def draw_parameters(
-    rng: np.random.Generator, height_mm: float, base_wall_factor: float, base_contact_line: float
+    rng: np.random.Generator,
+    height_mm: float,
+    base_wall_factor: float,
+    base_contact_line: float,
+    variability: Variability | None = None,
 ) -> TrialParameters:
     """Draw one trial's random conditions (module docstring: the distributions)."""
+    var = Variability() if variability is None else variability
     normal = float(rng.uniform(10.0, 16.0))
     return TrialParameters(
-        temperature_c=float(np.clip(rng.normal(21.0, 1.2), 18.0, 25.0)),
-        true_height_mm=float(height_mm + rng.normal(0.0, 0.3)),
-        wall_factor=float(base_wall_factor * math.exp(rng.normal(0.0, 0.08))),
-        contact_line_damping=float(base_contact_line * rng.uniform(0.5, 2.5)),
+        temperature_c=float(np.clip(rng.normal(21.0, var.temperature_sd_c), 18.0, 25.0)),
+        true_height_mm=float(height_mm + rng.normal(0.0, var.fill_error_sd_mm)),
+        wall_factor=float(base_wall_factor * math.exp(rng.normal(0.0, var.wall_factor_log_sd))),
+        contact_line_damping=float(base_contact_line * rng.uniform(*var.contact_line_range)),
         placement_mm=(float(rng.normal(0.0, 3.0)), float(rng.normal(0.0, 2.0))),
         gel_contact_mm=tuple(tuple(float(v) for v in rng.normal(0.0, 1.0, 2)) for _ in range(2)),
         left_share=float(np.clip(0.5 + rng.normal(0.0, 0.03), 0.4, 0.6)),
@@ -204,6 +233,7 @@ def simulate_trial(
     temperature_c: float | None = None,
     duration_s: float = DURATION_S,
     sample_rate_hz: float = SAMPLE_RATE_HZ,
+    variability: Variability | None = None,
 ) -> SimulatedTrial:
     """Simulate one trial: lift, lateral push, hold; return loads, wrench and ground truth.
 
@@ -215,7 +245,10 @@ def simulate_trial(
     given ``seed``. The ground truth ``true_decay_rate`` [1/s] and
     ``true_angular_frequency`` [rad/s] are the small-amplitude slow mode of the
     coupled liquid-container-grasp system (eigenvalue of the linearised model).
+    ``variability`` sets the calibrated spreads and noise (default
+    :class:`Variability`).
     """
+    var = Variability() if variability is None else variability
     box = get_container(container)
     get_liquid(liquid, sugar_concentration=sugar_concentration)  # validate names early
     box.check_height(height_mm)
@@ -224,7 +257,7 @@ def simulate_trial(
     if not (math.isfinite(sample_rate_hz) and sample_rate_hz >= 60.0):
         raise LiquidTouchError(f"sample rate {sample_rate_hz} Hz is too low; use >= 60 Hz")
     rng = np.random.default_rng(seed)
-    params = draw_parameters(rng, height_mm, box.wall_factor, box.contact_line_damping)
+    params = draw_parameters(rng, height_mm, box.wall_factor, box.contact_line_damping, var)
     if temperature_c is not None:
         params = _replace(params, temperature_c=float(temperature_c))
     true_height = float(np.clip(params.true_height_mm, 0.5, box.depth_mm - 0.5))
@@ -263,7 +296,7 @@ def simulate_trial(
     push_acc = params.push_distance_mm * 1e-3 / params.push_duration_s**2
     hand_acc = push_acc * (60.0 * tau - 180.0 * tau**2 + 120.0 * tau**3) + vib_hand
 
-    loads, wrench = _loads_and_wrench(system, state, t, hand_acc, params, box.depth_mm, rng)
+    loads, wrench = _loads_and_wrench(system, state, t, hand_acc, params, box.depth_mm, rng, var)
     return SimulatedTrial(
         loads=loads,
         wrench=wrench,
@@ -309,6 +342,7 @@ def _loads_and_wrench(
     params: TrialParameters,
     depth_mm: float,
     rng: np.random.Generator,
+    var: Variability,
 ) -> tuple[FingerLoads, np.ndarray]:
     n = t.size
     force_x = system.support_stiffness_n_m * state[0] + system.support_damping_n_s_m * state[1]
@@ -324,10 +358,10 @@ def _loads_and_wrench(
     shear = np.empty((n, 2, 2))
     shear[:, :, 0] = total_x[:, None] * share[None, :]
     shear[:, :, 1] = total_y[:, None] * share[None, :]
-    shear += rng.normal(0.0, 1.5e-3, shear.shape)
+    shear += rng.normal(0.0, 1.0, shear.shape) * var.contact_noise_n
     # left gel on the -z side: its normal-aligned twist is +τz, the right gel's −τz
     moment = total_twist[:, None] * (share * np.array([1.0, -1.0]))[None, :]
-    moment += rng.normal(0.0, 0.05, moment.shape)
+    moment += rng.normal(0.0, 1.0, moment.shape) * var.contact_noise_nmm
     loads = FingerLoads(
         t_s=t,
         shear_force_n=shear,
@@ -341,8 +375,9 @@ def _loads_and_wrench(
     grip_y = total_y - GRIPPER_MASS_KG * GRAVITY_M_S2
     tz = total_twist * 1e-3 + WRIST_TO_CONTACT_M * grip_x
     wrench = np.column_stack([grip_x, grip_y, np.zeros(n), np.zeros(n), np.zeros(n), tz])
-    dt = 1.0 / (t[1] - t[0])
-    bias = np.cumsum(rng.normal(0.0, 1.0, (n, 6)), axis=0) / math.sqrt(dt)
-    wrench += bias * np.array([0.2, 0.2, 0.2, 0.01, 0.01, 0.01])
-    wrench += rng.normal(0.0, 1.0, (n, 6)) * np.array([1.2, 1.2, 1.2, 0.06, 0.06, 0.06])
+    rate_hz = 1.0 / (t[1] - t[0])
+    bias = np.cumsum(rng.normal(0.0, 1.0, (n, 6)), axis=0) / math.sqrt(rate_hz)  # per √s
+    f_sd, t_sd = var.wrist_force_noise_n, var.wrist_torque_noise_nm
+    wrench += bias * np.array([f_sd, f_sd, f_sd, t_sd, t_sd, t_sd]) / 6.0
+    wrench += rng.normal(0.0, 1.0, (n, 6)) * np.array([f_sd, f_sd, f_sd, t_sd, t_sd, t_sd])
     return loads, wrench
