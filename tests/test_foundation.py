@@ -71,3 +71,8 @@ def test_manifest_round_trip_and_validation(tmp_path) -> None:
     (tmp_path / "manifest.csv").write_text("name,height_mm\na,16\n")
     with pytest.raises(DatasetError, match="no 'trial' column"):
         read_manifest(tmp_path)
+
+
+def test_every_public_name_resolves() -> None:
+    for name in liquidtouch.__all__:
+        assert getattr(liquidtouch, name) is not None, name
