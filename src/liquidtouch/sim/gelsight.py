@@ -291,7 +291,7 @@ def write_sensor_videos(
             progress_label=f"rendering {name}" if progress else None,
         )
     with atomic_path(out_dir / "truth_tracks.npz") as tmp, open(tmp, "wb") as fh:
-        np.savez_compressed(
+        np.savez(
             fh,
             timestamps_s=timestamps,
             frame_index=frame_index,

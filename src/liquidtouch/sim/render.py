@@ -95,16 +95,18 @@ def make_imprint(
     yy, xx = np.mgrid[-half : half + 1, -half : half + 1].astype(np.float32)
     a, b = 1.15 * radius_px, 0.87 * radius_px
     rho_px = (np.sqrt((xx / a) ** 2 + (yy / b) ** 2) - 1.0) * radius_px
-    mask = 0.5 * erfc(rho_px / (np.sqrt(2.0) * edge_px))
-    rim = np.exp(-(rho_px**2) / (2 * edge_px**2))
+    # mask and rim depend on rho only: tabulate them instead of evaluating erfc/exp per pixel
+    table_rho = np.linspace(-radius_px, 2 * half, 4096)
+    mask = np.interp(rho_px, table_rho, 0.5 * erfc(table_rho / (np.sqrt(2.0) * edge_px)))
+    rim = np.interp(rho_px, table_rho, np.exp(-(table_rho**2) / (2 * edge_px**2)))
     # light from upper-left: rim facing it is lit, the opposite side shaded
-    direction = (-(xx + yy) / np.sqrt(2.0)) / np.maximum(np.hypot(xx, yy), 1.0)
+    direction = (-(xx + yy) / np.float32(np.sqrt(2.0))) / np.maximum(np.hypot(xx, yy), 1.0)
     gain = np.ones((*xx.shape, 3), dtype=np.float32)
-    gain += mask[..., None] * np.array([0.10, -0.03, 0.09], dtype=np.float32)
-    gain += (0.08 * rim * direction)[..., None]
+    gain += mask[..., None].astype(np.float32) * np.array([0.10, -0.03, 0.09], dtype=np.float32)
+    gain += (0.08 * rim * direction).astype(np.float32)[..., None]
     if grooves:
         period_px = 0.9 / profile.mm_per_px
-        gain += (0.012 * mask * np.sin(2 * np.pi * yy / period_px))[..., None]
+        gain += (0.012 * mask * np.sin(2 * np.pi * yy / period_px)).astype(np.float32)[..., None]
     return gain.astype(np.float32)
 
 
@@ -192,7 +194,9 @@ def iter_frames(
         npad = 48
         # integer noise, as after the camera's ADC, split into its positive and negative
         # parts so that it can be added to the uint8 frame with saturation
-        noise_tile = np.rint(rng.normal(0.0, profile.noise_std, (h + npad, w + npad, 3)))
+        noise_tile = np.rint(
+            profile.noise_std * rng.standard_normal((h + npad, w + npad, 3), dtype=np.float32)
+        )
         noise_up = np.clip(noise_tile, 0, 255).astype(np.uint8)
         noise_down = np.clip(-noise_tile, 0, 255).astype(np.uint8)
         offsets = rng.integers(0, npad, (n_frames, 2))
