@@ -84,7 +84,8 @@ class GPRState(_TrainingData):
     @model_validator(mode="after")
     def _consistent(self) -> GPRState:
         self._check_length(self.y_train, "y_train")
-        n_inputs = 3 if self.model == "physics-gpr" else 2
+        viscosity_prior = self.prior is not None and self.prior.kind == "viscosity"
+        n_inputs = 3 if viscosity_prior else 2
         if (self.prior is None) != (self.model == "gpr"):
             raise ValueError("a physics-gpr needs a prior and a plain gpr must not have one")
         for name in ("x_mean", "x_scale"):

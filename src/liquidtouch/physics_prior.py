@@ -12,8 +12,9 @@ The container length is unknown to the model, so the effective wavenumber k
 is fitted on the training data. For viscosity, Stokes boundary-layer damping
 gives ``λ ∝ sqrt(ν ω)``, i.e. ``log10 ν ≈ 2 log10 λ − log10 ω + const``.
 
-:class:`PhysicsGPRegressor` uses the physics feature p(λ, ω) twice: the GP's
-prior mean is ``b0 + b1 p`` (least squares), and p is a third GP input. The
+:class:`PhysicsGPRegressor` uses the physics feature p(λ, ω) as the GP's prior
+mean ``b0 + b1 p`` (least squares); for viscosity p is also a third GP input
+(measured: that helps viscosity, but lets the height GP overfit). The
 GP then only learns what the simple physics misses, which needs fewer points
 and extrapolates along the physics outside the training range.
 """
@@ -110,6 +111,9 @@ class PhysicsGPRegressor(GPRegressor):
         return self.prior_coef_[0] + self.prior_coef_[1] * self._physics_feature(X)
 
     def _inputs(self, X: np.ndarray) -> np.ndarray:
+        if self.prior == "height":
+            # as an extra input h_phys let the GP overfit its noise (0.37 vs 0.19 mm MAE)
+            return X
         return np.column_stack([X, self._physics_feature(X)])
 
     def _prior_state(self) -> dict[str, Any]:
