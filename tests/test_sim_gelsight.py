@@ -255,6 +255,19 @@ def test_rendered_marker_centroids_are_the_intended_subpixel_positions(sensor):
     assert np.abs(err).max() < 0.05
 
 
+def test_touching_markers_darken_multiplicatively():
+    profile = get_sensor_profile("default")
+    rng = np.random.default_rng(0)
+    flat = make_background(profile, rng, lighting=False)
+    a, b = np.array([[300.3, 200.6]]), np.array([[306.9, 203.2]])  # 7 px apart: patches overlap
+    kwargs = dict(background=flat, noise=False, flicker=False)
+    only_a = render_frames(a[None], profile, rng, **kwargs)[0].astype(float)
+    only_b = render_frames(b[None], profile, rng, **kwargs)[0].astype(float)
+    both = render_frames(np.concatenate([a, b])[None], profile, rng, **kwargs)[0].astype(float)
+    np.testing.assert_allclose(both, only_a * only_b / flat, atol=1.6)  # three roundings
+    assert both.min() < only_a.min() - 5  # the overlap is darker than either marker
+
+
 def test_markers_are_dark_on_an_uneven_coloured_background():
     profile = get_sensor_profile("default")
     rng = np.random.default_rng(0)

@@ -170,8 +170,8 @@ def iter_frames(
     out = np.empty((h, w, 3), dtype=np.uint8)
     k = np.arange(2 * half + 1)
     # every marker's (K, K, 3) patch as a writeable window into buf, indexed by its
-    # top-left corner: one gather and one scatter draw all markers (their patches
-    # never overlap: the marker pitch is far larger than a patch)
+    # top-left corner: one gather and one scatter draw all markers (when patches
+    # overlap, which the marker pitch normally prevents, markers are drawn one by one)
     size = 2 * half + 1
     windows = as_strided(
         buf,
@@ -212,9 +212,13 @@ def iter_frames(
         dy2 = (corner[:, 1:2] + k - pos[:, 1:2]) ** 2
         d2 = dy2[:, :, None] + dx2[:, None, :]
         factor = lut[(d2 * _LUT_PER_PX2 + 0.5).astype(np.intp)]
-        patches = windows[corner[:, 1], corner[:, 0]]
-        patches *= factor[..., None]
-        windows[corner[:, 1], corner[:, 0]] = patches
+        if _patches_overlap(corner, size):
+            for (cx, cy), f in zip(corner, factor, strict=True):  # rare: markers touching
+                windows[cy, cx] *= f[..., None]
+        else:
+            patches = windows[corner[:, 1], corner[:, 0]]
+            patches *= factor[..., None]
+            windows[corner[:, 1], corner[:, 0]] = patches
         # rounds to nearest and saturates to 0..255 (values are never negative here)
         cv2.convertScaleAbs(visible, dst=out, alpha=float(gains[i]))
         if use_noise:
@@ -223,6 +227,13 @@ def iter_frames(
             cv2.subtract(out, noise_down[oy : oy + h, ox : ox + w], dst=out)
         yield out
         windows[corner[:, 1], corner[:, 0]] = bg_windows[corner[:, 1], corner[:, 0]]
+
+
+def _patches_overlap(corner: np.ndarray, size: int) -> bool:
+    """Whether any two (size × size) patches with top-left corners ``corner`` (N, 2) overlap."""
+    gap = np.abs(corner[:, None, :] - corner[None, :, :]).max(axis=2)
+    np.fill_diagonal(gap, size)
+    return bool((gap < size).any())
 
 
 def _flicker_gains(flicker_std: float, n_frames: int, rng: np.random.Generator) -> np.ndarray:
