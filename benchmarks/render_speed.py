@@ -30,6 +30,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from liquidtouch.sim.encode import encode_video
 from liquidtouch.sim.gelsight import (
     contact_geometry,
     contact_offsets,
@@ -39,7 +40,7 @@ from liquidtouch.sim.gelsight import (
     write_sensor_videos,
 )
 from liquidtouch.sim.loads import FingerLoads
-from liquidtouch.sim.render import encode_video, iter_frames, make_background, render_frames
+from liquidtouch.sim.render import iter_frames, make_background, render_frames
 from liquidtouch.sim.sensors import get_sensor_profile
 
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from liquidtouch.errors import CatalogueError, LiquidTouchError
+from liquidtouch.sim.encode import encode_video
 from liquidtouch.sim.gelsight import (
     contact_geometry,
     frame_timestamps,
@@ -17,7 +18,7 @@ from liquidtouch.sim.gelsight import (
     write_sensor_videos,
 )
 from liquidtouch.sim.loads import FingerLoads
-from liquidtouch.sim.render import encode_video, iter_frames, make_background, render_frames
+from liquidtouch.sim.render import iter_frames, make_background, render_frames
 from liquidtouch.sim.sensors import SENSOR_PROFILES, get_sensor_profile
 
 SLOSH_HZ = 1.5

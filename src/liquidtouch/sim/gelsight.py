@@ -28,14 +28,13 @@ import numpy as np
 
 from liquidtouch.atomic import atomic_path
 from liquidtouch.errors import LiquidTouchError
+from liquidtouch.sim.encode import PTS_RATE_HZ
 from liquidtouch.sim.loads import FingerLoads
 from liquidtouch.sim.sensors import SensorProfile, get_sensor_profile
 
 SENSOR_NAMES = ("left", "right")
 IMAGE_X_SIGN = np.array([1.0, -1.0])
 """Image-x sign of world x for (left, right): the two cameras are mirrored."""
-PTS_RATE_HZ = 90_000
-"""Time base of the videos' timestamps (1/90000 s); stored timestamps are multiples of it."""
 
 
 @dataclass(frozen=True)
@@ -252,7 +251,8 @@ def write_sensor_videos(
     All files are written atomically. ``jitter`` False gives exact nominal
     timestamps without drops; ``noise`` False renders clean frames.
     """
-    from liquidtouch.sim.render import encode_video, iter_frames, make_background
+    from liquidtouch.sim.encode import encode_video
+    from liquidtouch.sim.render import iter_frames, make_background
 
     profile = get_sensor_profile(sensor)
     out_dir = Path(out_dir)
