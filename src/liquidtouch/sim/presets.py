@@ -25,7 +25,6 @@ arguments, split, seed). Sizes and ranges follow Huang, Guo, Yuan (RSS 2022):
 from __future__ import annotations
 
 import zlib
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -33,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from liquidtouch.errors import CatalogueError, DatasetError
+from liquidtouch.executors import open_executor, run_each
 
 
 @dataclass(frozen=True)
@@ -66,11 +66,11 @@ CONTAINER_HEIGHTS_MM = {
 }
 CLASS_LIQUIDS = ("water", "olive-oil", "detergent")
 OTHER_LIQUIDS = ("olive-oil", "corn-oil", "mirin")
-QUICK_SIZES = {  # (train, test) kept per group (liquid or container) with quick=True
+QUICK_SIZES = {  # (train, test) kept per group with quick=True: ~220 trials in all
     "classification": (8, 10),
     "sugar": (36, 24),
-    "other-liquids": (0, 12),
-    "containers": (12, 8),
+    "other-liquids": (0, 6),
+    "containers": (18, 10),
     "force-torque": (8, 10),
 }
 
@@ -163,13 +163,13 @@ def get_preset(name: str, *, quick: bool = False) -> list[TrialSpec]:
     return kept
 
 
-def run_spec(spec: TrialSpec, root: str, video: bool) -> dict[str, Any]:
+def run_spec(spec: TrialSpec, root: str, video: bool, sensor: str = "default") -> dict[str, Any]:
     """Simulate and write one trial; return its manifest row (used by worker processes)."""
     from liquidtouch.sim.trial import simulate_trial
     from liquidtouch.sim.trial_io import write_trial
 
     trial = simulate_trial(seed=spec.seed, **spec.kwargs)
-    write_trial(trial, Path(root) / spec.name, video=video)
+    write_trial(trial, Path(root) / spec.name, video=video, sensor=sensor)
     return {"trial": spec.name, "split": spec.split, **trial.labels()}
 
 
@@ -181,6 +181,7 @@ def simulate_dataset(
     video: bool = True,
     quick: bool = False,
     progress: bool = True,
+    sensor: str = "default",
 ) -> DatasetResult:
     """Simulate every trial of ``preset`` into ``out_dir`` and write ``manifest.csv``.
 
@@ -199,23 +200,14 @@ def simulate_dataset(
     rows: dict[str, dict[str, Any]] = {}
     failures: list[tuple[str, str]] = []
 
-    def record(spec: TrialSpec, call) -> None:
-        try:
-            rows[spec.name] = call()
-        except Exception as exc:  # a bad trial must not kill the batch
-            failures.append((spec.name, f"{type(exc).__name__}: {exc}"))
-
-    with _progress(progress, len(specs)) as advance:
-        if jobs == 1:
-            for spec in specs:
-                record(spec, lambda spec=spec: run_spec(spec, str(root), video))
-                advance()
-        else:
-            with ProcessPoolExecutor(max_workers=jobs) as pool:
-                futures = {pool.submit(run_spec, s, str(root), video): s for s in specs}
-                for future in as_completed(futures):
-                    record(futures[future], future.result)
-                    advance()
+    with open_executor(jobs) as pool, _progress(progress, len(specs)) as advance:
+        tasks = {spec.name: (spec, str(root), video, sensor) for spec in specs}
+        for name, future in run_each(pool, run_spec, tasks):
+            try:
+                rows[name] = future.result()
+            except Exception as exc:  # a bad trial must not kill the batch
+                failures.append((name, f"{type(exc).__name__}: {exc}"))
+            advance()
     if not rows:
         first = failures[0][1] if failures else "no trials"
         raise DatasetError(f"every trial failed ({len(failures)}); first error: {first}")
