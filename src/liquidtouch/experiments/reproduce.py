@@ -47,7 +47,9 @@ def prepare_dataset(
     from liquidtouch.sim.presets import simulate_dataset
 
     if not (root / MANIFEST_NAME).is_file():
-        simulate_dataset(preset, root, jobs=jobs, quick=quick, progress=progress)
+        # the quick run uses the GelSight Mini profile (320 x 240 at 25 fps): 3x cheaper
+        sensor = "mini" if quick else "default"
+        simulate_dataset(preset, root, jobs=jobs, quick=quick, progress=progress, sensor=sensor)
     tables = {
         "gelsight": extract_features(root, jobs=jobs, dask_address=dask_address, progress=progress)
     }
