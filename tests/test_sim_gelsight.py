@@ -8,7 +8,7 @@ import av
 import numpy as np
 import pytest
 
-from liquidtouch.errors import CatalogueError, LiquidTouchError
+from liquidtouch.errors import CatalogueError, DatasetError, LiquidTouchError
 from liquidtouch.sim.encode import encode_video
 from liquidtouch.sim.gelsight import (
     contact_geometry,
@@ -206,6 +206,13 @@ def test_bad_inputs_are_reported():
         )
     with pytest.raises(CatalogueError):
         write_sensor_videos(make_loads(), Path("/nonexistent/never"), sensor="nope")
+
+
+def test_unwritable_output_directory_is_reported(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a directory")
+    with pytest.raises(DatasetError, match="cannot create the trial directory"):
+        write_sensor_videos(make_loads(duration_s=0.5), blocker / "trial", sensor="mini")
 
 
 def test_encode_video_rejects_bad_timestamps_and_leaves_no_file(tmp_path):

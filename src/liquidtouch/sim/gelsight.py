@@ -21,13 +21,13 @@ from behind.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from liquidtouch.atomic import atomic_path
-from liquidtouch.errors import LiquidTouchError
+from liquidtouch.errors import DatasetError, LiquidTouchError
 from liquidtouch.sim.encode import PTS_RATE_HZ
 from liquidtouch.sim.loads import FingerLoads
 from liquidtouch.sim.sensors import SensorProfile, get_sensor_profile
@@ -80,7 +80,6 @@ class SensorRecording:
     frame_index: np.ndarray
     width_px: int
     height_px: int
-    extra: dict = field(default_factory=dict)
 
 
 def marker_rest_positions(
@@ -256,7 +255,13 @@ def write_sensor_videos(
 
     profile = get_sensor_profile(sensor)
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise DatasetError(
+            f"cannot create the trial directory {out_dir}: {exc.strerror or exc}; "
+            "choose a writable directory path"
+        ) from None
     rng = np.random.default_rng(seed)
     timestamps, frame_index = frame_timestamps(
         loads.duration_s, profile, rng, jitter=jitter, drops=jitter
