@@ -268,7 +268,7 @@ def test_touching_markers_darken_multiplicatively():
     rng = np.random.default_rng(0)
     flat = make_background(profile, rng, lighting=False)
     a, b = np.array([[300.3, 200.6]]), np.array([[306.9, 203.2]])  # 7 px apart: patches overlap
-    kwargs = dict(background=flat, noise=False, flicker=False)
+    kwargs = dict(background=flat, noise=False, flicker=False, marker_variation=False)
     only_a = render_frames(a[None], profile, rng, **kwargs)[0].astype(float)
     only_b = render_frames(b[None], profile, rng, **kwargs)[0].astype(float)
     both = render_frames(np.concatenate([a, b])[None], profile, rng, **kwargs)[0].astype(float)

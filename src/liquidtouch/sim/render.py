@@ -108,16 +108,36 @@ def make_imprint(
 
 
 def _marker_lut(profile: SensorProfile) -> tuple[np.ndarray, int]:
-    """Ink factor 1 − coverage·(1 − transmittance) against squared distance; patch half-size."""
+    """Ink coverage against squared distance [px²] (×_LUT_PER_PX2), and the patch half-size.
+
+    The patch is large enough for markers up to 10 % larger than nominal.
+    """
     from scipy.special import erfc
 
-    half = int(np.ceil(profile.marker_radius_px + 3.5 * profile.marker_edge_px))
-    d2 = np.arange(0, 2 * (half + 1) ** 2 * _LUT_PER_PX2 + 2) / _LUT_PER_PX2
-    coverage = 0.5 * erfc(
-        (np.sqrt(d2) - profile.marker_radius_px) / (np.sqrt(2.0) * profile.marker_edge_px)
+    half = int(np.ceil(1.1 * profile.marker_radius_px + 3.5 * profile.marker_edge_px))
+    d2 = np.arange(0, int(1.3 * 2 * (half + 1) ** 2 * _LUT_PER_PX2) + 2) / _LUT_PER_PX2
+    edge = np.sqrt(2.0) * profile.marker_edge_px
+    coverage = 0.5 * erfc((np.sqrt(d2) - profile.marker_radius_px) / edge)
+    return coverage.astype(np.float32), half
+
+
+def _marker_styles(
+    profile: SensorProfile, n_markers: int, rng: np.random.Generator, vary: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per-marker squared-distance scale (radius variation) and ink opacity (1 − transmittance).
+
+    Scaling the squared distance by (r0/r)² turns the nominal profile into one of
+    radius r (with an edge scaled alike): still radially symmetric, so centroids
+    stay exact.
+    """
+    spread = 1.0 if vary else 0.0
+    rel = np.clip(rng.normal(0.0, spread * profile.marker_radius_jitter, n_markers), -0.1, 0.1)
+    d2_scale = ((1.0 / (1.0 + rel)) ** 2 * _LUT_PER_PX2).astype(np.float32)
+    transmittance = profile.marker_transmittance + rng.normal(
+        0.0, spread * profile.marker_ink_jitter, n_markers
     )
-    factor = 1.0 - coverage * (1.0 - profile.marker_transmittance)
-    return factor.astype(np.float32), half
+    opacity = 1.0 - np.clip(transmittance, 0.02, 0.6)
+    return d2_scale, opacity.astype(np.float32)
 
 
 def iter_frames(
@@ -131,14 +151,16 @@ def iter_frames(
     contact_offsets_px: np.ndarray | None = None,
     noise: bool = True,
     flicker: bool = True,
+    marker_variation: bool = True,
 ) -> Iterator[np.ndarray]:
     """Yield uint8 RGB frames (H, W, 3), one per row of ``positions_px`` (T, N, 2) [px].
 
     ``background`` defaults to :func:`make_background`. The imprint is drawn when
     ``contact_center_px`` and ``contact_radius_px`` are given, shifted each frame
     by ``contact_offsets_px`` (T, 2). ``noise`` adds sensor noise; ``flicker``
-    varies the LED brightness from frame to frame. Each yielded array is reused
-    by the next frame: copy it to keep it.
+    varies the LED brightness from frame to frame; ``marker_variation`` gives each
+    marker its own radius and ink density (printing spread; centroids stay exact).
+    Each yielded array is reused by the next frame: copy it to keep it.
     """
     import cv2
 
@@ -155,6 +177,7 @@ def iter_frames(
     if background.shape != (h, w, 3):
         raise LiquidTouchError(f"background must have shape {(h, w, 3)}, got {background.shape}")
     lut, half = _marker_lut(profile)
+    d2_scale, opacity = _marker_styles(profile, positions_px.shape[1], rng, marker_variation)
     pad = half + 2
     hp, wp = h + 2 * pad, w + 2 * pad
     bg = cv2.copyMakeBorder(
@@ -203,12 +226,16 @@ def iter_frames(
         if imprint is not None:
             imprint.apply(buf, bg, contact_offsets_px[i])
         pos = positions_px[i] + pad
-        pos = pos[np.all((pos >= half) & (pos < bounds), axis=1)]
+        inside = np.all((pos >= half) & (pos < bounds), axis=1)
+        pos = pos[inside]
         corner = np.floor(pos).astype(np.intp) - half  # (N, 2) top-left (x, y)
-        dx2 = (corner[:, 0:1] + k - pos[:, 0:1]) ** 2  # (N, K)
-        dy2 = (corner[:, 1:2] + k - pos[:, 1:2]) ** 2
-        d2 = dy2[:, :, None] + dx2[:, None, :]
-        factor = lut[(d2 * _LUT_PER_PX2 + 0.5).astype(np.intp)]
+        dx2 = ((corner[:, 0:1] + k - pos[:, 0:1]) ** 2).astype(np.float32)  # (N, K)
+        dy2 = ((corner[:, 1:2] + k - pos[:, 1:2]) ** 2).astype(np.float32)
+        d2 = (dy2[:, :, None] + dx2[:, None, :]) * d2_scale[inside, None, None]
+        d2 += np.float32(0.5)
+        coverage = lut[d2.astype(np.intp)]
+        coverage *= opacity[inside, None, None]
+        factor = np.subtract(np.float32(1.0), coverage, out=coverage)
         if _patches_overlap(corner, size):
             for (cx, cy), f in zip(corner, factor, strict=True):  # rare: markers touching
                 windows[cy, cx] *= f[..., None]

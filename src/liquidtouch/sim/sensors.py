@@ -54,6 +54,10 @@ class SensorProfile:
     """Fraction of the light a marker's ink lets through at its centre."""
     marker_rest_jitter_px: float = 0.25
     """Printing irregularity of the marker grid [px]."""
+    marker_radius_jitter: float = 0.04
+    """Relative spread of the markers' radii (printing), clipped to ±10 %."""
+    marker_ink_jitter: float = 0.03
+    """Spread of the markers' transmittance (ink density)."""
     shear_compliance_px_per_n: float = 10.0
     twist_compliance_rad_per_nmm: float = 0.004
     contact_radius_mm_ref: float = 4.0
