@@ -12,6 +12,7 @@ import pytest
 from liquidtouch.cli import main
 from liquidtouch.dataset import read_trial_meta
 from liquidtouch.errors import CatalogueError
+from liquidtouch.sim.liquids import get_liquid
 from liquidtouch.sim.presets import TrialSpec, get_preset, preset_names, simulate_dataset
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.trial_io import FORCE_COLUMNS, write_trial
@@ -128,8 +129,14 @@ def test_cli_simulate_trial_json_and_plot(tmp_path: Path, capsys):
     assert main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert {"force.csv", "wrench.csv", "meta.json", "loads.png"} <= set(summary["files"])
-    assert 55.0 <= summary["viscosity_cst"] <= 65.0
-    assert read_trial_meta(out).sugar_concentration == 160.0
+    meta = read_trial_meta(out)
+    assert meta.sugar_concentration == 160.0  # the nominal label
+    # the viscosity label is the true solution's (2 % weighing error) at 20 °C
+    true_c = meta.model_extra["true_sugar_concentration"]
+    assert true_c == pytest.approx(160.0, rel=0.08)
+    expected = get_liquid("sugar-water", sugar_concentration=true_c).viscosity_cst
+    assert summary["viscosity_cst"] == pytest.approx(expected)
+    assert 45.0 <= summary["viscosity_cst"] <= 75.0
 
 
 @pytest.mark.parametrize(

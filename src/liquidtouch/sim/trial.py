@@ -3,11 +3,14 @@
 Trial-to-trial variation (all drawn from ``numpy.random.default_rng(seed)``;
 distributions are choices meant to match a careful lab, not measured):
 
-- lab temperature ~ N(21, 1.2) °C, clipped to 18-25 °C (unless given);
-- fill error: the true fill height is the nominal one + N(0, 0.3) mm
-  (volume dosing and meniscus); labels keep the nominal height;
-- wall wetting (film drainage, air trapped in grooves, surface contamination):
-  wall factor × exp(N(0, 0.08)); contact-line term × U(0.5, 2.5);
+- lab temperature ~ N(21, 1.5) °C, clipped to 18-25 °C (unless given);
+- fill error: the true fill height is the nominal one + N(0, 0.4) mm
+  (volume dosing, meniscus, container tolerance); labels keep the nominal height;
+- sugar weighing/evaporation: true concentration = nominal × exp(N(0, 0.02));
+  the label keeps the nominal concentration, the viscosity label is the true one
+  (the paper measured each solution's viscosity);
+- wall wetting (film drainage, air trapped in grooves, surface contamination
+  between fills): wall factor × exp(N(0, 0.12)); contact-line term × U(0.5, 3);
 - placement of the contact on the container: N(0, 3) mm along x, N(0, 2) mm
   along y; contact centre on each gel N(0, 1) mm per axis; load share of the
   left finger 0.5 + N(0, 0.03);
@@ -36,7 +39,7 @@ import numpy as np
 
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.sim.containers import get_container
-from liquidtouch.sim.liquids import get_liquid
+from liquidtouch.sim.liquids import MAX_SUGAR_CONCENTRATION, get_liquid
 from liquidtouch.sim.loads import FingerLoads
 from liquidtouch.sim.slosh import (
     GRAVITY_M_S2,
@@ -64,10 +67,11 @@ class Variability:
     contact or wrist noise; the push and grasp still vary with the seed).
     """
 
-    temperature_sd_c: float = 1.2
-    fill_error_sd_mm: float = 0.3
-    wall_factor_log_sd: float = 0.08
-    contact_line_range: tuple[float, float] = (0.5, 2.5)
+    temperature_sd_c: float = 1.5
+    fill_error_sd_mm: float = 0.4
+    wall_factor_log_sd: float = 0.12
+    contact_line_range: tuple[float, float] = (0.5, 3.0)
+    concentration_rel_sd: float = 0.02
     contact_noise_n: float = 1.5e-3
     contact_noise_nmm: float = 0.05
     wrist_force_noise_n: float = 1.2
@@ -76,7 +80,7 @@ class Variability:
     @classmethod
     def none(cls) -> Variability:
         """No label noise and no sensor noise."""
-        return cls(0.0, 0.0, 0.0, (1.0, 1.0), 0.0, 0.0, 0.0, 0.0)
+        return cls(0.0, 0.0, 0.0, (1.0, 1.0), 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -102,6 +106,7 @@ class TrialParameters:
     vibration_phase_rad: tuple[float, ...]
     slip_time_constant_s: float
     slip_drift: tuple[float, float, float]  # x [N], y [N], twist [N·mm]
+    concentration_factor: float = 1.0  # true / nominal sugar concentration
 
     @property
     def push_end_s(self) -> float:
@@ -186,6 +191,7 @@ def draw_parameters(
             float(rng.uniform(0.0, 0.03)),
             float(rng.normal(0.0, 0.5)),
         ),
+        concentration_factor=float(math.exp(rng.normal(0.0, var.concentration_rel_sd))),
     )
 
 
@@ -261,9 +267,10 @@ def simulate_trial(
     if temperature_c is not None:
         params = _replace(params, temperature_c=float(temperature_c))
     true_height = float(np.clip(params.true_height_mm, 0.5, box.depth_mm - 0.5))
-    props = get_liquid(
-        liquid, sugar_concentration=sugar_concentration, temperature_c=params.temperature_c
-    )
+    true_conc = sugar_concentration
+    if liquid == "sugar-water" and sugar_concentration:
+        true_conc = min(sugar_concentration * params.concentration_factor, MAX_SUGAR_CONCENTRATION)
+    props = get_liquid(liquid, sugar_concentration=true_conc, temperature_c=params.temperature_c)
     system = slosh_system(
         props,
         box,
@@ -303,7 +310,11 @@ def simulate_trial(
         liquid=liquid,
         container=container,
         height_mm=float(height_mm),
-        sugar_concentration=props.sugar_concentration,
+        sugar_concentration=(
+            float(sugar_concentration)
+            if sugar_concentration is not None
+            else props.sugar_concentration
+        ),
         viscosity_cst=props.viscosity_cst,
         log10_viscosity_cst=props.log10_viscosity_cst,
         temperature_c=params.temperature_c,
@@ -315,6 +326,7 @@ def simulate_trial(
             "density_kg_m3": props.density_kg_m3,
             "liquid_mass_g": system.liquid_mass_kg * 1e3,
             "true_height_mm": true_height,
+            "true_sugar_concentration": props.sugar_concentration,
             "fill_fraction": box.fill_fraction(true_height),
             "natural_frequency": system.modes[0].natural_frequency,
             "push_start_s": params.push_start_s,
