@@ -7,6 +7,8 @@ from pathlib import Path
 import av
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from liquidtouch.errors import CatalogueError, DatasetError, LiquidTouchError
 from liquidtouch.sim.encode import encode_video
@@ -183,6 +185,24 @@ def test_timestamps_jitter_drops_and_rate():
     )
     np.testing.assert_allclose(exact, np.arange(31) / 30.0, atol=1e-5)
     np.testing.assert_array_equal(exact_index, np.arange(31))
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    duration_s=st.floats(0.01, 30.0),
+    seed=st.integers(0, 2**32 - 1),
+    sensor=st.sampled_from(sorted(SENSOR_PROFILES)),
+)
+def test_timestamps_are_always_increasing_within_the_recording(duration_s, seed, sensor):
+    profile = get_sensor_profile(sensor)
+    t, index = frame_timestamps(duration_s, profile, np.random.default_rng(seed))
+    assert t[0] == 0.0 and index[0] == 0
+    assert np.all(np.diff(t) > 0) and np.all(np.diff(index) > 0)
+    assert t[-1] <= duration_s + 0.5 / 90000
+    np.testing.assert_allclose(np.round(t * 90000), t * 90000, rtol=0, atol=1e-6)
+    # never further from the nominal clock than the clipped jitter
+    nominal = index / (profile.fps * profile.rate_factor)
+    assert np.all(np.abs(t - nominal) <= 0.3 / (profile.fps * profile.rate_factor) + 1e-5)
 
 
 def test_bad_inputs_are_reported():
