@@ -187,11 +187,12 @@ def test_heavy_glass_container_changes_the_measured_force():
             for j, m in enumerate(system.modes)
         )
         ratios[name] = abs(gel / reaction)
+        if name == "glass":  # mass comparable to the liquid's
+            assert system.container_mass_kg > 0.5 * system.liquid_mass_kg
         expected = 1 / abs(1 + system.rigid_mass_kg * s_**2 / (k + c * s_))
         assert ratios[name] == pytest.approx(expected, rel=1e-6)
     assert ratios["grooved-cuboid"] < 1.015
     assert ratios["glass"] > 1.03
-    assert get_container("glass").mass_g > 0.5 * 1e-3 * 1000 * 0.095 * 0.06 * 0.03 * 1e3
 
 
 def test_loads_follow_conventions_and_weight():
