@@ -113,3 +113,27 @@ def test_features_cli_reports_failures(dataset: Path, tmp_path: Path, capsys) ->
     assert "failed: b/corrupt" in captured.err
     assert main(["features", str(tmp_path / "nowhere")]) == 2
     assert capsys.readouterr().err.startswith("error: ")
+
+
+def test_predict_from_dataset_and_trial_directories(dataset: Path, tmp_path: Path) -> None:
+    import pandas as pd
+
+    root = _fresh_copy(dataset, tmp_path)
+    extract_features(root, progress=False)
+    train_csv = tmp_path / "train.csv"
+    table = pd.read_csv(root / "features.csv").dropna(subset=["decay_rate"])
+    # plumbing, not accuracy: 9 rows = the 3 trials with their frequency nudged
+    nudged = [
+        table.assign(angular_frequency=table["angular_frequency"] + d) for d in (-0.05, 0, 0.05)
+    ]
+    pd.concat(nudged).to_csv(train_csv, index=False)
+    model = tmp_path / "model.json"
+    assert main(["train", str(train_csv), "--target", "height_mm", "--out", str(model)]) == 0
+    out = tmp_path / "pred.csv"
+    assert main(["predict", str(model), str(root), "--out", str(out)]) == 0
+    predicted = pd.read_csv(out)
+    assert len(predicted) == 3 and predicted["predicted_height_mm"].notna().all()
+    assert main(["predict", str(model), str(root / TRIALS[0][0]), "--out", str(out)]) == 0
+    single = pd.read_csv(out)
+    assert len(single) == 1
+    assert single["decay_rate"][0] == pytest.approx(predicted["decay_rate"][0], rel=1e-9)

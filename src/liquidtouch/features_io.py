@@ -20,6 +20,9 @@ from liquidtouch.errors import TableError
 FEATURE_COLUMNS: tuple[str, str] = ("decay_rate", "angular_frequency")
 
 
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
+
+
 def read_table(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read a CSV file into a DataFrame; raise :class:`TableError` if it is not a table."""
     path = Path(path)
@@ -122,18 +125,32 @@ def read_feature_table(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, np.n
 
 
 def read_prediction_input(path: str | os.PathLike[str]) -> pd.DataFrame:
-    """The table of trials to predict for: today a features CSV.
+    """The table of trials to predict for, with ``decay_rate`` and ``angular_frequency``.
 
-    This is the single place where other inputs (trial directories, videos)
-    will be turned into a features table once extraction exists; the returned
-    table must hold ``decay_rate`` and ``angular_frequency``.
+    ``path`` is a features CSV, a dataset directory (``manifest.csv``: its
+    features are extracted, cached, into ``DATASET/features.csv``), a trial
+    directory (``meta.json``) or a video file (one sensor).
     """
+    from liquidtouch.dataset import MANIFEST_NAME, META_NAME
+
     path = Path(path)
-    if path.is_dir():
+    if path.is_dir() and (path / MANIFEST_NAME).is_file():
+        from liquidtouch.features import extract_features
+
+        table = extract_features(path)
+        failed = table["error"].astype(str) != ""
+        if failed.all():
+            raise TableError(f"no trial of {path} could be extracted: {table['error'].iloc[0]}")
+        table = table[~failed].reset_index(drop=True)
+    elif (path.is_dir() and (path / META_NAME).is_file()) or path.suffix.lower() in VIDEO_SUFFIXES:
+        from liquidtouch.extract import extract
+
+        table = pd.DataFrame([{"trial": str(path), **extract(path).to_dict()}])
+    elif path.is_dir():
         raise TableError(
-            f"{path} is a directory; predicting from trial directories is not supported yet — "
-            "run `liquidtouch features` on the dataset and predict from the features CSV"
+            f"{path} is neither a dataset ({MANIFEST_NAME}) nor a trial directory ({META_NAME})"
         )
-    table = read_table(path)
+    else:
+        table = read_table(path)
     feature_matrix(table)
     return table

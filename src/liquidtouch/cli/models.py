@@ -105,7 +105,9 @@ def classify(
 def predict(
     model_file: Path = typer.Argument(..., help="Model file from train, classify or transfer."),
     input_path: Path = typer.Argument(
-        ..., metavar="INPUT", help="Features CSV with decay_rate, angular_frequency."
+        ...,
+        metavar="INPUT",
+        help="Features CSV, dataset directory, trial directory or video.",
     ),
     out: Path | None = typer.Option(
         None, "--out", "-o", help="Predictions CSV to write (default: print the CSV)."
