@@ -403,3 +403,36 @@ def test_recording_is_reproducible_and_seed_dependent(tmp_path):
     fb, _, _ = decode(b.out_dir / "left.mp4")
     np.testing.assert_array_equal(fa, fb)
     np.testing.assert_allclose(c.timestamps_s, np.arange(c.n_frames) / 25.0, atol=1e-5)
+
+
+SHARED = Path(__file__).resolve().parents[2] / "shared"
+REAL_MINI = SHARED / "data" / "real" / "gelsight_mini_press.avi"
+
+
+@pytest.mark.skipif(not REAL_MINI.exists(), reason="../shared/data/real not available")
+def test_mini_lighting_matches_the_real_gelsight_mini():
+    import cv2
+
+    with av.open(str(REAL_MINI)) as container:
+        decoded = container.decode(video=0)
+        frames = [next(decoded).to_ndarray(format="rgb24") for _ in range(20)]
+    still = np.median(np.stack(frames), axis=0).astype(np.float32)
+    disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (17, 17))
+    real_bg = cv2.morphologyEx(still, cv2.MORPH_CLOSE, disk)  # markers removed
+
+    def regions(img: np.ndarray) -> np.ndarray:  # mean colour of a 3 x 3 grid of regions
+        h, w = img.shape[:2]
+        return np.array(
+            [
+                img[i * h // 3 : (i + 1) * h // 3, j * w // 3 : (j + 1) * w // 3].mean(axis=(0, 1))
+                for i in range(3)
+                for j in range(3)
+            ]
+        )
+
+    real = regions(real_bg)
+    for seed in range(3):
+        ours = regions(make_background("mini", np.random.default_rng(seed)))
+        assert np.sqrt(((ours - real) ** 2).mean()) < 12.0  # grey levels
+    flat = regions(np.full_like(real_bg, real_bg.mean()))
+    assert np.sqrt(((flat - real) ** 2).mean()) > 25.0  # the test can tell lighting apart
