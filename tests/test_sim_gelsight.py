@@ -436,3 +436,24 @@ def test_mini_lighting_matches_the_real_gelsight_mini():
         assert np.sqrt(((ours - real) ** 2).mean()) < 12.0  # grey levels
     flat = regions(np.full_like(real_bg, real_bg.mean()))
     assert np.sqrt(((flat - real) ** 2).mean()) > 25.0  # the test can tell lighting apart
+
+
+@pytest.mark.parametrize("sensor", ["default", "mini"])
+def test_a_simple_blob_detector_finds_every_marker(tmp_path, sensor):
+    """What marker trackers need: dark round blobs of 50-150 px, one per marker, after H.264."""
+    import cv2
+
+    rec = write_sensor_videos(make_loads(duration_s=0.3), tmp_path, sensor=sensor, seed=11)
+    truth = np.load(tmp_path / "truth_tracks.npz", allow_pickle=False)
+    frames, _, _ = decode(tmp_path / rec.files[1])
+    gray = cv2.cvtColor(frames[-1], cv2.COLOR_RGB2GRAY)
+    local = cv2.GaussianBlur(gray.astype(np.float32), (0, 0), 12)
+    dark = (gray.astype(np.float32) < 0.6 * local).astype(np.uint8)
+    _, _, stats, centroids = cv2.connectedComponentsWithStats(dark)
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    blobs = centroids[1:][areas >= 20]
+    expected = truth["positions_px"][1, -1]
+    assert len(blobs) == len(expected)
+    assert np.all((areas[areas >= 20] >= 50) & (areas[areas >= 20] <= 150))
+    nearest = np.linalg.norm(blobs[:, None, :] - expected[None], axis=2).min(axis=0)
+    assert nearest.max() < 0.5  # px, thresholded blobs: coarse but unambiguous
