@@ -83,7 +83,7 @@ class SensorRecording:
 
 
 def marker_rest_positions(
-    profile: SensorProfile, rng: np.random.Generator | None = None
+    profile: SensorProfile | str, rng: np.random.Generator | None = None
 ) -> np.ndarray:
     """Rest positions of the markers in view, (N, 2) image (x, y) [px], row-major order.
 
@@ -91,6 +91,7 @@ def marker_rest_positions(
     image; markers whose centre lies closer than radius + 2 px to the border are
     left out. With ``rng``, each marker gets a small printing irregularity.
     """
+    profile = get_sensor_profile(profile)
     pitch_px = profile.marker_pitch_mm / profile.mm_per_px
     half_counts = [
         int(np.floor(size / 2 / profile.marker_pitch_mm)) for size in profile.gel_size_mm
@@ -113,8 +114,9 @@ def marker_rest_positions(
     return pos
 
 
-def contact_geometry(loads: FingerLoads, profile: SensorProfile) -> ContactGeometry:
+def contact_geometry(loads: FingerLoads, profile: SensorProfile | str) -> ContactGeometry:
     """Contact centre, imprint radius and displacement-field width on each sensor image."""
+    profile = get_sensor_profile(profile)
     center_mm = np.asarray(loads.contact_center_mm, dtype=float)
     cx, cy = (profile.width_px - 1) / 2, (profile.height_px - 1) / 2
     center_px = np.stack(
