@@ -90,6 +90,12 @@ def run_case(liquid: str, conc: float | None, h: float, container: str) -> str:
 
 
 def main() -> None:
+    import os
+
+    print(
+        f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} "
+        f"(timings are best of {REPEATS})\n"
+    )
     print(
         "| case | shipped [ms] | baseline [ms] | speed-up | shipped force err "
         "| baseline force err | simulate_trial [ms] |"
