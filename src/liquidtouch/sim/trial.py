@@ -24,6 +24,16 @@ distributions are choices meant to match a careful lab, not measured):
   N(0, 0.5) N·mm in twist;
 - contact noise on the gel loads: white, 1.5 mN and 0.05 N·mm per sample at 240 Hz.
 
+Calibration: the spreads above were set once, by running the paper's method on
+the simulator's force signal (``benchmarks/sim_calibration.py``: 3 Hz low-pass,
+30 fps, ``fit_oscillation``, GPR with RBF + white noise on standardised λ, ω,
+full ``sugar`` preset) and widening the physically motivated spreads (fill,
+wetting, temperature, weighing) — never the estimator — until the force-level
+test errors were ~55-65 % of the paper's GPR errors (0.56 mm, 15.3 wt%, 0.16 in
+log10 cSt), leaving room for the GelSight stage (marker noise, tracking),
+which adds its own error on top. Result: 0.36 mm, 8.2 wt%, 0.088 (quadratic
+model: 0.42, 8.9, 0.097).
+
 The wrist force-torque signal is that of a UR5e-class built-in sensor (data sheet:
 force precision 3.5 N, torque 0.2 N·m): white noise σ = 1.2 N and 0.06 N·m per
 sample plus a random-walk bias, on top of the gel loads and the gripper's
