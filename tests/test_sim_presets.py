@@ -170,3 +170,15 @@ def test_cli_presets_and_quick_dataset(tmp_path: Path, capsys, monkeypatch):
     summary = json.loads(capsys.readouterr().out)
     assert summary["n_trials"] == 2 and summary["failures"] == []
     assert (tmp_path / "manifest.csv").is_file()
+
+
+def test_write_trial_with_video_lists_the_sensor_videos(tmp_path: Path):
+    gelsight = pytest.importorskip("liquidtouch.sim.gelsight")
+    assert hasattr(gelsight, "write_sensor_videos")
+    trial = simulate_trial("water", height_mm=25.0, seed=3, duration_s=3.0)
+    out = write_trial(trial, tmp_path / "v", video=True)
+    meta = read_trial_meta(out)
+    assert meta.sensors == ["left.mp4", "right.mp4"]
+    assert 20.0 <= meta.fps <= 31.0
+    for name in meta.sensors:
+        assert (out / name).stat().st_size > 1000
