@@ -36,7 +36,7 @@ model: 0.42, 8.9, 0.097).
 
 The wrist force-torque signal is that of a UR5e-class built-in sensor (data sheet:
 force precision 3.5 N, torque 0.2 N·m): white noise σ = 1.2 N and 0.06 N·m per
-sample plus a random-walk bias, on top of the gel loads and the gripper's
+sample plus a random-walk bias (0.05 N/√s, 2.5 mN·m/√s), on top of the gel loads and the gripper's
 (0.9 kg) inertia and weight.
 """
 
@@ -400,6 +400,6 @@ def _loads_and_wrench(
     rate_hz = 1.0 / (t[1] - t[0])
     bias = np.cumsum(rng.normal(0.0, 1.0, (n, 6)), axis=0) / math.sqrt(rate_hz)  # per √s
     f_sd, t_sd = var.wrist_force_noise_n, var.wrist_torque_noise_nm
-    wrench += bias * np.array([f_sd, f_sd, f_sd, t_sd, t_sd, t_sd]) / 6.0
+    wrench += bias * np.array([f_sd, f_sd, f_sd, t_sd, t_sd, t_sd]) / 24.0
     wrench += rng.normal(0.0, 1.0, (n, 6)) * np.array([f_sd, f_sd, f_sd, t_sd, t_sd, t_sd])
     return loads, wrench
