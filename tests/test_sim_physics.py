@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.signal import butter, hilbert, sosfiltfilt
 
 from liquidtouch.errors import CatalogueError, LiquidTouchError
@@ -238,3 +240,27 @@ def test_given_temperature_is_used_and_bad_arguments_raise():
         simulate_trial("water", height_mm=20.0, duration_s=1.0)
     with pytest.raises(CatalogueError):
         simulate_trial("water", height_mm=20.0, container="bucket")
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    container=st.sampled_from(["grooved-cuboid", "cuboid", "cylinder", "glass"]),
+    fraction=st.floats(0.15, 0.85),
+    conc=st.floats(0.0, 160.0),
+)
+def test_mechanical_analogue_is_consistent_over_the_catalogue(container, fraction, conc):
+    box = get_container(container)
+    liquid = get_liquid("sugar-water", sugar_concentration=conc)
+    h = fraction * box.depth_mm
+    system = slosh_system(liquid, box, h)
+    lam, omega = system.slow_mode()
+    assert 0 < lam < omega  # underdamped
+    assert sum(m.mass_kg for m in system.modes) < system.liquid_mass_kg
+    # a weak higher mode: m3/m1 = tanh(3kh)/(27 tanh(kh)) <= 1/9 (the shallow limit)
+    assert system.modes[1].mass_kg <= system.modes[0].mass_kg / 9 * (1 + 1e-9)
+    # equivalent depth A/W in the dispersion relation, within the grasp coupling's 1 %
+    k = math.pi / (box.length_mm * 1e-3)
+    h_eq = box.equivalent_depth_mm(h) * 1e-3
+    assert omega == pytest.approx(math.sqrt(G * k * math.tanh(k * h_eq) - lam**2), rel=0.012)
+    higher = slosh_system(liquid, box, min(h + 2.0, 0.9 * box.depth_mm)).slow_mode()[1]
+    assert higher > omega
