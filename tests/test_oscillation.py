@@ -251,3 +251,18 @@ def test_noise_only_is_reported_as_noise(seed: int, loss: str) -> None:
 def test_bad_options_raise(kwargs, match) -> None:
     with pytest.raises(SignalError, match=match):
         fit_oscillation(GOOD_T, GOOD_U, **kwargs)
+
+
+def test_a_sliver_of_undamped_signal_is_not_reported_as_the_slow_mode() -> None:
+    """A strong decay plus a tiny, nearly undamped tone elsewhere in the band.
+
+    The two-mode fit can explain the tone as a "slow" mode (λ ≈ 0) and demote
+    the real slosh to the "fast" one; the reported mode must stay the slosh.
+    """
+    rng = np.random.default_rng(5)
+    t = np.arange(0, 8, 1 / 25)
+    u = 2.8 * np.exp(-0.22 * t) * np.cos(15.7 * t) + 0.08 * np.cos(8.2 * t + 1.0)
+    u += rng.normal(0, 0.01, t.size)
+    fit = fit_oscillation(t, u)
+    assert fit.angular_frequency == pytest.approx(15.7, rel=0.01)
+    assert fit.decay_rate == pytest.approx(0.22, rel=0.15)

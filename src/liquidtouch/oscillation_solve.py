@@ -19,6 +19,7 @@ RATE_MAX = 60.0  # 1/s; far above any slosh mode at 30 Hz sampling
 DELTA_MIN = 1e-6  # 1/s; keeps λ' > λ strictly
 #: energy of each mode over the noise level needed to accept a two-mode fit: a spurious
 #: mode next to the real one can reach ~50 on single-mode signals (benchmark)
+MIN_SLOW_ENERGY_SHARE = 0.1  # slow-mode energy / fast-mode energy, at least
 MIN_MODE_CHI2 = 100.0
 
 
@@ -112,7 +113,21 @@ class FitState:
             self.bic() < single.bic()
             and (self.mode_chi2() >= MIN_MODE_CHI2).all()
             and (self.mode_snr() >= MIN_MODE_CHI2).all()
+            and self.slow_mode_energy_share() >= MIN_SLOW_ENERGY_SHARE
         )
+
+    def slow_mode_energy_share(self) -> float:
+        """Energy of the slow mode over the window relative to the fast mode's.
+
+        The reported (slow) mode is the sloshing itself; a nearly undamped
+        sliver of some other frequency next to a strong "fast" mode is the fit
+        locking onto drift or noise, not the paper's two-mode decay.
+        """
+        amplitudes, _ = self.amplitudes_phases()
+        rates, _ = om.rates_and_freqs(self.theta[: om.n_nonlinear(self.n_modes)], self.n_modes)
+        span = float(self.tau[-1])
+        energy = amplitudes**2 * (1 - np.exp(-2 * rates * span)) / np.maximum(2 * rates, 1e-12)
+        return float(energy[0] / energy[1])
 
     def amplitudes_phases(self) -> tuple[np.ndarray, np.ndarray]:
         """Amplitude B_k and phase ψ_k of each mode (a cos + b sin = B cos(· + ψ))."""
