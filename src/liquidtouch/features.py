@@ -23,7 +23,7 @@ from liquidtouch.errors import LiquidTouchError
 from liquidtouch.executors import open_executor, run_each
 
 #: Bump when extraction or fitting changes in a way that changes features.
-FEATURES_VERSION = 1
+FEATURES_VERSION = 2
 SOURCES = ("gelsight", "wrench")
 FEATURE_COLUMNS = (
     "decay_rate",
