@@ -54,6 +54,24 @@ def test_detect_subpixel_without_grid_size():
     assert found.diameter_px == pytest.approx(9.0, rel=0.2)
 
 
+def test_detect_on_a_simulated_frame_with_a_contact_imprint(tmp_path):
+    """Regression: this trial's contact imprint once set the marker scale and hid every marker."""
+    from liquidtouch.frames import iter_video
+    from liquidtouch.sim.trial import simulate_trial
+    from liquidtouch.sim.trial_io import write_trial
+
+    trial = simulate_trial(
+        "sugar-water", sugar_concentration=80, height_mm=30, seed=3, duration_s=3.0
+    )
+    write_trial(trial, tmp_path)
+    _, frame = next(iter_video(tmp_path / "left.mp4"))
+    truth = np.load(tmp_path / "truth_tracks.npz", allow_pickle=False)["positions_px"][0, 0]
+    found = detect_markers(frame)
+    dist, _ = cKDTree(found.positions).query(truth)
+    assert len(found.positions) >= 0.95 * len(truth)
+    assert np.median(dist) < 0.1
+
+
 def test_detect_invariant_to_lighting_gain():
     truth = grid()
     bright = detect_markers(render_blobs(truth, gain=1.0)).positions

@@ -132,7 +132,8 @@ def _blob_filter(stats: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     big = area >= 5
     if not big.any():
         return big
-    typical = np.median(area[big & (area >= 0.1 * area[big].max())])
+    # a percentile, not the max: one huge blob (contact imprint, shadow) must not set the scale
+    typical = np.median(area[big & (area >= 0.1 * np.percentile(area[big], 90))])
     left, top, w, h = stats[:, 0], stats[:, 1], stats[:, 2], stats[:, 3]
     fill = area / np.maximum(w * h, 1)
     aspect = np.maximum(w, h) / np.maximum(np.minimum(w, h), 1)
