@@ -17,6 +17,7 @@ import numpy as np
 
 from liquidtouch.errors import VideoError
 from liquidtouch.markers import MarkerTracks, track_markers
+from liquidtouch.progress import progress_bar
 from liquidtouch.signal import TactileSignal, tactile_signal
 
 PathLike = str | os.PathLike[str]
@@ -77,28 +78,10 @@ def track_sources(
         total = None
         if source.is_file():
             total = video_info(source).frames or None
-        frames = iter_frames(source, fps=fps)
-        if progress:
-            tracks.append(_track_with_bar(frames, sensor, total))
-        else:
-            tracks.append(track_markers(frames, sensor))
+        with progress_bar(f"tracking {sensor}", total, enabled=progress) as advance:
+            tracks.append(track_markers(iter_frames(source, fps=fps), sensor, on_frame=advance))
     check_consistent(tracks)
     return tracks
-
-
-def _track_with_bar(frames, sensor: str, total: int | None) -> MarkerTracks:
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
-
-    columns = (
-        "[progress.description]{task.description}",
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeRemainingColumn(),
-    )
-    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
-        task = bar.add_task(f"tracking {sensor}", total=total)
-        return track_markers(frames, sensor, on_frame=lambda _: bar.advance(task))
 
 
 def check_consistent(tracks: Sequence[MarkerTracks]) -> None:

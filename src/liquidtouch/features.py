@@ -21,6 +21,8 @@ from liquidtouch import atomic
 from liquidtouch.dataset import META_NAME, read_manifest, read_trial_meta, trial_path
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.executors import open_executor, run_each
+from liquidtouch.progress import progress_bar
+from liquidtouch.wrench import WRENCH_NAME
 
 #: Bump when extraction or fitting changes in a way that changes features.
 FEATURES_VERSION = 2
@@ -54,7 +56,7 @@ def trial_features(trial_dir: str | Path, source: str = "gelsight") -> dict[str,
 def _fingerprint(trial_dir: Path, source: str) -> str:
     """Hash of everything the trial's features depend on (file sizes and mtimes, settings)."""
     meta = read_trial_meta(trial_dir)
-    inputs = [META_NAME, *(meta.sensors if source == "gelsight" else ["wrench.csv"])]
+    inputs = [META_NAME, *(meta.sensors if source == "gelsight" else [WRENCH_NAME])]
     digest = hashlib.sha256(f"v{FEATURES_VERSION}:{source}".encode())
     for name in inputs:
         path = trial_dir / name
@@ -126,19 +128,10 @@ def extract_features(
             todo[trial] = (tdir, fingerprint)
 
     if todo:
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
-
-        columns = (
-            "[progress.description]{task.description}",
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeRemainingColumn(),
-        )
         with (
             open_executor(jobs, dask_address) as pool,
-            Progress(*columns, disable=not progress, transient=True) as bar,
+            progress_bar(f"features ({source})", len(todo), enabled=progress) as advance,
         ):
-            task = bar.add_task(f"features ({source})", total=len(todo))
             tasks = {trial: (str(tdir), source) for trial, (tdir, _) in todo.items()}
             for trial, future in run_each(pool, _safe_run, tasks):
                 result = future.result()
@@ -148,7 +141,7 @@ def extract_features(
                 results[trial] = result
                 if on_trial is not None:
                     on_trial(trial, result)
-                bar.advance(task)
+                advance()
 
     rows = []
     for record in manifest.to_dict("records"):

@@ -35,20 +35,18 @@ def train(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """Train one regressor per --target on a features table and save them in one model file."""
-    from rich.progress import Progress
-
     from liquidtouch.errors import TableError
     from liquidtouch.features_io import numeric_column, read_feature_table
     from liquidtouch.modelfile import save_model
+    from liquidtouch.progress import progress_bar
     from liquidtouch.property_model import train_regression
 
     if model not in MODEL_KINDS:
         raise TableError(f"unknown --model {model!r}; choose one of {', '.join(MODEL_KINDS)}")
     table, X = read_feature_table(features)
     targets = {t: numeric_column(table, t) for t in dict.fromkeys(target)}
-    with Progress(transient=True, disable=not sys.stderr.isatty()) as progress:
-        task = progress.add_task(f"training {model}", total=len(targets))
-        fitted = train_regression(X, targets, model, lambda _: progress.advance(task))
+    with progress_bar(f"training {model}", len(targets), enabled=sys.stderr.isatty()) as advance:
+        fitted = train_regression(X, targets, model, advance)
     save_model(fitted, out)
     if as_json:
         typer.echo(

@@ -49,8 +49,8 @@ def decision_figure(model, train: pd.DataFrame, test: pd.DataFrame, path: Path, 
         np.linspace(lo[1] - pad[1], hi[1] + pad[1], 200),
     )
     classes = list(model.classifier.classes_)
-    predicted, _ = model.predict_proba(np.column_stack([lam.ravel(), om.ravel()]))
-    index = np.array([classes.index(p) for p in predicted]).reshape(lam.shape)
+    _, proba = model.predict_proba(np.column_stack([lam.ravel(), om.ravel()]))
+    index = np.argmax(proba, axis=1).reshape(lam.shape)  # columns follow classes_
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     colours = ["tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple"]
     ax.contourf(

@@ -33,6 +33,7 @@ import numpy as np
 
 from liquidtouch.errors import CatalogueError, DatasetError
 from liquidtouch.executors import open_executor, run_each
+from liquidtouch.progress import progress_bar
 
 
 @dataclass(frozen=True)
@@ -200,7 +201,10 @@ def simulate_dataset(
     rows: dict[str, dict[str, Any]] = {}
     failures: list[tuple[str, str]] = []
 
-    with open_executor(jobs) as pool, _progress(progress, len(specs)) as advance:
+    with (
+        open_executor(jobs) as pool,
+        progress_bar("simulating trials", len(specs), enabled=progress) as advance,
+    ):
         tasks = {spec.name: (spec, str(root), video, sensor) for spec in specs}
         for name, future in run_each(pool, run_spec, tasks):
             try:
@@ -214,25 +218,3 @@ def simulate_dataset(
     ordered = [rows[s.name] for s in specs if s.name in rows]
     manifest = write_manifest(root, ordered)
     return DatasetResult(root, manifest, len(ordered), failures)
-
-
-class _progress:
-    """A rich progress bar (or nothing), used as ``with _progress(on, n) as advance``."""
-
-    def __init__(self, enabled: bool, total: int) -> None:
-        self.enabled, self.total, self.bar = enabled, total, None
-
-    def __enter__(self):
-        if not self.enabled:
-            return lambda: None
-        from rich.console import Console
-        from rich.progress import Progress
-
-        self.bar = Progress(console=Console(stderr=True), transient=False)
-        self.bar.start()
-        task = self.bar.add_task("simulating trials", total=self.total)
-        return lambda: self.bar.advance(task)
-
-    def __exit__(self, *exc: object) -> None:
-        if self.bar is not None:
-            self.bar.stop()

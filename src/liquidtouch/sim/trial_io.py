@@ -15,9 +15,9 @@ import numpy as np
 from liquidtouch import atomic
 from liquidtouch.dataset import TrialMeta, write_trial_meta
 from liquidtouch.sim.trial import CAMERA_FPS, WRENCH_COLUMNS, SimulatedTrial
+from liquidtouch.wrench import WRENCH_NAME
 
 FORCE_NAME = "force.csv"
-WRENCH_NAME = "wrench.csv"
 FORCE_COLUMNS = (
     "t_s",
     "left_fx_n",

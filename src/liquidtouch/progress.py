@@ -1,0 +1,32 @@
+"""One progress bar for all long work: a rich bar on stderr, or nothing."""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable, Iterator
+
+
+@contextlib.contextmanager
+def progress_bar(
+    description: str, total: int | None, *, enabled: bool = True
+) -> Iterator[Callable[..., None]]:
+    """Yield ``advance(*_)`` that moves a rich bar (stderr) by one step; a no-op when disabled.
+
+    ``advance`` takes and ignores any arguments, so it can be passed straight
+    as a per-item callback (``on_frame``, ``progress(target)``).
+    """
+    if not enabled:
+        yield lambda *_: None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
+
+    columns = (
+        "[progress.description]{task.description}",
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeRemainingColumn(),
+    )
+    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(description, total=total)
+        yield lambda *_: bar.advance(task)
