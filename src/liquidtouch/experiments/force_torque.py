@@ -26,8 +26,9 @@ def run(gelsight: pd.DataFrame, wrench: pd.DataFrame, out_dir: Path) -> Experime
     for name, table in (("GelSight", gelsight), ("wrist F/T", wrench)):
         n_train = len(usable(split(table, "train")))
         if n_train < 6:
-            # too few trials with features to train on: no accuracy, not a guessed one
-            accuracy, n_failed, model = float("nan"), len(split(table, "test")), None
+            # too few trials with features to train on: the robot gets no answer on any
+            # test trial, so none counts as correct (chance would be one in three)
+            accuracy, n_failed, model = 0.0, len(split(table, "test")), None
         else:
             model, predicted, accuracy, n_failed = classify(table)
         rows.append(
