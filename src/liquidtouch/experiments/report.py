@@ -10,6 +10,7 @@ from __future__ import annotations
 import base64
 import html
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -50,6 +51,11 @@ def _fmt(value: object) -> str:
     return str(value)
 
 
+def _html_text(text: str) -> str:
+    """Escape ``text`` for HTML, rendering markdown `code` spans as <code>."""
+    return re.sub(r"`([^`]+)`", r"<code>\1</code>", html.escape(text))
+
+
 def markdown_table(table: pd.DataFrame) -> str:
     """Render ``table`` as a GitHub-flavoured markdown table (no extra dependency)."""
     header = "| " + " | ".join(str(c) for c in table.columns) + " |"
@@ -84,7 +90,7 @@ def write_report(
     md = [f"# {title}", "", preamble, "", "## Summary", "", markdown_table(summary), ""]
     body = [
         f"<h1>{html.escape(title)}</h1>",
-        f"<p>{html.escape(preamble)}</p>",
+        f"<p>{_html_text(preamble)}</p>",
         "<h2>Summary</h2>",
         summary.to_html(index=False, float_format=_fmt, na_rep="–", border=0),
     ]
@@ -92,7 +98,7 @@ def write_report(
         md += [f"## {result.title}", "", result.summary, "", f"*({result.seconds:.0f} s)*", ""]
         body += [
             f"<h2>{html.escape(result.title)}</h2>",
-            f"<p>{html.escape(result.summary)}</p>",
+            f"<p>{_html_text(result.summary)}</p>",
             f"<p class='time'>({result.seconds:.0f} s)</p>",
         ]
         for i, (caption, table) in enumerate(result.tables):

@@ -65,6 +65,51 @@ def prepare_dataset(
     return tables
 
 
+def failure_note(features: dict[str, dict[str, pd.DataFrame]]) -> str:
+    """One sentence: trials per dataset and how many gave no GelSight features (one reason)."""
+    parts = []
+    for preset, tables in features.items():
+        table = tables["gelsight"]
+        errors = table["error"].fillna("").astype(str) if "error" in table else pd.Series([], str)
+        failed = errors[errors != ""]
+        text = f"{preset} {len(table)} trials"
+        if len(failed):
+            text += f" ({len(failed)} without features, e.g. “{failed.iloc[0][:100]}”)"
+        parts.append(text)
+    return "Trials: " + "; ".join(parts) + "."
+
+
+def run_experiments(
+    features: dict[str, dict[str, pd.DataFrame]], out_dir: str | Path
+) -> list[ExperimentResult]:
+    """The seven experiments on feature tables (``features[preset]["gelsight" | "wrench"]``).
+
+    ``features`` needs the presets of :data:`DATASETS`; ``classification`` also
+    its ``wrench`` table. Figures and tables go to ``out_dir``.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    sugar_table = features["sugar"]["gelsight"]
+    container_table = features["containers"]["gelsight"]
+    classes = features["classification"]
+    results = [
+        classification.run(classes["gelsight"], out),
+        force_torque.run(classes["gelsight"], classes["wrench"], out),
+    ]
+    sugar_result, sugar_gpr = sugar.run(sugar_table, out)
+    results.append(sugar_result)
+    results.append(other_liquids.run(sugar_gpr, features["other-liquids"]["gelsight"], out))
+    results.append(containers.run(container_table, out))
+    per_container = {"grooved-cuboid": sugar_table}
+    per_container.update(
+        {name: part for name, part in container_table.groupby("container", sort=False)}
+    )
+    results.append(data_efficiency.run(per_container, out))
+    cuboid = container_table[container_table["container"] == "cuboid"]
+    results.append(transfer.run(sugar_gpr, cuboid, out))
+    return results
+
+
 def reproduce(
     out_dir: str | Path,
     *,
@@ -91,35 +136,15 @@ def reproduce(
         seconds[f"data: {preset}"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    results: list[ExperimentResult] = []
-    sugar_table = features["sugar"]["gelsight"]
-    container_table = features["containers"]["gelsight"]
-    results.append(classification.run(features["classification"]["gelsight"], out))
-    results.append(
-        force_torque.run(
-            features["classification"]["gelsight"], features["classification"]["wrench"], out
-        )
-    )
-    sugar_result, sugar_gpr = sugar.run(sugar_table, out)
-    results.append(sugar_result)
-    results.append(other_liquids.run(sugar_gpr, features["other-liquids"]["gelsight"], out))
-    results.append(containers.run(container_table, out))
-    per_container = {"grooved-cuboid": sugar_table}
-    per_container.update(
-        {name: part for name, part in container_table.groupby("container", sort=False)}
-    )
-    results.append(data_efficiency.run(per_container, out))
-    results.append(
-        transfer.run(sugar_gpr, container_table[container_table["container"] == "cuboid"], out)
-    )
+    results = run_experiments(features, out)
     seconds["experiments"] = time.perf_counter() - start
 
-    n_trials = sum(len(t["gelsight"]) for t in features.values())
     timing = ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items())
     preamble = (
         f"{'Quick' if quick else 'Full'} reproduction of Huang, Guo, Yuan (RSS 2022) on "
-        f"{n_trials} simulated trials, each through the whole pipeline (rendered GelSight "
-        f"videos → marker tracking → tactile signal → oscillation fit → models). "
+        f"simulated trials, each through the whole pipeline (rendered GelSight videos of the "
+        f"{'GelSight Mini (320×240, 25 fps)' if quick else 'default (640×480, 30 fps)'} profile "
+        f"→ marker tracking → tactile signal → oscillation fit → models). {failure_note(features)} "
         f"Time: {timing}; total {sum(seconds.values()):.0f} s with {jobs} worker(s)."
     )
     md, html = write_report(
