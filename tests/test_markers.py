@@ -177,10 +177,6 @@ def test_real_fots_labels(name):
 
 
 @pytest.mark.skipif(not REAL.is_dir(), reason="../shared real recordings absent")
-@pytest.mark.xfail(
-    strict=True,
-    reason="known shortfall: the fast release near frame 197 (12 px/frame) loses markers",
-)
 def test_real_gelsight_mini_press_no_loss_in_view():
     from liquidtouch.frames import iter_video
 
