@@ -43,6 +43,8 @@ class MarkerTracker:
 
     def start(self, image: np.ndarray) -> np.ndarray:
         """Detect the markers of the first frame; return their positions (N, 2)."""
+        from scipy.spatial import cKDTree
+
         image = _grey(image)
         found = detect_markers(image, self.diameter_px)
         if len(found.positions) == 0:
@@ -66,45 +68,86 @@ class MarkerTracker:
         self.previous = found.positions.copy()  # position one frame ago (NaN if lost)
         self.current = found.positions.copy()
         self.since_reacquire = 0
+        self.closest_bound = 0.0  # lower bound on the closest pair's distance [px]
+        k = min(len(self.reference), 9)
+        self.neighbours = cKDTree(self.reference).query(self.reference, k=k)[1][:, 1:]
         return self.current
 
     def step(self, image: np.ndarray) -> np.ndarray:
         """Track into the next frame; return positions (N, 2), NaN for lost markers."""
         image = _grey(image)
-        velocity = np.nan_to_num(self.current - self.previous)
-        guess = np.where(np.isfinite(self.current), self.current + velocity, np.nan)
-        refined = refine_centroids(image, guess, self.half, self.threshold)
-        ok = (
-            refined.ok
-            & (refined.areas >= 0.3 * self.area_ref)
-            & (refined.areas <= 3.0 * self.area_ref)
-            & (np.hypot(*(refined.positions - guess).T) <= self.gate_px)
-        )
-        positions = np.where(ok[:, None], refined.positions, np.nan)
-        residual = np.hypot(*(refined.positions - guess).T)
-        ok &= ~self._crowded(positions, ok, residual)
-        positions[~ok] = np.nan
+        current = self.current
+        guess = 2.0 * current - self.previous  # constant velocity; NaN when lost
+        fresh = np.isnan(guess[:, 0]) & ~np.isnan(current[:, 0])  # just re-acquired
+        guess[fresh] = current[fresh]
+        positions, residual = self._refine(image, guess, np.arange(len(guess)))
+        failed = np.flatnonzero(np.isnan(positions[:, 0]) & ~np.isnan(current[:, 0]))
+        if failed.size:  # a second search, predicted from the neighbours' motion this frame
+            second = current[failed] + self._neighbour_motion(positions, failed)
+            positions[failed], residual[failed] = self._refine(image, second, failed)
+        self._drop_crowded(positions, residual)
         self.since_reacquire += 1
-        lost = ~ok
+        lost = np.isnan(positions[:, 0])
         if lost.any() and self.since_reacquire >= self.reacquire_every:
             self.since_reacquire = 0
             positions = self._reacquire(image, positions, lost)
-        self.previous, self.current = self.current, positions
-        valid = np.isfinite(positions[:, 0])
+        self.previous, self.current = current, positions
+        valid = ~np.isnan(positions[:, 0])
         self.last[valid] = positions[valid]
         return positions
 
-    def _crowded(self, positions: np.ndarray, ok: np.ndarray, residual: np.ndarray) -> np.ndarray:
-        """Of two markers within half a spacing (two windows on one blob), the one that jumped."""
+    def _refine(
+        self, image: np.ndarray, guess: np.ndarray, index: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Refine markers ``index`` from ``guess``; NaN where the blob is not theirs."""
+        refined = refine_centroids(image, guess, self.half, self.threshold[index])
+        residual = np.hypot(*(refined.positions - guess).T)
+        area = self.area_ref[index]
+        ok = (
+            refined.ok
+            & (refined.areas >= 0.3 * area)
+            & (refined.areas <= 3.0 * area)
+            & (residual <= self.gate_px)
+        )
+        positions = refined.positions
+        positions[~ok] = np.nan
+        return positions, np.where(ok, residual, np.inf)
+
+    def _neighbour_motion(self, positions: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """(n, 2) median motion this frame of each marker's nearest tracked neighbours."""
+        motion = positions[self.neighbours[index]] - self.current[self.neighbours[index]]
+        have = ~np.isnan(motion[..., 0]).all(axis=1)
+        out = np.zeros((len(index), 2))
+        if have.any():
+            out[have] = np.nanmedian(motion[have], axis=1)
+        return out
+
+    def _drop_crowded(self, positions: np.ndarray, residual: np.ndarray) -> None:
+        """Of two markers within half a spacing (two windows on one blob), drop the one that jumped.
+
+        The exact check runs only when a lower bound on the closest pair's distance
+        (last exact value minus twice the largest motion since) falls to the gate.
+        """
         from scipy.spatial import cKDTree
 
-        crowded = np.zeros(len(positions), bool)
-        index = np.flatnonzero(ok)
-        if len(index) > 1:
-            pairs = cKDTree(positions[index]).query_pairs(self.gate_px, output_type="ndarray")
+        motion = np.hypot(*(positions - self.current).T)
+        largest = float(np.max(motion, initial=0.0, where=~np.isnan(motion)))
+        self.closest_bound -= 2.0 * largest
+        if self.closest_bound > self.gate_px:
+            return
+        index = np.flatnonzero(~np.isnan(positions[:, 0]))
+        if len(index) < 2:
+            return
+        tree = cKDTree(positions[index])
+        pairs = tree.query_pairs(self.gate_px, output_type="ndarray")
+        if len(pairs):
             a, b = index[pairs[:, 0]], index[pairs[:, 1]]
-            crowded[np.where(residual[a] > residual[b], a, b)] = True
-        return crowded
+            positions[np.where(residual[a] > residual[b], a, b)] = np.nan
+            index = np.flatnonzero(~np.isnan(positions[:, 0]))
+            if len(index) < 2:
+                return
+            tree = cKDTree(positions[index])
+        self.closest_bound = float(tree.query(positions[index], k=2)[0][:, 1].min())
 
     def _reacquire(self, image: np.ndarray, positions: np.ndarray, lost: np.ndarray) -> np.ndarray:
         found = detect_markers(image, self.diameter_px).positions
@@ -121,4 +164,5 @@ class MarkerTracker:
             refined = refine_centroids(image, found[cols], self.half, self.threshold[back])
             good = refined.ok
             positions[back[good]] = refined.positions[good]
+            self.closest_bound = 0.0  # new markers: check the closest pair exactly next time
         return positions
