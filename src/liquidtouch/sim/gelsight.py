@@ -239,6 +239,7 @@ def write_sensor_videos(
     jitter: bool = True,
     noise: bool = True,
     progress: bool = False,
+    x264_params: str | None = None,
 ) -> SensorRecording:
     """Render both sensors' videos for ``loads`` into ``out_dir``.
 
@@ -251,8 +252,10 @@ def write_sensor_videos(
     (2, T, 2), ``mm_per_px``, ``fps_nominal``, ``profile``.
     All files are written atomically. ``jitter`` False gives exact nominal
     timestamps without drops; ``noise`` False renders clean frames.
+    ``x264_params`` overrides the encoder options (default
+    :data:`liquidtouch.sim.encode.X264_PARAMS`; ``""`` gives x264's lossy defaults).
     """
-    from liquidtouch.sim.encode import encode_video
+    from liquidtouch.sim.encode import X264_PARAMS, encode_video
     from liquidtouch.sim.render import iter_frames, make_background
 
     profile = get_sensor_profile(sensor)
@@ -295,6 +298,7 @@ def write_sensor_videos(
             timestamps,
             profile.fps,
             n_frames=len(timestamps),
+            x264_params=X264_PARAMS if x264_params is None else x264_params,
             progress_label=f"rendering {name}" if progress else None,
         )
     with atomic_path(out_dir / "truth_tracks.npz") as tmp, open(tmp, "wb") as fh:

@@ -63,13 +63,20 @@ def trial_meta(trial: SimulatedTrial, *, sensors: list[str], fps: float) -> Tria
 
 
 def write_trial(
-    trial: SimulatedTrial, out_dir: str | Path, *, video: bool = True, sensor: str = "default"
+    trial: SimulatedTrial,
+    out_dir: str | Path,
+    *,
+    video: bool = True,
+    sensor: str = "default",
+    x264_params: str | None = None,
 ) -> Path:
     """Write ``trial`` into ``out_dir`` (created if needed); return the directory.
 
     With ``video=True`` the GelSight renderer writes one video per finger
     (``liquidtouch.sim.gelsight.write_sensor_videos``); otherwise the trial
     holds the loads and labels only and ``fps`` is the camera's nominal 30.
+    ``x264_params`` overrides the video encoder's options (see
+    :data:`liquidtouch.sim.encode.X264_PARAMS`).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -82,7 +89,9 @@ def write_trial(
     if video:
         from liquidtouch.sim.gelsight import write_sensor_videos
 
-        recording = write_sensor_videos(trial.loads, out, sensor=sensor, seed=trial.seed)
+        recording = write_sensor_videos(
+            trial.loads, out, sensor=sensor, seed=trial.seed, x264_params=x264_params
+        )
         sensors, fps = list(recording.files), float(recording.fps)
     write_trial_meta(out, trial_meta(trial, sensors=sensors, fps=fps))
     return out
