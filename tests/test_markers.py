@@ -108,6 +108,41 @@ def test_tracking_follows_known_motion_and_stands_still():
     assert tracks.positions[:20].std(axis=0).max() < 0.05  # noise only: stands still
 
 
+@pytest.mark.parametrize("sensor", ["default", "mini"])
+def test_tracking_simulator_frames_against_ground_truth(sensor):
+    """Rendered GelSight frames (LED gradients, imprint, noise, flicker; no codec): < 0.05 px.
+
+    The motion is a Gaussian shear field with a slow oscillation and a fast 6 px jump
+    (release). Every marker keeps its identity (no swap) and none is lost.
+    """
+    import cv2
+
+    from liquidtouch.sim.gelsight import marker_rest_positions
+    from liquidtouch.sim.render import iter_frames
+
+    rng = np.random.default_rng(5)
+    rest = marker_rest_positions(sensor, rng)
+    centre = rest.mean(axis=0)
+    field = np.exp(-np.sum((rest - centre) ** 2, axis=1) / (2 * 60.0**2))[:, None]
+    t = np.arange(60) / 30.0
+    amplitude = np.stack([2.0 * np.sin(7 * t), 1.0 * np.cos(5 * t) - 1.0], axis=1)
+    amplitude[40:] += [6.0, -3.0]  # a fast jump
+    truth = rest[None] + field[None] * amplitude[:, None]
+    images = iter_frames(truth, sensor, rng, contact_center_px=centre, contact_radius_px=50.0)
+    frames = [(k / 30, cv2.cvtColor(im, cv2.COLOR_RGB2GRAY)) for k, im in enumerate(images)]
+    tracks = track_markers(frames, sensor)
+    assert tracks.valid.all()
+    dist, index = cKDTree(truth[0]).query(tracks.reference)
+    assert dist.max() < 0.5 and len(set(index)) == len(index)
+    err = np.hypot(*(tracks.positions - truth[:, index]).transpose(2, 0, 1))
+    x, y = tracks.reference.T
+    height, width = frames[0][1].shape
+    whole = np.minimum.reduce([x, y, width - 1 - x, height - 1 - y]) > tracks.diameter_px
+    assert np.median(err) < 0.05
+    assert np.median(err[:, whole]) < 0.02  # measured ~0.010
+    assert err.max() < 0.25  # no swap: far below the spacing
+
+
 def test_markers_leaving_view_are_lost_and_reacquired():
     rest = grid()
     shifts = np.concatenate(
@@ -167,13 +202,18 @@ def test_real_fots_labels(name):
 
     image = cv2.imread(str(REAL / "fots" / f"{name}.png"), cv2.IMREAD_GRAYSCALE)
     labels = pd.read_csv(REAL / "fots" / f"{name}.csv")
-    # The images show the markers at M + d (M alone matches < 50 %); labels are integers.
-    where = labels[["Mx", "My"]].to_numpy(float) + labels[["dx", "dy"]].to_numpy(float)
+    # The images show the markers at M + d (M alone matches < 50 %). The labels are integers
+    # truncated, not rounded: ~80 % of (detected − label) fall in [0, 1) per axis, so the
+    # labelled pixel's centre is label + 0.5. What stays beyond 1.5 px (4–6 %) is, in both
+    # images, the same few markers: two labels off the blob (M = (199, 148): 6 px, on the
+    # blob's edge; (55, 120): 2.5 px) and markers bitten by a bright glare notch, labelled
+    # at the full disc's centre while the darkness centroid is that of the dark part.
+    where = labels[["Mx", "My"]].to_numpy(float) + labels[["dx", "dy"]].to_numpy(float) + 0.5
     found = detect_markers(image).positions
     assert len(found) == len(labels)
     dist, _ = cKDTree(found).query(where)
-    assert (dist <= 1.5).mean() >= 0.90
-    assert np.median(dist) < 1.0
+    assert (dist <= 1.5).mean() >= 0.93
+    assert np.median(dist) < 0.6
 
 
 @pytest.mark.skipif(not REAL.is_dir(), reason="../shared real recordings absent")
