@@ -79,7 +79,7 @@ def refine_centroids(
     refined again (at most ``iterations`` passes in all).
     """
     import cv2
-    from numpy.lib.stride_tricks import sliding_window_view
+    from numpy.lib.stride_tricks import as_strided
 
     height, width = image.shape
     geo = _geometry(int(half))
@@ -94,7 +94,8 @@ def refine_centroids(
         positions[~ok] = np.nan
         return Refined(positions, areas, peak, ok)
     padded = cv2.copyMakeBorder(image, half, half, half, half, cv2.BORDER_REPLICATE)
-    windows = sliding_window_view(padded, (size, size))  # windows[y, x]: centred on (x, y)
+    # windows[y, x] is the window centred on (x, y) (a strided view, no copy)
+    windows = as_strided(padded, (height, width, size, size), padded.strides * 2, writeable=False)
     for _ in range(iterations):
         centre = np.rint(positions[todo]).astype(np.intp)
         cx, cy = centre[:, 0], centre[:, 1]
@@ -108,8 +109,7 @@ def refine_centroids(
         level = None if threshold is None else threshold[todo]
         delta, area, top = _centroid(patch, geo, level, cx, cy, width, height)
         found = area > 0
-        new = centre + delta
-        positions[todo] = new
+        positions[todo] = centre + delta
         areas[todo] = area
         if top is not None:
             peak[todo] = top
@@ -134,9 +134,13 @@ def _centroid(
     """Centroid offsets (n, 2) from the window centres, areas (n,), peak darkness (n,) or None."""
     n = patch.shape[0]
     half = geo.half
-    coeff = patch.reshape(n, -1) @ geo.ring  # (n, 3): background plane at the centre, slopes
-    bg = np.maximum(coeff @ geo.plane, 1.0)  # (n, K)
     flat = patch.reshape(n, -1)
+    coeff = flat @ geo.ring  # (n, 3): background at the centre, x slope, y slope
+    # Keep the plane above half its centre value over the window (and above 1 grey level).
+    coeff[:, 0] = np.maximum(coeff[:, 0], 1.0)
+    tilt = half * (np.abs(coeff[:, 1]) + np.abs(coeff[:, 2]))
+    coeff[:, 1:] *= np.minimum(1.0, 0.5 * coeff[:, 0] / np.maximum(tilt, 1e-6))[:, None]
+    bg = coeff @ geo.plane  # (n, K)
     ratio = np.divide(flat, bg, out=bg)  # I / b; darkness d = 1 − ratio
     # Pixels beyond the image border (a marker partly out of view) get no weight.
     edge = np.flatnonzero((cx < half) | (cx >= width - half) | (cy < half) | (cy >= height - half))
@@ -149,11 +153,11 @@ def _centroid(
     if level is None:
         top = 1.0 - ratio.min(axis=1)
         level = THRESHOLD_FRACTION * top
-    weight = np.subtract((1.0 - level).astype(np.float32)[:, None], ratio, out=ratio)
-    np.maximum(weight, 0.0, out=weight)
+    excess = np.subtract((1.0 - level).astype(np.float32)[:, None], ratio, out=ratio)  # d − d_0
+    weight = np.add(excess, np.abs(excess), out=excess)  # 2·max(d − d_0, 0): fast, ½ cancels
     mass, sx, sy = (weight @ geo.moments).T
-    area = np.count_nonzero(weight, axis=1)
     found = mass > 0
     safe = np.where(found, mass, 1.0)
     delta = np.stack([sx / safe, sy / safe], axis=1).astype(float)
+    area = np.add.reduce(weight > 0, axis=1, dtype=np.int32)
     return delta, np.where(found, area, 0), top

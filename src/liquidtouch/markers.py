@@ -8,13 +8,18 @@ the :func:`track_markers` loop and the ``.npz`` format, and re-exports the rest.
 
 **Tracking** refines every marker on a window around its predicted position
 (constant velocity) — no full-frame work per frame, all markers at once with
-numpy (one window gather, two small matrix products). A marker is flagged lost
-(``valid = False``, position NaN) when its centre leaves the image, its blob
-shrinks or grows beyond 3×, or it comes within half a marker spacing of
-another marker (two windows on one blob). Lost markers are re-acquired by a
-full detection (at most every few frames while any are lost), matched
-one-to-one to their last positions with a KD-tree, gated at half the spacing
-measured in the first frame.
+numpy (one strided window gather, three small matrix products; a window is
+re-centred only for the markers that ended more than a pixel off). A marker is
+flagged lost (``valid = False``, position NaN) when its centre leaves the
+image, its blob (pixels above the weight threshold) shrinks or grows beyond 3×
+its first-frame area, it lands more than half a spacing from its
+prediction, or it comes within half a marker spacing of another marker (two
+windows on one blob; the one that jumped is dropped). A marker that fails gets
+a second search at once, predicted from its neighbours' motion in this frame
+(fast presses and releases). Lost markers are re-acquired by a full detection
+(at most every few frames while any are lost), matched one-to-one to their
+last positions with a KD-tree, gated at half the spacing measured in the first
+frame.
 
 Coordinates are pixels, ``x`` to the right and ``y`` down, pixel centres at
 integers.
