@@ -48,7 +48,7 @@ def _classification() -> pd.DataFrame:
 
 
 def _containers() -> pd.DataFrame:
-    heights = np.linspace(15, 38, 12)
+    heights = np.linspace(15, 38, 6)  # 54 train trials per container keeps the test quick
     parts = []
     for name, geometry in (("cylinder", CONTAINER_B), ("cuboid", CONTAINER_B), ("glass", None)):
         geometry = geometry or {**CONTAINER_A, "wall": 1.3}

@@ -18,7 +18,7 @@ from liquidtouch.experiments.report import ExperimentResult, Headline
 from liquidtouch.experiments.sugar import train_models
 
 SIZES = (5, 10, 15, 20, 40, 60, 100)
-REPEATS = 3
+REPEATS = 10  # random tuning draws per size: the quick set has few cuboid trials
 
 
 def run(source_model, cuboid: pd.DataFrame, out_dir: Path) -> ExperimentResult:
