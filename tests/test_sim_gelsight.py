@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import av
@@ -85,9 +86,14 @@ def darkness_centroids(
 # ---------------------------------------------------------------- marker motion
 
 
+def instant(sensor: str):
+    """The profile with an instant exposure: loads sampled at the frame time (no motion blur)."""
+    return dataclasses.replace(get_sensor_profile(sensor), exposure_fraction=0.0)
+
+
 @pytest.mark.parametrize("sensor", ["default", "mini"])
 def test_shear_at_contact_centre_follows_compliance(sensor):
-    profile = get_sensor_profile(sensor)
+    profile = instant(sensor)
     loads = make_loads(amplitude_n=0.1, weight_n=1.0)
     centre = contact_geometry(loads, profile).center_px
     t = np.array([0.0, 1.0 / SLOSH_HZ / 2])  # slosh force at +max, then near -max
@@ -100,6 +106,25 @@ def test_shear_at_contact_centre_follows_compliance(sensor):
         assert np.sign(disp[1, 0]) == -sign
     # a 0.1 N slosh moves markers by a realistic 0.2-2 px
     assert 0.2 <= profile.shear_compliance_px_per_n * 0.1 <= 2.0
+
+
+@pytest.mark.parametrize("sensor", ["default", "mini"])
+def test_exposure_averages_motion_and_tames_aliased_vibration(sensor):
+    """A frame shows the shear averaged over its exposure: gain sinc(f·T) at f Hz."""
+    profile = get_sensor_profile(sensor)
+    exposure_s = profile.exposure_fraction / profile.fps
+    t = np.arange(0.0, 4.0, 1e-3)
+    frames = np.arange(0.5, 3.5, 1.0 / profile.fps)
+    for f_hz in (2.0, profile.fps - 1.0):  # a slosh, and a vibration that aliases to 1 Hz
+        shear = np.zeros((len(t), 2, 2))
+        shear[:, :, 0] = 0.1 * np.sin(2 * np.pi * f_hz * t)[:, None]
+        loads = FingerLoads(t, shear, np.zeros((len(t), 2)), np.array([5.0, 5.0]), np.zeros((2, 2)))
+        centre = contact_geometry(loads, profile).center_px
+        x = marker_positions(loads, profile, frames, rest_px=centre[:1])[0, :, 0, 0] - centre[0, 0]
+        expected = profile.shear_compliance_px_per_n * 0.1 * np.sinc(f_hz * exposure_s)
+        assert np.abs(x).max() == pytest.approx(abs(expected), rel=0.02)
+    assert np.sinc((profile.fps - 1.0) * exposure_s) < 0.2  # vibration cut by 5x or more
+    assert np.sinc(2.0 * exposure_s) > 0.98  # the slosh band barely changes
 
 
 def test_two_sensors_move_in_opposite_horizontal_senses():
@@ -134,7 +159,7 @@ def test_displacement_field_is_gaussian_weighted_and_widens_with_preload():
 
 
 def test_twist_rotates_markers_about_the_contact_centre():
-    profile = get_sensor_profile("default")
+    profile = instant("default")
     loads = make_loads(amplitude_n=0.0, weight_n=0.0, twist_nmm=5.0)
     geom = contact_geometry(loads, profile)
     radius = 60.0

@@ -132,14 +132,35 @@ def contact_geometry(loads: FingerLoads, profile: SensorProfile | str) -> Contac
     return ContactGeometry(center_px, radius_px, radius_px * profile.field_spread)
 
 
-def _loads_at(loads: FingerLoads, t_frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Shear (T, 2, 2) [N] and twist (T, 2) [N·mm] linearly interpolated at ``t_frames``."""
+def _loads_at(
+    loads: FingerLoads, t_frames: np.ndarray, exposure_s: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Shear (T, 2, 2) [N] and twist (T, 2) [N·mm] at ``t_frames``, averaged over the exposure.
+
+    The camera integrates light over ``exposure_s`` centred on each frame time, so a
+    frame sees the mean load over that window (the integral of the linearly
+    interpolated loads, exact on their grid); ``0`` samples the loads instantly.
+    """
     t = np.asarray(loads.t_s, dtype=float)
-    shear = np.asarray(loads.shear_force_n, dtype=float).reshape(len(t), 4)
-    twist = np.asarray(loads.twist_moment_nmm, dtype=float)
-    shear_t = np.stack([np.interp(t_frames, t, shear[:, j]) for j in range(4)], axis=1)
-    twist_t = np.stack([np.interp(t_frames, t, twist[:, j]) for j in range(2)], axis=1)
-    return shear_t.reshape(-1, 2, 2), twist_t
+    channels = np.column_stack(
+        [
+            np.asarray(loads.shear_force_n, dtype=float).reshape(len(t), 4),
+            np.asarray(loads.twist_moment_nmm, dtype=float),
+        ]
+    )  # (n, 6)
+    if exposure_s > 0:
+        frames = np.clip(t_frames, t[0], t[-1])
+        start = np.maximum(frames - 0.5 * exposure_s, t[0])
+        end = np.minimum(frames + 0.5 * exposure_s, t[-1])  # never empty: frames are inside
+        steps = 0.5 * np.diff(t)[:, None] * (channels[1:] + channels[:-1])
+        area = np.concatenate([np.zeros((1, 6)), np.cumsum(steps, axis=0)])
+        at = (
+            np.stack([np.interp(end, t, a) - np.interp(start, t, a) for a in area.T], axis=1)
+            / (end - start)[:, None]
+        )
+    else:
+        at = np.stack([np.interp(t_frames, t, c) for c in channels.T], axis=1)
+    return at[:, :4].reshape(-1, 2, 2), at[:, 4:]
 
 
 def marker_positions(
@@ -152,7 +173,8 @@ def marker_positions(
     """Marker positions of both sensors at the frame times, (2, T, N, 2) image (x, y) [px].
 
     Axis 0 is the sensor (left, right); ``rest_px`` (N, 2) defaults to the regular
-    grid of :func:`marker_rest_positions`. Loads are interpolated linearly at
+    grid of :func:`marker_rest_positions`. Loads are averaged over each frame's
+    exposure (``profile.exposure_fraction`` of the frame period) centred on
     ``t_frames`` [s] (the loads' time axis starts at 0).
     """
     profile = get_sensor_profile(profile)
@@ -160,7 +182,7 @@ def marker_positions(
     if t_frames.ndim != 1 or not np.all(np.isfinite(t_frames)):
         raise LiquidTouchError("t_frames must be a 1-D array of finite times in seconds")
     rest = marker_rest_positions(profile) if rest_px is None else np.asarray(rest_px, float)
-    shear, twist = _loads_at(loads, t_frames)
+    shear, twist = _loads_at(loads, t_frames, profile.exposure_fraction / profile.fps)
     geom = contact_geometry(loads, profile)
     out = np.empty((2, len(t_frames), len(rest), 2))
     for s in range(2):

@@ -79,6 +79,10 @@ class SensorProfile:
     """Probability that a frame is dropped."""
     rate_factor: float = 0.985
     """Real frame rate / nominal (real sensors run a little slow)."""
+    exposure_fraction: float = 0.9
+    """Exposure time / frame period. Each frame shows the marker motion averaged over
+    its exposure (motion blur), so arm vibration near a multiple of the frame rate
+    is attenuated before it aliases into the slosh band, as in a real camera."""
 
     @property
     def shape(self) -> tuple[int, int, int]:
