@@ -49,9 +49,10 @@ def test_features_match_truth_and_bad_trial_is_reported(dataset: Path, tmp_path:
     table = extract_features(root, jobs=1, progress=False).set_index("trial")
     good = table.loc[[name for name, *_ in TRIALS]]
     assert (good["error"] == "").all()
-    np.testing.assert_allclose(good["angular_frequency"], good["true_angular_frequency"], rtol=0.03)
-    # amplitude-dependent damping makes the measured decay faster than the small-amplitude truth
-    np.testing.assert_allclose(good["decay_rate"], good["true_decay_rate"], rtol=0.6)
+    np.testing.assert_allclose(good["angular_frequency"], good["true_angular_frequency"], rtol=0.01)
+    # seeded variability, 9 s Mini videos: measured -4 %, +6 %, +18 % (water at a high fill
+    # decays so slowly that the early non-linear damping weighs on the fit)
+    np.testing.assert_allclose(good["decay_rate"], good["true_decay_rate"], rtol=0.25)
     assert good["decay_rate"].iloc[1] > 3 * good["decay_rate"].iloc[0]  # olive oil damps more
     assert good["explained_variance"].min() > 0.8
     bad = table.loc["b/corrupt"]

@@ -76,3 +76,18 @@ def test_errors():
     still.positions[:] = still.reference
     with pytest.raises(SignalError, match="do not move"):
         tactile_signal([still])
+
+
+def test_free_decay_starts_at_the_push_not_at_the_end_of_a_slip_drift():
+    from liquidtouch.segment import free_decay, free_decay_start
+
+    t = np.arange(0, 13, 1 / 30)
+    ring = np.where(t >= 1.2, np.exp(-3.5 * (t - 1.2)) * np.cos(15.0 * (t - 1.2)), 0.0)
+    drift = 0.12 * np.clip(t - 1.2, 0, None)  # slip: ends 1.4 above rest, the push went 1.0
+    u = ring + drift
+    start = free_decay_start(t, u)
+    assert abs(t[start] - 1.2) < 1.5 / 30
+    t_free, u_free = free_decay(t, u)
+    assert t_free[0] == t[start] and len(u_free) == len(t) - start
+    # without drift the filter does not move the peak either
+    assert free_decay_start(t, ring) == start
