@@ -12,6 +12,7 @@ DEFAULT_JOBS = max(1, min(2, os.cpu_count() or 1))
 
 def _print_summary(reproduction) -> None:
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
     table = Table(title="liquidtouch reproduction: ours vs the paper")
@@ -19,7 +20,8 @@ def _print_summary(reproduction) -> None:
         table.add_column(column, justify="left" if column in ("experiment", "metric") else "right")
     for row in reproduction.summary.itertuples(index=False):
         paper = "" if row.paper != row.paper else f"{row.paper:.3g}"
-        table.add_row(row.experiment, row.metric, f"{row.ours:.3g}", paper, row.unit)
+        # metrics carry units in brackets ("h [mm]"), which rich would read as markup
+        table.add_row(row.experiment, escape(row.metric), f"{row.ours:.3g}", paper, row.unit)
     console = Console()
     console.print(table)
     console.print(
