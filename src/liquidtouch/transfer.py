@@ -22,6 +22,9 @@ from liquidtouch.properties import check_features, single_threaded_blas
 from liquidtouch.property_model import FeatureMap, PropertyModel
 
 MIN_TUNE_ROWS = 4  # four parameters (α1, α2, β1, β2)
+START_ALPHA1 = (0.5, 1.0, 2.0)  # decay-rate scales tried as starts (walls damp differently)
+START_BETA1 = (0.8, 0.9, 1.0, 1.1, 1.25)  # frequency scales tried (other lengths, shapes)
+N_REFINED_STARTS = 3
 
 
 @dataclass
@@ -104,11 +107,27 @@ def fit_transfer(
             t: float(np.mean(np.abs(model.regressors[t].predict(Xm) - y))) for t, y in ys.items()
         }
 
+    def cost(r: np.ndarray) -> float:  # soft-L1, as least_squares minimises it
+        return float(np.sum(2.0 * f_scale**2 * (np.sqrt(1.0 + (r / f_scale) ** 2) - 1.0)))
+
+    # A new container can sit far from A in (λ, ω), where model A is flat (a GPR
+    # reverts to its mean away from its data) and a start at the identity stalls:
+    # refine the best few of a grid of starts.
+    starts = [identity] + [
+        np.array([a1, 0.0, b1, 0.0])
+        for a1 in START_ALPHA1
+        for b1 in START_BETA1
+        if (a1, b1) != (1.0, 1.0)
+    ]
     with single_threaded_blas():
-        result = least_squares(
-            residuals, identity, loss="soft_l1", f_scale=f_scale, x_scale=units, method="trf"
-        )
-    theta = result.x
+        ranked = sorted(starts, key=lambda theta: cost(residuals(theta)))[:N_REFINED_STARTS]
+        fits = [
+            least_squares(
+                residuals, start, loss="soft_l1", f_scale=f_scale, x_scale=units, method="trf"
+            )
+            for start in ranked
+        ]
+    theta = min(fits, key=lambda fit: fit.cost).x
     new_map = FeatureMap((float(theta[0]), float(theta[1])), (float(theta[2]), float(theta[3])))
     transferred = PropertyModel(regressors=model.regressors, feature_map=inner.then(new_map))
     return TransferResult(
