@@ -65,8 +65,10 @@ def run(source_model, cuboid: pd.DataFrame, out_dir: Path) -> ExperimentResult:
         ax.set_xlabel("cuboid trials used")
         ax.set_ylabel(f"test MAE {TARGETS[t]}")
         ax.set_yscale("log")
-    axes[0].legend(fontsize=8)
+    # one legend under the panels: inside a panel it covered the curves and the next axis label
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="lower center", ncol=3, fontsize=8)
     fig.suptitle("Container transfer grooved cuboid → cuboid")
+    fig.subplots_adjust(bottom=0.22, wspace=0.3)
     headlines = []
     at15 = table[(table["n tuning"] == 15)].set_index("method") if len(table) else pd.DataFrame()
     for method in ("transfer", "scratch"):
