@@ -138,8 +138,56 @@ def test_report_is_complete_and_self_contained(report) -> None:
         assert (out / figure).is_file()
 
 
+def test_an_experiment_the_data_cannot_support_is_reported_not_fatal(features, tmp_path) -> None:
+    classes = features["classification"]["gelsight"]
+    few = classes.groupby(["liquid", "split"]).head(2)  # 2 training trials per liquid
+    thin = {
+        **features,
+        "classification": {"gelsight": few, "wrench": features["classification"]["wrench"]},
+    }
+    results = run_experiments(thin, tmp_path)
+    titles = [r.title for r in results]
+    assert titles[0] == "1. Liquid classification (not run)"
+    assert "at least 3 rows per class" in results[0].summary
+    assert sum(title.endswith("(not run)") for title in titles) == 2  # 1 and 2 (the GelSight part)
+    assert results[2].headlines  # sugar water and the rest still ran
+
+
 def test_failure_note_counts_per_dataset() -> None:
     ok = pd.DataFrame({"error": ["", ""]})
     bad = pd.DataFrame({"error": ["", FAILED, FAILED]})
     note = failure_note({"sugar": {"gelsight": ok}, "containers": {"gelsight": bad}})
     assert note.startswith("Trials: sugar 2 trials; containers 3 trials (2 without features")
+
+
+@pytest.mark.slow
+def test_reproduce_end_to_end_through_videos(tmp_path, monkeypatch) -> None:
+    """The quick reproduction at a few trials per group: videos → … → report, then reused."""
+    import liquidtouch.sim.presets as presets
+    from liquidtouch.experiments.reproduce import reproduce
+
+    sizes = {
+        "classification": (3, 1),  # the classifier needs 3 trials per liquid
+        "sugar": (8, 2),  # the quadratic model needs 7
+        "other-liquids": (0, 1),
+        "containers": (6, 1),
+    }
+    monkeypatch.setattr(presets, "QUICK_SIZES", {**presets.QUICK_SIZES, **sizes})
+    first = reproduce(tmp_path, quick=True, jobs=2, progress=False)
+    page = first.report_html.read_text()
+    assert (
+        "Trials: classification 12 trials; sugar 10 trials; other-liquids 3 trials; containers"
+        in page
+    )
+    assert "without features, e.g." not in page and "(not run)" not in page
+    summary = first.summary.set_index("metric")["ours"]
+    assert summary["test accuracy"] == pytest.approx(100.0)  # water / olive oil / detergent
+    assert summary["gpr test MAE h [mm]"] < 3.0  # 8 training trials spanning 16-40 mm
+    features = pd.read_csv(tmp_path / "data/quick/sugar/features.csv")
+    np.testing.assert_allclose(
+        features["angular_frequency"], features["true_angular_frequency"], rtol=0.01
+    )
+    # a second run reuses the simulated data and the cached features
+    again = reproduce(tmp_path, quick=True, jobs=1, progress=False)
+    assert "simulated in an earlier run" in again.report_md.read_text()
+    pd.testing.assert_frame_equal(again.summary, first.summary)

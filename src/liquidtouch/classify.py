@@ -18,8 +18,11 @@ from liquidtouch.errors import TableError
 from liquidtouch.properties import _scale, check_features
 
 MIN_ROWS_PER_CLASS = 3
-C_GRID = (0.1, 1.0, 10.0, 100.0, 1000.0)
-GAMMA_GRID = (0.1, 0.3, 1.0, 3.0, 10.0)
+# Moderate values first: on a tie of cross-validated accuracy (small, well-separated
+# training sets score 100 % everywhere) the first is taken, and the most regularised
+# corner (C = 0.1, γ = 0.1) underfits so much that it misclassifies its own training data.
+C_GRID = (10.0, 1.0, 100.0, 0.1, 1000.0)
+GAMMA_GRID = (1.0, 0.3, 3.0, 0.1, 10.0)
 
 
 class LiquidClassifier:

@@ -59,7 +59,8 @@ def run(tables: dict[str, pd.DataFrame], out_dir: Path) -> ExperimentResult:
     ax.set_xlabel("training points")
     ax.set_ylabel("test MAE of c [g / 100 g water]")
     ax.set_title("Data efficiency")
-    ax.legend(fontsize=7)
+    if rows:  # no container had the 10 training trials of the first point
+        ax.legend(fontsize=7)
     table = pd.DataFrame(rows)
     return ExperimentResult(
         "data_efficiency",

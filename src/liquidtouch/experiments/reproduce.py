@@ -9,12 +9,14 @@ tables. Re-running reuses what is there.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
 
 from liquidtouch.dataset import MANIFEST_NAME
+from liquidtouch.errors import LiquidTouchError
 from liquidtouch.experiments import (
     classification,
     containers,
@@ -85,28 +87,54 @@ def run_experiments(
     """The seven experiments on feature tables (``features[preset]["gelsight" | "wrench"]``).
 
     ``features`` needs the presets of :data:`DATASETS`; ``classification`` also
-    its ``wrench`` table. Figures and tables go to ``out_dir``.
+    its ``wrench`` table. Figures and tables go to ``out_dir``. An experiment
+    the data cannot support (too few usable trials) is reported as not run,
+    with the reason, and the others still run.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     sugar_table = features["sugar"]["gelsight"]
     container_table = features["containers"]["gelsight"]
     classes = features["classification"]
-    results = [
-        classification.run(classes["gelsight"], out),
-        force_torque.run(classes["gelsight"], classes["wrench"], out),
-    ]
-    sugar_result, sugar_gpr = sugar.run(sugar_table, out)
-    results.append(sugar_result)
-    results.append(other_liquids.run(sugar_gpr, features["other-liquids"]["gelsight"], out))
-    results.append(containers.run(container_table, out))
     per_container = {"grooved-cuboid": sugar_table}
     per_container.update(
         {name: part for name, part in container_table.groupby("container", sort=False)}
     )
-    results.append(data_efficiency.run(per_container, out))
     cuboid = container_table[container_table["container"] == "cuboid"]
-    results.append(transfer.run(sugar_gpr, cuboid, out))
+    sugar_gpr = None
+
+    def run_sugar() -> ExperimentResult:
+        nonlocal sugar_gpr
+        result, sugar_gpr = sugar.run(sugar_table, out)
+        return result
+
+    def with_sugar_model(run, *args) -> Callable[[], ExperimentResult]:
+        def attempt() -> ExperimentResult:
+            if sugar_gpr is None:
+                raise LiquidTouchError("it needs the sugar-water model of experiment 3")
+            return run(sugar_gpr, *args, out)
+
+        return attempt
+
+    experiments = [
+        ("classification", "1. Liquid classification",
+         lambda: classification.run(classes["gelsight"], out)),
+        ("force_torque", "2. GelSight vs wrist force-torque sensor",
+         lambda: force_torque.run(classes["gelsight"], classes["wrench"], out)),
+        ("sugar", "3. Sugar water", run_sugar),
+        ("other_liquids", "4. Olive oil, corn oil, mirin",
+         with_sugar_model(other_liquids.run, features["other-liquids"]["gelsight"])),
+        ("containers", "5. Other containers", lambda: containers.run(container_table, out)),
+        ("data_efficiency", "6. Data efficiency",
+         lambda: data_efficiency.run(per_container, out)),
+        ("transfer", "7. Container transfer", with_sugar_model(transfer.run, cuboid)),
+    ]  # fmt: skip
+    results = []
+    for key, title, run in experiments:
+        try:
+            results.append(run())
+        except LiquidTouchError as exc:
+            results.append(ExperimentResult(key, f"{title} (not run)", f"Not run: {exc}."))
     return results
 
 
