@@ -94,7 +94,7 @@ def detect_markers(image: np.ndarray, diameter_px: float | None = None) -> Detec
     ``diameter_px`` is estimated from the image when not given. Markers cut by
     the image border are kept; their centroid is that of the visible part.
     """
-    image = _grey(image)
+    image = as_grey(image)
     height, width = image.shape
     if diameter_px is None:
         # A first pass with a generous background scale measures the marker size.
@@ -124,7 +124,8 @@ def window_half_size(diameter_px: float) -> int:
     return int(np.ceil(0.8 * diameter_px)) + 2
 
 
-def _grey(image: np.ndarray) -> np.ndarray:
+def as_grey(image: np.ndarray) -> np.ndarray:
+    """A 2-D ``uint8`` grey image from a grey or colour (channel mean) array."""
     image = np.asarray(image)
     if image.ndim == 3:
         image = image.mean(axis=2)

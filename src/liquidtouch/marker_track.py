@@ -6,7 +6,7 @@ import numpy as np
 
 from liquidtouch.errors import MarkerError
 from liquidtouch.marker_centroid import THRESHOLD_FRACTION, refine_centroids
-from liquidtouch.marker_detect import _grey, detect_markers, window_half_size
+from liquidtouch.marker_detect import as_grey, detect_markers, window_half_size
 
 MIN_MARKERS = 4
 
@@ -45,7 +45,7 @@ class MarkerTracker:
         """Detect the markers of the first frame; return their positions (N, 2)."""
         from scipy.spatial import cKDTree
 
-        image = _grey(image)
+        image = as_grey(image)
         found = detect_markers(image, self.diameter_px)
         if len(found.positions) == 0:
             raise MarkerError(
@@ -75,7 +75,7 @@ class MarkerTracker:
 
     def step(self, image: np.ndarray) -> np.ndarray:
         """Track into the next frame; return positions (N, 2), NaN for lost markers."""
-        image = _grey(image)
+        image = as_grey(image)
         current = self.current
         guess = 2.0 * current - self.previous  # constant velocity; NaN when lost
         fresh = np.isnan(guess[:, 0]) & ~np.isnan(current[:, 0])  # just re-acquired

@@ -37,7 +37,7 @@ from liquidtouch.errors import MarkerError
 from liquidtouch.marker_centroid import THRESHOLD_FRACTION, Refined, refine_centroids
 from liquidtouch.marker_detect import (
     Detections,
-    _grey,
+    as_grey,
     background,
     detect_markers,
     window_half_size,
@@ -121,7 +121,7 @@ def track_markers(
     first = None
     for k, (t_s, image) in enumerate(frames):
         if k == 0:
-            first = _grey(image)
+            first = as_grey(image)
             rows.append(tracker.start(first).copy())
         else:
             rows.append(tracker.step(image))

@@ -81,6 +81,23 @@ def failure_note(features: dict[str, dict[str, pd.DataFrame]]) -> str:
     return "Trials: " + "; ".join(parts) + "."
 
 
+def _not_run(key: str, title: str, reason: Exception) -> ExperimentResult:
+    return ExperimentResult(key, f"{title} (not run)", f"Not run: {reason}.")
+
+
+def _attempt(key: str, title: str, run: Callable[..., ExperimentResult], *args) -> ExperimentResult:
+    """``run(*args)``, or a "not run" result saying why when the data cannot support it.
+
+    An argument ``None`` is the sugar-water model of an experiment 3 that did not run.
+    """
+    try:
+        if any(arg is None for arg in args):
+            raise LiquidTouchError("it needs the sugar-water model of experiment 3")
+        return run(*args)
+    except LiquidTouchError as exc:
+        return _not_run(key, title, exc)
+
+
 def run_experiments(
     features: dict[str, dict[str, pd.DataFrame]], out_dir: str | Path
 ) -> list[ExperimentResult]:
@@ -101,40 +118,26 @@ def run_experiments(
         {name: part for name, part in container_table.groupby("container", sort=False)}
     )
     cuboid = container_table[container_table["container"] == "cuboid"]
-    sugar_gpr = None
 
-    def run_sugar() -> ExperimentResult:
-        nonlocal sugar_gpr
-        result, sugar_gpr = sugar.run(sugar_table, out)
-        return result
-
-    def with_sugar_model(run, *args) -> Callable[[], ExperimentResult]:
-        def attempt() -> ExperimentResult:
-            if sugar_gpr is None:
-                raise LiquidTouchError("it needs the sugar-water model of experiment 3")
-            return run(sugar_gpr, *args, out)
-
-        return attempt
-
-    experiments = [
-        ("classification", "1. Liquid classification",
-         lambda: classification.run(classes["gelsight"], out)),
-        ("force_torque", "2. GelSight vs wrist force-torque sensor",
-         lambda: force_torque.run(classes["gelsight"], classes["wrench"], out)),
-        ("sugar", "3. Sugar water", run_sugar),
-        ("other_liquids", "4. Olive oil, corn oil, mirin",
-         with_sugar_model(other_liquids.run, features["other-liquids"]["gelsight"])),
-        ("containers", "5. Other containers", lambda: containers.run(container_table, out)),
-        ("data_efficiency", "6. Data efficiency",
-         lambda: data_efficiency.run(per_container, out)),
-        ("transfer", "7. Container transfer", with_sugar_model(transfer.run, cuboid)),
+    results = [
+        _attempt("classification", "1. Liquid classification", classification.run,
+                 classes["gelsight"], out),
+        _attempt("force_torque", "2. GelSight vs wrist force-torque sensor", force_torque.run,
+                 classes["gelsight"], classes["wrench"], out),
     ]  # fmt: skip
-    results = []
-    for key, title, run in experiments:
-        try:
-            results.append(run())
-        except LiquidTouchError as exc:
-            results.append(ExperimentResult(key, f"{title} (not run)", f"Not run: {exc}."))
+    sugar_gpr = None  # experiments 4 and 7 reuse experiment 3's model
+    try:
+        sugar_result, sugar_gpr = sugar.run(sugar_table, out)
+    except LiquidTouchError as exc:
+        sugar_result = _not_run("sugar", "3. Sugar water", exc)
+    results += [
+        sugar_result,
+        _attempt("other_liquids", "4. Olive oil, corn oil, mirin", other_liquids.run,
+                 sugar_gpr, features["other-liquids"]["gelsight"], out),
+        _attempt("containers", "5. Other containers", containers.run, container_table, out),
+        _attempt("data_efficiency", "6. Data efficiency", data_efficiency.run, per_container, out),
+        _attempt("transfer", "7. Container transfer", transfer.run, sugar_gpr, cuboid, out),
+    ]  # fmt: skip
     return results
 
 

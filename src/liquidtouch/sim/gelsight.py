@@ -28,7 +28,7 @@ import numpy as np
 
 from liquidtouch.atomic import atomic_path
 from liquidtouch.errors import DatasetError, LiquidTouchError
-from liquidtouch.sim.encode import PTS_RATE_HZ
+from liquidtouch.sim.encode import PTS_RATE_HZ, X264_PARAMS
 from liquidtouch.sim.loads import FingerLoads
 from liquidtouch.sim.sensors import SensorProfile, get_sensor_profile
 
@@ -133,14 +133,16 @@ def contact_geometry(loads: FingerLoads, profile: SensorProfile | str) -> Contac
 
 
 def _loads_at(
-    loads: FingerLoads, t_frames: np.ndarray, exposure_s: float = 0.0
+    loads: FingerLoads, profile: SensorProfile, t_frames: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Shear (T, 2, 2) [N] and twist (T, 2) [N·mm] at ``t_frames``, averaged over the exposure.
+    """Shear (T, 2, 2) [N] and twist (T, 2) [N·mm] seen by the frames at ``t_frames`` [s].
 
-    The camera integrates light over ``exposure_s`` centred on each frame time, so a
-    frame sees the mean load over that window (the integral of the linearly
-    interpolated loads, exact on their grid); ``0`` samples the loads instantly.
+    The camera integrates light over its exposure (``profile.exposure_fraction``
+    of the frame period) centred on each frame time, so a frame sees the mean
+    load over that window (the integral of the linearly interpolated loads, exact
+    on their grid); an exposure of 0 samples the loads instantly.
     """
+    exposure_s = profile.exposure_fraction / profile.fps
     t = np.asarray(loads.t_s, dtype=float)
     channels = np.column_stack(
         [
@@ -182,7 +184,7 @@ def marker_positions(
     if t_frames.ndim != 1 or not np.all(np.isfinite(t_frames)):
         raise LiquidTouchError("t_frames must be a 1-D array of finite times in seconds")
     rest = marker_rest_positions(profile) if rest_px is None else np.asarray(rest_px, float)
-    shear, twist = _loads_at(loads, t_frames, profile.exposure_fraction / profile.fps)
+    shear, twist = _loads_at(loads, profile, t_frames)
     geom = contact_geometry(loads, profile)
     out = np.empty((2, len(t_frames), len(rest), 2))
     for s in range(2):
@@ -205,7 +207,7 @@ def contact_offsets(
 ) -> np.ndarray:
     """Displacement of each contact centre (where the imprint moves), (2, T, 2) [px]."""
     profile = get_sensor_profile(profile)
-    shear, _ = _loads_at(loads, np.asarray(t_frames, dtype=float))
+    shear, _ = _loads_at(loads, profile, np.asarray(t_frames, dtype=float))  # as the markers
     return np.stack(
         [
             profile.shear_compliance_px_per_n
@@ -261,7 +263,7 @@ def write_sensor_videos(
     jitter: bool = True,
     noise: bool = True,
     progress: bool = False,
-    x264_params: str | None = None,
+    x264_params: str = X264_PARAMS,
 ) -> SensorRecording:
     """Render both sensors' videos for ``loads`` into ``out_dir``.
 
@@ -277,7 +279,7 @@ def write_sensor_videos(
     ``x264_params`` overrides the encoder options (default
     :data:`liquidtouch.sim.encode.X264_PARAMS`; ``""`` gives x264's lossy defaults).
     """
-    from liquidtouch.sim.encode import X264_PARAMS, encode_video
+    from liquidtouch.sim.encode import encode_video
     from liquidtouch.sim.render import iter_frames, make_background
 
     profile = get_sensor_profile(sensor)
@@ -320,7 +322,7 @@ def write_sensor_videos(
             timestamps,
             profile.fps,
             n_frames=len(timestamps),
-            x264_params=X264_PARAMS if x264_params is None else x264_params,
+            x264_params=x264_params,
             progress_label=f"rendering {name}" if progress else None,
         )
     with atomic_path(out_dir / "truth_tracks.npz") as tmp, open(tmp, "wb") as fh:

@@ -14,6 +14,7 @@ import numpy as np
 
 from liquidtouch import atomic
 from liquidtouch.dataset import TrialMeta, write_trial_meta
+from liquidtouch.sim.encode import X264_PARAMS
 from liquidtouch.sim.trial import CAMERA_FPS, WRENCH_COLUMNS, SimulatedTrial
 from liquidtouch.wrench import WRENCH_NAME
 
@@ -68,7 +69,7 @@ def write_trial(
     *,
     video: bool = True,
     sensor: str = "default",
-    x264_params: str | None = None,
+    x264_params: str = X264_PARAMS,
 ) -> Path:
     """Write ``trial`` into ``out_dir`` (created if needed); return the directory.
 
