@@ -34,7 +34,7 @@ def _cpu_seconds() -> float:
 
 def decode_only(path: Path) -> tuple[float, float]:
     """(wall s, process CPU s) to decode the grey frames (PyAV, threaded decoder)."""
-    from liquidtouch.frames import iter_video
+    from liquidtouch.io.frames import iter_video
 
     start, cpu = time.perf_counter(), time.process_time()
     for _ in iter_video(path):
@@ -43,8 +43,8 @@ def decode_only(path: Path) -> tuple[float, float]:
 
 
 def ours(path: Path):
-    from liquidtouch.frames import iter_video
-    from liquidtouch.markers import track_markers
+    from liquidtouch.io.frames import iter_video
+    from liquidtouch.tracking.tracks import track_markers
 
     start, cpu = time.perf_counter(), time.process_time()
     tracks = track_markers(iter_video(path), path.stem)
@@ -54,7 +54,7 @@ def ours(path: Path):
 def lucas_kanade(path: Path, start_px: np.ndarray):
     import cv2
 
-    from liquidtouch.frames import iter_video
+    from liquidtouch.io.frames import iter_video
 
     start = time.perf_counter()
     frames = iter_video(path)
@@ -86,8 +86,8 @@ def main() -> None:
     parser.add_argument("--trials", type=int, default=6)
     args = parser.parse_args()
 
-    from liquidtouch.dataset import write_manifest
-    from liquidtouch.features import extract_features
+    from liquidtouch.batch.features import extract_features
+    from liquidtouch.io.dataset import write_manifest
     from liquidtouch.sim.trial import simulate_trial
     from liquidtouch.sim.trial_io import write_trial
 

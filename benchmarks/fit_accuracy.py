@@ -15,9 +15,9 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import curve_fit
 
-from liquidtouch import oscillation_model as om
 from liquidtouch.errors import LiquidTouchError
-from liquidtouch.oscillation import fit_oscillation
+from liquidtouch.fit import model as om
+from liquidtouch.fit.oscillation import fit_oscillation
 
 FPS, DURATION_S = 30.0, 13.0
 T = np.arange(round(FPS * DURATION_S)) / FPS

@@ -33,8 +33,8 @@ from properties_synthetic import (
     sugar_table,
 )
 
-from liquidtouch.property_model import train_regression
-from liquidtouch.transfer import fit_transfer
+from liquidtouch.models.property_model import train_regression
+from liquidtouch.models.transfer import fit_transfer
 
 FEATURES = ["decay_rate", "angular_frequency"]
 TARGETS = ["height_mm", "sugar_concentration", "log10_viscosity_cst"]
@@ -172,7 +172,7 @@ def _plot(png: Path, sizes, c_curves: dict, h_curves: dict, xlabel: str, title: 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from liquidtouch import atomic
+    from liquidtouch.io import atomic
 
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.6))
     for ax, curves, ylabel in (

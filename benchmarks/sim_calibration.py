@@ -25,7 +25,7 @@ from sklearn.linear_model import LinearRegression
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
-from liquidtouch.oscillation import fit_oscillation
+from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.sim.presets import get_preset
 from liquidtouch.sim.trial import simulate_trial
 

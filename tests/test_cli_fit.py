@@ -9,8 +9,8 @@ import pytest
 
 from liquidtouch.cli import main
 from liquidtouch.errors import TableError
-from liquidtouch.oscillation import EXAMPLE_PARAMETERS, example_signal
-from liquidtouch.signal_io import read_signal_csv, write_signal_csv
+from liquidtouch.fit.oscillation import EXAMPLE_PARAMETERS, example_signal
+from liquidtouch.io.signal_csv import read_signal_csv, write_signal_csv
 
 KEYS = (
     "decay_rate",

@@ -10,7 +10,7 @@ import pytest
 
 from liquidtouch.cli import main
 from liquidtouch.errors import VideoError
-from liquidtouch.frames import iter_video
+from liquidtouch.io.frames import iter_video
 from tests.test_markers import grid, render_blobs
 
 LAM, OMEGA = 0.7, 2 * np.pi * 1.2

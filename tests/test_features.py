@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from liquidtouch.batch.features import CACHE_DIR, extract_features
 from liquidtouch.cli import main
-from liquidtouch.dataset import write_manifest
-from liquidtouch.features import CACHE_DIR, extract_features
+from liquidtouch.io.dataset import write_manifest
 
 TRIALS = [  # (name, liquid, height_mm, seed)
     ("a/water_h20", "water", 20.0, 1),

@@ -7,10 +7,10 @@ import json
 import pytest
 
 import liquidtouch
-from liquidtouch import atomic
 from liquidtouch.cli import main
-from liquidtouch.dataset import TrialMeta, read_trial_meta, write_trial_meta
 from liquidtouch.errors import DatasetError
+from liquidtouch.io import atomic
+from liquidtouch.io.dataset import TrialMeta, read_trial_meta, write_trial_meta
 
 
 def test_version(capsys: pytest.CaptureFixture[str]) -> None:
@@ -50,7 +50,7 @@ def test_trial_meta_round_trip_and_errors(tmp_path) -> None:
 
 
 def test_manifest_round_trip_and_validation(tmp_path) -> None:
-    from liquidtouch.dataset import read_manifest, write_manifest
+    from liquidtouch.io.dataset import read_manifest, write_manifest
 
     rows = [
         {"trial": "train/t000", "liquid": "water", "height_mm": 16.0, "split": "train"},

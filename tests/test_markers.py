@@ -10,7 +10,7 @@ from scipy.spatial import cKDTree
 from scipy.special import erf
 
 from liquidtouch.errors import MarkerError
-from liquidtouch.markers import (
+from liquidtouch.tracking.tracks import (
     MarkerTracks,
     detect_markers,
     load_tracks,
@@ -56,7 +56,7 @@ def test_detect_subpixel_without_grid_size():
 
 def test_detect_on_a_simulated_frame_with_a_contact_imprint(tmp_path):
     """Regression: this trial's contact imprint once set the marker scale and hid every marker."""
-    from liquidtouch.frames import iter_video
+    from liquidtouch.io.frames import iter_video
     from liquidtouch.sim.trial import simulate_trial
     from liquidtouch.sim.trial_io import write_trial
 
@@ -174,7 +174,7 @@ def test_tracks_npz_round_trip(tmp_path):
 
 @pytest.mark.skipif(not REAL.is_dir(), reason="../shared real recordings absent")
 def test_real_gelsight_mini_press():
-    from liquidtouch.frames import iter_video
+    from liquidtouch.io.frames import iter_video
 
     tracks = track_markers(iter_video(REAL / "gelsight_mini_press.avi"), "mini")
     assert tracks.n_markers >= 78  # ~80 (10x8 grid; the top row is cut by the border)
@@ -218,7 +218,7 @@ def test_real_fots_labels(name):
 
 @pytest.mark.skipif(not REAL.is_dir(), reason="../shared real recordings absent")
 def test_real_gelsight_mini_press_no_loss_in_view():
-    from liquidtouch.frames import iter_video
+    from liquidtouch.io.frames import iter_video
 
     tracks = track_markers(iter_video(REAL / "gelsight_mini_press.avi"), "mini")
     # Through the press: a marker is lost only at the image border (out of view), never inside.
@@ -232,7 +232,7 @@ def test_real_gelsight_mini_press_no_loss_in_view():
 @pytest.mark.skipif(not REAL.is_dir(), reason="../shared real recordings absent")
 def test_real_gelsight_mini_press_at_a_third_of_the_frame_rate():
     """Margin: every third frame (up to ~10 px per step) gives the same tracks, no swap, no loss."""
-    from liquidtouch.frames import iter_video
+    from liquidtouch.io.frames import iter_video
 
     frames = list(iter_video(REAL / "gelsight_mini_press.avi"))
     full = track_markers(frames, "mini").positions[::3]

@@ -9,8 +9,13 @@ import pytest
 from properties_synthetic import PAPER_CONCENTRATIONS, PAPER_HEIGHTS_MM, liquid_table, sugar_table
 
 from liquidtouch.errors import ModelFileError
-from liquidtouch.modelfile import load_model, model_to_dict, save_model
-from liquidtouch.property_model import FeatureMap, PropertyModel, train_classifier, train_regression
+from liquidtouch.models.modelfile import load_model, model_to_dict, save_model
+from liquidtouch.models.property_model import (
+    FeatureMap,
+    PropertyModel,
+    train_classifier,
+    train_regression,
+)
 
 FEATURES = ["decay_rate", "angular_frequency"]
 

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from liquidtouch.errors import NoOscillationError, SignalError
-from liquidtouch.oscillation import (
+from liquidtouch.fit.oscillation import (
     EXAMPLE_PARAMETERS,
     OscillationFit,
     example_signal,

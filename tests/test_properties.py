@@ -15,17 +15,17 @@ from properties_synthetic import (
     sugar_table,
 )
 
-from liquidtouch.classify import LiquidClassifier
 from liquidtouch.errors import TableError
-from liquidtouch.physics_prior import (
+from liquidtouch.models.classifier import LiquidClassifier
+from liquidtouch.models.physics_prior import (
     PhysicsGPRegressor,
     dispersion_height_mm,
     fit_wavenumber,
     prior_for_target,
 )
-from liquidtouch.properties import GPRegressor, QuadraticRegressor
-from liquidtouch.property_model import FeatureMap, train_classifier, train_regression
-from liquidtouch.transfer import fit_transfer
+from liquidtouch.models.property_model import FeatureMap, train_classifier, train_regression
+from liquidtouch.models.regressors import GPRegressor, QuadraticRegressor
+from liquidtouch.models.transfer import fit_transfer
 
 FEATURES = ["decay_rate", "angular_frequency"]
 TARGETS = ["height_mm", "sugar_concentration", "log10_viscosity_cst"]

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from liquidtouch.errors import MarkerError, SignalError
-from liquidtouch.markers import MarkerTracks
-from liquidtouch.oscillation import fit_oscillation
+from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.signal import lowpass, tactile_signal, uniform_clock
+from liquidtouch.tracking.tracks import MarkerTracks
 
 LAM, OMEGA = 0.6, 2 * np.pi * 1.3
 

@@ -15,7 +15,7 @@ from scipy.signal import butter, sosfiltfilt
 
 from liquidtouch.sim.trial import simulate_trial
 
-oscillation = pytest.importorskip("liquidtouch.oscillation")
+oscillation = pytest.importorskip("liquidtouch.fit.oscillation")
 
 
 def _fit(trial):

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from liquidtouch.cli import main
-from liquidtouch.dataset import read_trial_meta
 from liquidtouch.errors import CatalogueError
+from liquidtouch.io.dataset import read_trial_meta
 from liquidtouch.sim.liquids import get_liquid
 from liquidtouch.sim.presets import TrialSpec, get_preset, preset_names, simulate_dataset
 from liquidtouch.sim.trial import simulate_trial

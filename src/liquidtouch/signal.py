@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from liquidtouch.errors import MarkerError, SignalError
-from liquidtouch.markers import MarkerTracks
+from liquidtouch.tracking.tracks import MarkerTracks
 
 MIN_SELECTED = 2
 

@@ -12,27 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from liquidtouch.errors import SignalError, TableError
-
-WRENCH_NAME = "wrench.csv"
-FORCE_CHANNELS = ("fx_n", "fy_n", "fz_n")
-
-
-def read_wrench_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
-    """Read ``wrench.csv``: time ``t_s`` [s] and the force channels [N] as an (n, 3) array."""
-    import pandas as pd
-
-    path = Path(path)
-    if not path.is_file():
-        raise TableError(f"{path} not found: the trial has no wrist force-torque recording")
-    table = pd.read_csv(path)
-    missing = [c for c in ("t_s", *FORCE_CHANNELS) if c not in table.columns]
-    if missing:
-        raise TableError(f"{path} lacks column(s) {', '.join(missing)}")
-    values = table[["t_s", *FORCE_CHANNELS]].to_numpy(dtype=float)
-    if not np.isfinite(values).all():
-        raise TableError(f"{path} holds NaN or infinite values")
-    return values[:, 0], values[:, 1:]
+from liquidtouch.errors import SignalError
+from liquidtouch.io.dataset import WRENCH_NAME, read_wrench_csv
 
 
 def wrench_signal(
@@ -53,7 +34,7 @@ def wrench_signal(
 
 def wrench_features(trial_dir: str | Path) -> dict[str, float]:
     """Feature row of a trial's wrist F/T signal (the same keys as the GelSight features)."""
-    from liquidtouch.oscillation import fit_oscillation
+    from liquidtouch.fit.oscillation import fit_oscillation
     from liquidtouch.segment import free_decay
 
     t_s, force_n = read_wrench_csv(Path(trial_dir) / WRENCH_NAME)

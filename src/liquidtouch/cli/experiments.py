@@ -51,7 +51,7 @@ def register(app: typer.Typer) -> None:
         Parallel, cached per trial (unchanged trials are not redone), resumable;
         a bad trial is recorded with its error and the others go on.
         """
-        from liquidtouch.features import extract_features
+        from liquidtouch.batch.features import extract_features
 
         table = extract_features(dataset, out=out, jobs=jobs, dask_address=dask, source=source)
         failed = table[table["error"].astype(str) != ""]

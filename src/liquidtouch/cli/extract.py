@@ -40,8 +40,8 @@ def extract(
     plus explained_variance, n_markers, fps and frames.
     """
     from liquidtouch.errors import SignalError
-    from liquidtouch.extract import extract as run_extract
-    from liquidtouch.extract import plot_extraction
+    from liquidtouch.extraction import extract as run_extract
+    from liquidtouch.extraction import plot_extraction
 
     if n_markers < 1:
         raise SignalError(f"--markers must be at least 1, got {n_markers}")
@@ -49,11 +49,11 @@ def extract(
         sources, lowpass_hz=lowpass_hz, n_markers=n_markers, fps=fps, progress=not as_json
     )
     if signal_out is not None:
-        from liquidtouch.signal_io import write_signal_csv
+        from liquidtouch.io.signal_csv import write_signal_csv
 
         write_signal_csv(signal_out, result.signal.t, result.signal.u)
     if tracks_out is not None:
-        from liquidtouch.markers import save_tracks
+        from liquidtouch.tracking.tracks import save_tracks
 
         save_tracks(tracks_out, result.tracks)
     if plot is not None:

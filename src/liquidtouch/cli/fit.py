@@ -44,7 +44,7 @@ def fit(
     ),
 ) -> None:
     """Fit u ≈ B e^{-λt}cos(ωt+ψ) + B' e^{-λ't}cos(ω't+ψ') + drift; print λ, ω and errors."""
-    from liquidtouch.oscillation import example_signal, fit_oscillation
+    from liquidtouch.fit.oscillation import example_signal, fit_oscillation
 
     if example == (signal is not None):
         raise SignalError("give either a SIGNAL.csv or --example (exactly one)")
@@ -52,7 +52,7 @@ def fit(
         t, u = example_signal()
         source = "built-in example signal"
     else:
-        from liquidtouch.signal_io import read_signal_csv
+        from liquidtouch.io.signal_csv import read_signal_csv
 
         t, u = read_signal_csv(signal)
         source = str(signal)
@@ -60,7 +60,7 @@ def fit(
         t, u, loss=loss, model=model, band_hz=(band_low_hz, band_high_hz), noise=noise
     )
     if plot is not None:
-        from liquidtouch.fitplot import plot_fit
+        from liquidtouch.fit.plot import plot_fit
 
         plot_fit(t, u, result, plot)
     if as_json:

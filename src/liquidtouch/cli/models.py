@@ -36,10 +36,10 @@ def train(
 ) -> None:
     """Train one regressor per --target on a features table and save them in one model file."""
     from liquidtouch.errors import TableError
-    from liquidtouch.features_io import numeric_column, read_feature_table
-    from liquidtouch.modelfile import save_model
+    from liquidtouch.io.tables import numeric_column, read_feature_table
+    from liquidtouch.models.modelfile import save_model
+    from liquidtouch.models.property_model import train_regression
     from liquidtouch.progress import progress_bar
-    from liquidtouch.property_model import train_regression
 
     if model not in MODEL_KINDS:
         raise TableError(f"unknown --model {model!r}; choose one of {', '.join(MODEL_KINDS)}")
@@ -73,9 +73,9 @@ def classify(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """Train the RBF-SVM liquid classifier (with class probabilities) and save it."""
-    from liquidtouch.features_io import label_column, read_feature_table
-    from liquidtouch.modelfile import save_model
-    from liquidtouch.property_model import train_classifier
+    from liquidtouch.io.tables import label_column, read_feature_table
+    from liquidtouch.models.modelfile import save_model
+    from liquidtouch.models.property_model import train_classifier
 
     table, X = read_feature_table(features)
     fitted = train_classifier(X, label_column(table, label), label=label)
@@ -112,9 +112,9 @@ def predict(
     ),
 ) -> None:
     """Predict properties (mean and std) or the liquid (with probabilities) for each row."""
-    from liquidtouch import atomic
-    from liquidtouch.features_io import read_prediction_input
-    from liquidtouch.modelfile import load_model
+    from liquidtouch.batch.inputs import read_prediction_input
+    from liquidtouch.io import atomic
+    from liquidtouch.models.modelfile import load_model
 
     fitted = load_model(model_file)
     table = read_prediction_input(input_path)
@@ -136,9 +136,9 @@ def transfer(
 ) -> None:
     """Fit f_B(λ, ω) = f_A(α1 λ + α2, β1 ω + β2) on a few trials of a new container."""
     from liquidtouch.errors import TableError
-    from liquidtouch.features_io import numeric_column, read_feature_table
-    from liquidtouch.modelfile import load_model, save_model
-    from liquidtouch.transfer import fit_transfer
+    from liquidtouch.io.tables import numeric_column, read_feature_table
+    from liquidtouch.models.modelfile import load_model, save_model
+    from liquidtouch.models.transfer import fit_transfer
 
     fitted = load_model(model_file)
     table, X = read_feature_table(tune)

@@ -25,7 +25,7 @@ def classify(table: pd.DataFrame) -> tuple[object, pd.DataFrame, float, int]:
     accuracy (a test trial whose features could not be extracted counts as
     wrong: the robot got no answer) and the number of such failed trials.
     """
-    from liquidtouch.property_model import train_classifier
+    from liquidtouch.models.property_model import train_classifier
 
     train = usable(split(table, "train"))
     test_all = split(table, "test")

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from liquidtouch import atomic
+from liquidtouch.io import atomic
 
 #: The regression targets of the paper and their short names in tables.
 TARGETS = {"height_mm": "h [mm]", "sugar_concentration": "c [wt%]", "log10_viscosity_cst": "μ"}

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from liquidtouch import atomic
+from liquidtouch.io import atomic
 
 
 @dataclass

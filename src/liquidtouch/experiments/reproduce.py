@@ -15,7 +15,6 @@ from pathlib import Path
 
 import pandas as pd
 
-from liquidtouch.dataset import MANIFEST_NAME
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.experiments import (
     classification,
@@ -27,6 +26,7 @@ from liquidtouch.experiments import (
     transfer,
 )
 from liquidtouch.experiments.report import ExperimentResult, summary_table, write_report
+from liquidtouch.io.dataset import MANIFEST_NAME
 
 DATASETS = ("classification", "sugar", "other-liquids", "containers")
 
@@ -45,7 +45,7 @@ def prepare_dataset(
     preset: str, root: Path, *, quick: bool, jobs: int, dask_address: str | None, progress: bool
 ) -> dict[str, pd.DataFrame]:
     """Simulate ``preset`` into ``root`` unless it is there; return its feature tables."""
-    from liquidtouch.features import extract_features
+    from liquidtouch.batch.features import extract_features
     from liquidtouch.sim.presets import simulate_dataset
 
     if not (root / MANIFEST_NAME).is_file():

@@ -23,7 +23,7 @@ PAPER_TEST = {
 
 def train_models(train: pd.DataFrame, kind: str, targets=tuple(TARGETS)):
     """One model of ``kind`` (gpr, quadratic, physics-gpr) for ``targets`` on ``train``."""
-    from liquidtouch.property_model import train_regression
+    from liquidtouch.models.property_model import train_regression
 
     return train_regression(X(train), {t: train[t].to_numpy(float) for t in targets}, model=kind)
 

@@ -23,7 +23,7 @@ REPEATS = 10  # random tuning draws per size: the quick set has few cuboid trial
 
 def run(source_model, cuboid: pd.DataFrame, out_dir: Path) -> ExperimentResult:
     """Transfer vs from-scratch test MAE on the cuboid for each tuning size."""
-    from liquidtouch.transfer import fit_transfer
+    from liquidtouch.models.transfer import fit_transfer
 
     start = time.perf_counter()
     cuboid = usable(cuboid)

@@ -26,8 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from liquidtouch.atomic import atomic_path
 from liquidtouch.errors import DatasetError, LiquidTouchError
+from liquidtouch.io.atomic import atomic_path
+from liquidtouch.io.dataset import TRUTH_TRACKS_NAME
 from liquidtouch.sim.encode import PTS_RATE_HZ, X264_PARAMS
 from liquidtouch.sim.loads import FingerLoads
 from liquidtouch.sim.sensors import SensorProfile, get_sensor_profile
@@ -325,7 +326,7 @@ def write_sensor_videos(
             x264_params=x264_params,
             progress_label=f"rendering {name}" if progress else None,
         )
-    with atomic_path(out_dir / "truth_tracks.npz") as tmp, open(tmp, "wb") as fh:
+    with atomic_path(out_dir / TRUTH_TRACKS_NAME) as tmp, open(tmp, "wb") as fh:
         np.savez(
             fh,
             timestamps_s=timestamps,
@@ -344,7 +345,7 @@ def write_sensor_videos(
     return SensorRecording(
         out_dir=out_dir,
         files=files,
-        truth_file="truth_tracks.npz",
+        truth_file=TRUTH_TRACKS_NAME,
         sensor=profile.name,
         fps=profile.fps,
         n_frames=len(timestamps),

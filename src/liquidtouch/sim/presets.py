@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 
+from liquidtouch.batch.executors import open_executor, run_each
 from liquidtouch.errors import CatalogueError, DatasetError
-from liquidtouch.executors import open_executor, run_each
 from liquidtouch.progress import progress_bar
 
 
@@ -191,7 +191,7 @@ def simulate_dataset(
     ``DatasetResult.failures``; only a batch where every trial fails raises
     :class:`DatasetError`.
     """
-    from liquidtouch.dataset import write_manifest
+    from liquidtouch.io.dataset import write_manifest
 
     specs = get_preset(preset, quick=quick) if isinstance(preset, str) else list(preset)
     if jobs < 1:

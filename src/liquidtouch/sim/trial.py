@@ -65,7 +65,6 @@ DURATION_S = 13.0
 CAMERA_FPS = 30.0
 GRIPPER_MASS_KG = 0.9
 WRIST_TO_CONTACT_M = 0.15
-WRENCH_COLUMNS = ("fx_n", "fy_n", "fz_n", "tx_nm", "ty_nm", "tz_nm")
 
 
 @dataclass(frozen=True)

@@ -12,22 +12,17 @@ from pathlib import Path
 
 import numpy as np
 
-from liquidtouch import atomic
-from liquidtouch.dataset import TrialMeta, write_trial_meta
-from liquidtouch.sim.encode import X264_PARAMS
-from liquidtouch.sim.trial import CAMERA_FPS, WRENCH_COLUMNS, SimulatedTrial
-from liquidtouch.wrench import WRENCH_NAME
-
-FORCE_NAME = "force.csv"
-FORCE_COLUMNS = (
-    "t_s",
-    "left_fx_n",
-    "left_fy_n",
-    "left_mz_nmm",
-    "right_fx_n",
-    "right_fy_n",
-    "right_mz_nmm",
+from liquidtouch.io import atomic
+from liquidtouch.io.dataset import (
+    FORCE_COLUMNS,
+    FORCE_NAME,
+    WRENCH_COLUMNS,
+    WRENCH_NAME,
+    TrialMeta,
+    write_trial_meta,
 )
+from liquidtouch.sim.encode import X264_PARAMS
+from liquidtouch.sim.trial import CAMERA_FPS, SimulatedTrial
 
 
 def _write_csv(path: Path, header: tuple[str, ...], table: np.ndarray) -> None:

@@ -1,7 +1,10 @@
-"""Trial and dataset formats (DESIGN.md, "Formats").
+"""Trial and dataset formats: every trial-directory file name and schema in one place.
 
-A *trial directory* holds ``meta.json`` and one video per sensor. This module
-reads and validates ``meta.json``; dataset manifests come with the experiments.
+A *trial directory* holds ``meta.json`` and one video (or image folder) per
+sensor; simulated trials add ``force.csv``, ``wrench.csv`` and
+``truth_tracks.npz``. A *dataset directory* holds ``manifest.csv`` and the trial
+directories, and ``features.csv`` once features are extracted. The formats are
+documented in ``docs/formats.md``.
 """
 
 from __future__ import annotations
@@ -9,13 +12,33 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, ValidationError
 
-from liquidtouch import atomic
 from liquidtouch.errors import DatasetError
+from liquidtouch.io import atomic
 
 META_NAME = "meta.json"
+MANIFEST_NAME = "manifest.csv"
+FEATURES_NAME = "features.csv"
+FORCE_NAME = "force.csv"
+WRENCH_NAME = "wrench.csv"
+TRUTH_TRACKS_NAME = "truth_tracks.npz"
 TRIAL_FORMAT_VERSION = 1
+
+# force.csv: time [s], per-finger shear force [N] and twist moment [N·mm]
+FORCE_COLUMNS = (
+    "t_s",
+    "left_fx_n",
+    "left_fy_n",
+    "left_mz_nmm",
+    "right_fx_n",
+    "right_fy_n",
+    "right_mz_nmm",
+)
+# wrench.csv: time [s], then the wrist force [N] and torque [N·m] channels
+WRENCH_COLUMNS = ("fx_n", "fy_n", "fz_n", "tx_nm", "ty_nm", "tz_nm")
+FORCE_CHANNELS = WRENCH_COLUMNS[:3]
 
 LABEL_COLUMNS = (
     "liquid",
@@ -90,7 +113,26 @@ def write_trial_meta(trial_dir: str | Path, meta: TrialMeta) -> Path:
     return path
 
 
-MANIFEST_NAME = "manifest.csv"
+def read_wrench_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read ``wrench.csv``: time ``t_s`` [s] and the force channels [N] as an (n, 3) array."""
+    import pandas as pd
+
+    path = Path(path)
+    if not path.is_file():
+        raise DatasetError(f"{path} not found: the trial has no wrist force-torque recording")
+    try:
+        table = pd.read_csv(path)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise DatasetError(f"{path} is not a readable CSV: {exc}") from None
+    missing = [c for c in ("t_s", *FORCE_CHANNELS) if c not in table.columns]
+    if missing:
+        raise DatasetError(f"{path} lacks column(s) {', '.join(missing)}")
+    values = table[["t_s", *FORCE_CHANNELS]].apply(pd.to_numeric, errors="coerce").to_numpy(float)
+    if not np.isfinite(values).all():
+        raise DatasetError(f"{path} holds text, NaN or infinite values")
+    return values[:, 0], values[:, 1:]
+
+
 NUMERIC_LABELS = (
     "height_mm",
     "sugar_concentration",

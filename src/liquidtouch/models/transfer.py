@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 
 from liquidtouch.errors import TableError
-from liquidtouch.properties import check_features, single_threaded_blas
-from liquidtouch.property_model import FeatureMap, PropertyModel
+from liquidtouch.models.property_model import FeatureMap, PropertyModel
+from liquidtouch.models.regressors import check_features, single_threaded_blas
 
 MIN_TUNE_ROWS = 4  # four parameters (α1, α2, β1, β2)
 START_ALPHA1 = (0.5, 1.0, 2.0)  # decay-rate scales tried as starts (walls damp differently)

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from liquidtouch.errors import TableError
-from liquidtouch.properties import _scale, check_features
+from liquidtouch.models.regressors import _scale, check_features
 
 MIN_ROWS_PER_CLASS = 3
 # Moderate values first: on a tie of cross-validated accuracy (small, well-separated

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from liquidtouch.oscillation_model import profile_cost_grid
+from liquidtouch.fit.model import profile_cost_grid
 
 #: decay rates [1/s] tried on the profile grid
 RATE_GRID = np.geomspace(0.01, 8.0, 22)

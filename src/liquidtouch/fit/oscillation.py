@@ -52,8 +52,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from liquidtouch.errors import NoOscillationError, SignalError
-from liquidtouch.oscillation_example import EXAMPLE_PARAMETERS, example_signal
-from liquidtouch.oscillation_solve import FitState, optimise_single_mode, optimise_two_mode
+from liquidtouch.fit.example import EXAMPLE_PARAMETERS, example_signal
+from liquidtouch.fit.solve import FitState, optimise_single_mode, optimise_two_mode
 
 __all__ = ["EXAMPLE_PARAMETERS", "OscillationFit", "example_signal", "fit_oscillation"]
 

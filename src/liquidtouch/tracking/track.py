@@ -1,12 +1,12 @@
-"""Frame-to-frame marker tracking (see :mod:`liquidtouch.markers`)."""
+"""Frame-to-frame marker tracking (see :mod:`liquidtouch.tracking.tracks`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from liquidtouch.errors import MarkerError
-from liquidtouch.marker_centroid import THRESHOLD_FRACTION, refine_centroids
-from liquidtouch.marker_detect import as_grey, detect_markers, window_half_size
+from liquidtouch.tracking.centroid import THRESHOLD_FRACTION, refine_centroids
+from liquidtouch.tracking.detect import as_grey, detect_markers, window_half_size
 
 MIN_MARKERS = 4
 

@@ -6,8 +6,8 @@ import os
 
 import numpy as np
 
-from liquidtouch import atomic
-from liquidtouch.oscillation import OscillationFit
+from liquidtouch.fit.oscillation import OscillationFit
+from liquidtouch.io import atomic
 
 
 def plot_fit(

@@ -20,6 +20,7 @@ import numpy as np
 
 from liquidtouch.errors import VideoError
 
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 
 

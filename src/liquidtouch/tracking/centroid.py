@@ -1,6 +1,6 @@
 """Sub-pixel marker centroids in square windows, all markers at once.
 
-See :mod:`liquidtouch.markers` for the overview.
+See :mod:`liquidtouch.tracking.tracks` for the overview.
 
 **Centroid** (one definition everywhere): in a (2·half+1)² window around the
 marker, the local background ``b(x, y)`` is the plane through the mean

@@ -1,7 +1,7 @@
 """Nonlinear least-squares solves of the oscillation model, multi-start, with their statistics.
 
 Works on the normalised signal (zero mean, unit standard deviation) and on time
-``tau`` [s] from the first sample; :mod:`liquidtouch.oscillation` converts back.
+``tau`` [s] from the first sample; :mod:`liquidtouch.fit.oscillation` converts back.
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from liquidtouch import oscillation_model as om
-from liquidtouch.oscillation_start import profile_starts, spectral_peaks
+from liquidtouch.fit import model as om
+from liquidtouch.fit.start import profile_starts, spectral_peaks
 
 RATE_MAX = 60.0  # 1/s; far above any slosh mode at 30 Hz sampling
 DELTA_MIN = 1e-6  # 1/s; keeps λ' > λ strictly

@@ -1,9 +1,9 @@
 """A trained property model: one regressor per label column, or a liquid classifier.
 
 :class:`PropertyModel` is what ``liquidtouch train`` / ``classify`` /
-``transfer`` write and ``predict`` reads (see :mod:`liquidtouch.modelfile`).
+``transfer`` write and ``predict`` reads (see :mod:`liquidtouch.models.modelfile`).
 It may carry a container-transfer :class:`FeatureMap` applied to (λ, ω)
-before the trained estimators (:mod:`liquidtouch.transfer`).
+before the trained estimators (:mod:`liquidtouch.models.transfer`).
 """
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from liquidtouch.classify import LiquidClassifier
 from liquidtouch.errors import TableError
-from liquidtouch.features_io import feature_matrix
-from liquidtouch.physics_prior import PhysicsGPRegressor, prior_for_target
-from liquidtouch.properties import GPRegressor, QuadraticRegressor, check_features
+from liquidtouch.io.tables import feature_matrix
+from liquidtouch.models.classifier import LiquidClassifier
+from liquidtouch.models.physics_prior import PhysicsGPRegressor, prior_for_target
+from liquidtouch.models.regressors import GPRegressor, QuadraticRegressor, check_features
 
 REGRESSORS: dict[str, type] = {
     "gpr": GPRegressor,

@@ -87,7 +87,7 @@ class GPRegressor:
     Kernel ``C · RBF(ℓ_λ, ℓ_ω) + White(σ²)`` on standardised inputs and a
     standardised target; hyperparameters by maximum marginal likelihood with
     ``n_restarts`` random restarts (seeded by ``random_state``). Subclasses may
-    add a prior mean and extra physics inputs (:mod:`liquidtouch.physics_prior`).
+    add a prior mean and extra physics inputs (:mod:`liquidtouch.models.physics_prior`).
     """
 
     model_name = "gpr"

@@ -2,7 +2,7 @@
 
 ``extract_signal(paths)`` gives the :class:`~liquidtouch.signal.TactileSignal`;
 ``extract(paths)`` also keeps the tracks and runs
-:func:`~liquidtouch.oscillation.fit_oscillation`; ``extract_trial(trial_dir)``
+:func:`~liquidtouch.fit.oscillation.fit_oscillation`; ``extract_trial(trial_dir)``
 gives the feature row used by dataset feature tables.
 """
 
@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from liquidtouch.errors import VideoError
-from liquidtouch.markers import MarkerTracks, track_markers
 from liquidtouch.progress import progress_bar
 from liquidtouch.signal import TactileSignal, tactile_signal
+from liquidtouch.tracking.tracks import MarkerTracks, track_markers
 
 PathLike = str | os.PathLike[str]
 RATE_TOLERANCE = 0.01  # relative frame-rate difference allowed between the videos of a trial
@@ -30,7 +30,7 @@ class Extraction:
 
     tracks: list[MarkerTracks]
     signal: TactileSignal
-    fit: object  # liquidtouch.oscillation.OscillationFit
+    fit: object  # liquidtouch.fit.oscillation.OscillationFit
 
     def to_dict(self) -> dict[str, object]:
         """The fit's keys plus ``explained_variance``, ``n_markers``, ``fps``, ``frames``."""
@@ -46,7 +46,7 @@ class Extraction:
 
 def resolve_sources(paths: PathLike | Sequence[PathLike]) -> list[tuple[str, Path]]:
     """``(sensor name, source)`` pairs from video files, image folders or one trial directory."""
-    from liquidtouch.dataset import META_NAME, read_trial_meta
+    from liquidtouch.io.dataset import META_NAME, read_trial_meta
 
     items = [paths] if isinstance(paths, str | os.PathLike) else list(paths)
     if not items:
@@ -71,7 +71,7 @@ def track_sources(
     sources: Sequence[tuple[str, Path]], *, fps: float = 30.0, progress: bool = False
 ) -> list[MarkerTracks]:
     """Track the markers of every source; a rich progress bar (on stderr) when ``progress``."""
-    from liquidtouch.frames import iter_frames, video_info
+    from liquidtouch.io.frames import iter_frames, video_info
 
     tracks = []
     for sensor, source in sources:
@@ -121,7 +121,7 @@ def extract(
     signal = tactile_signal(tracks, lowpass_hz=lowpass_hz, n_markers=n_markers)
     result = None
     if fit:
-        from liquidtouch.oscillation import fit_oscillation
+        from liquidtouch.fit.oscillation import fit_oscillation
         from liquidtouch.segment import free_decay
 
         result = fit_oscillation(*free_decay(signal.t, signal.u))
@@ -154,7 +154,7 @@ def plot_extraction(extraction: Extraction, path: PathLike) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from liquidtouch.atomic import atomic_path
+    from liquidtouch.io.atomic import atomic_path
 
     tracks, signal = extraction.tracks, extraction.signal
     fig, axes = plt.subplots(

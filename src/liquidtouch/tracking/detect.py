@@ -1,10 +1,10 @@
-"""Marker detection in one grey image (see :mod:`liquidtouch.markers`).
+"""Marker detection in one grey image (see :mod:`liquidtouch.tracking.tracks`).
 
 Detection needs no grid size or marker count: the image is divided by a smooth
 background (a morphological closing, which removes the dark markers), the
 normalised darkness ``d = 1 − I / background`` is thresholded (Otsu),
 connected components are kept by area and shape, and each marker's sub-pixel
-position is the centroid of :mod:`liquidtouch.marker_centroid`.
+position is the centroid of :mod:`liquidtouch.tracking.centroid`.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from liquidtouch.errors import MarkerError
-from liquidtouch.marker_centroid import refine_centroids
+from liquidtouch.tracking.centroid import refine_centroids
 
 
 @dataclass(frozen=True)

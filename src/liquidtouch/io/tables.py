@@ -3,7 +3,7 @@
 A feature table has one row per trial: the slow sloshing mode's decay rate
 λ [1/s] and angular frequency ω [rad/s], plus label columns such as
 ``height_mm``, ``sugar_concentration``, ``log10_viscosity_cst`` or ``liquid``
-(DESIGN.md, "Formats"). Every problem raises :class:`TableError` with the file,
+(``docs/formats.md``). Every problem raises :class:`TableError` with the file,
 the column and the rows at fault.
 """
 
@@ -18,9 +18,6 @@ import pandas as pd
 from liquidtouch.errors import TableError
 
 FEATURE_COLUMNS: tuple[str, str] = ("decay_rate", "angular_frequency")
-
-
-VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
 
 
 def read_table(path: str | os.PathLike[str]) -> pd.DataFrame:
@@ -122,35 +119,3 @@ def read_feature_table(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, np.n
     """Read a features CSV; return the table and its validated (n, 2) feature matrix."""
     table = read_table(path)
     return table, feature_matrix(table)
-
-
-def read_prediction_input(path: str | os.PathLike[str]) -> pd.DataFrame:
-    """The table of trials to predict for, with ``decay_rate`` and ``angular_frequency``.
-
-    ``path`` is a features CSV, a dataset directory (``manifest.csv``: its
-    features are extracted, cached, into ``DATASET/features.csv``), a trial
-    directory (``meta.json``) or a video file (one sensor).
-    """
-    from liquidtouch.dataset import MANIFEST_NAME, META_NAME
-
-    path = Path(path)
-    if path.is_dir() and (path / MANIFEST_NAME).is_file():
-        from liquidtouch.features import extract_features
-
-        table = extract_features(path)
-        failed = table["error"].astype(str) != ""
-        if failed.all():
-            raise TableError(f"no trial of {path} could be extracted: {table['error'].iloc[0]}")
-        table = table[~failed].reset_index(drop=True)
-    elif (path.is_dir() and (path / META_NAME).is_file()) or path.suffix.lower() in VIDEO_SUFFIXES:
-        from liquidtouch.extract import extract
-
-        table = pd.DataFrame([{"trial": str(path), **extract(path).to_dict()}])
-    elif path.is_dir():
-        raise TableError(
-            f"{path} is neither a dataset ({MANIFEST_NAME}) nor a trial directory ({META_NAME})"
-        )
-    else:
-        table = read_table(path)
-    feature_matrix(table)
-    return table

@@ -1,8 +1,8 @@
 """Marker detection and sub-pixel tracking on GelSight images → :class:`MarkerTracks`.
 
-The work is split by concept: :mod:`liquidtouch.marker_detect` (find markers in
-one image), :mod:`liquidtouch.marker_centroid` (the sub-pixel centroid, one
-definition everywhere, documented there) and :mod:`liquidtouch.marker_track`
+The work is split by concept: :mod:`liquidtouch.tracking.detect` (find markers in
+one image), :mod:`liquidtouch.tracking.centroid` (the sub-pixel centroid, one
+definition everywhere, documented there) and :mod:`liquidtouch.tracking.track`
 (frame-to-frame tracking). This module holds the result, :class:`MarkerTracks`,
 the :func:`track_markers` loop and the ``.npz`` format, and re-exports the rest.
 
@@ -34,15 +34,15 @@ from pathlib import Path
 import numpy as np
 
 from liquidtouch.errors import MarkerError
-from liquidtouch.marker_centroid import THRESHOLD_FRACTION, Refined, refine_centroids
-from liquidtouch.marker_detect import (
+from liquidtouch.tracking.centroid import THRESHOLD_FRACTION, Refined, refine_centroids
+from liquidtouch.tracking.detect import (
     Detections,
     as_grey,
     background,
     detect_markers,
     window_half_size,
 )
-from liquidtouch.marker_track import (
+from liquidtouch.tracking.track import (
     MIN_MARKERS,
     MarkerTracker,
     marker_spacing,
@@ -156,7 +156,7 @@ def save_tracks(path: str | Path, tracks: list[MarkerTracks]) -> None:
     Keys: ``sensors`` (names) and per sensor ``<name>/t``, ``<name>/positions``,
     ``<name>/valid``, ``<name>/reference``.
     """
-    from liquidtouch import atomic
+    from liquidtouch.io import atomic
 
     arrays: dict[str, np.ndarray] = {"sensors": np.array([tr.sensor for tr in tracks], dtype=str)}
     for tr in tracks:

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from liquidtouch.errors import TableError
-from liquidtouch.properties import GPRegressor
+from liquidtouch.models.regressors import GPRegressor
 
 GRAVITY_M_S2 = 9.81
 # effective container lengths searched when fitting k = π / L

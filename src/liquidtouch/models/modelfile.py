@@ -29,13 +29,14 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from liquidtouch import __version__, atomic
-from liquidtouch.classify import LiquidClassifier
+from liquidtouch import __version__
 from liquidtouch.errors import ModelFileError
-from liquidtouch.features_io import FEATURE_COLUMNS
-from liquidtouch.physics_prior import PhysicsGPRegressor
-from liquidtouch.properties import GPRegressor, QuadraticRegressor
-from liquidtouch.property_model import FeatureMap, PropertyModel
+from liquidtouch.io import atomic
+from liquidtouch.io.tables import FEATURE_COLUMNS
+from liquidtouch.models.classifier import LiquidClassifier
+from liquidtouch.models.physics_prior import PhysicsGPRegressor
+from liquidtouch.models.property_model import FeatureMap, PropertyModel
+from liquidtouch.models.regressors import GPRegressor, QuadraticRegressor
 
 FORMAT_NAME = "liquidtouch-model"
 FORMAT_VERSION = 1

@@ -17,12 +17,18 @@ from pathlib import Path
 
 import pandas as pd
 
-from liquidtouch import atomic
-from liquidtouch.dataset import META_NAME, read_manifest, read_trial_meta, trial_path
+from liquidtouch.batch.executors import open_executor, run_each
 from liquidtouch.errors import LiquidTouchError
-from liquidtouch.executors import open_executor, run_each
+from liquidtouch.io import atomic
+from liquidtouch.io.dataset import (
+    FEATURES_NAME,
+    META_NAME,
+    WRENCH_NAME,
+    read_manifest,
+    read_trial_meta,
+    trial_path,
+)
 from liquidtouch.progress import progress_bar
-from liquidtouch.wrench import WRENCH_NAME
 
 #: Bump when extraction or fitting changes in a way that changes features.
 FEATURES_VERSION = 2
@@ -45,7 +51,7 @@ CACHE_DIR = Path(".cache") / "features"
 
 def trial_features(trial_dir: str | Path, source: str = "gelsight") -> dict[str, float]:
     """Features of one trial directory: the oscillation fit of its tactile (or wrist) signal."""
-    from liquidtouch.extract import extract_trial
+    from liquidtouch.extraction import extract_trial
     from liquidtouch.wrench import wrench_features
 
     if source == "wrench":
@@ -152,6 +158,6 @@ def extract_features(
         row["error"] = result.get("error") or ""
         rows.append(row)
     table = pd.DataFrame(rows)
-    out_path = Path(out) if out is not None else root / "features.csv"
+    out_path = Path(out) if out is not None else root / FEATURES_NAME
     atomic.write_text(out_path, table.to_csv(index=False))
     return table

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from liquidtouch import atomic
 from liquidtouch.errors import TableError
+from liquidtouch.io import atomic
 
 
 def read_signal_csv(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:

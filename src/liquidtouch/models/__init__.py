@@ -1,0 +1,27 @@
+"""Property models: features (λ [1/s], ω [rad/s]) in, properties out.
+
+Regressors (Gaussian process, quadratic, physics-informed GP) for fill height
+[mm], sugar concentration [g per 100 g water] and log10 viscosity [cSt]; the
+liquid classifier (RBF SVM); container transfer; and the JSON model files.
+This layer imports neither PyAV nor OpenCV: it trains on feature tables alone.
+"""
+
+from liquidtouch.models.classifier import LiquidClassifier
+from liquidtouch.models.modelfile import load_model, save_model
+from liquidtouch.models.physics_prior import PhysicsGPRegressor
+from liquidtouch.models.property_model import PropertyModel, train_classifier, train_regression
+from liquidtouch.models.regressors import GPRegressor, QuadraticRegressor
+from liquidtouch.models.transfer import fit_transfer
+
+__all__ = [
+    "GPRegressor",
+    "LiquidClassifier",
+    "PhysicsGPRegressor",
+    "PropertyModel",
+    "QuadraticRegressor",
+    "fit_transfer",
+    "load_model",
+    "save_model",
+    "train_classifier",
+    "train_regression",
+]
