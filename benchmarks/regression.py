@@ -1,6 +1,6 @@
 """Benchmark: (λ, ω) → height, sugar concentration, log10 viscosity; data efficiency; transfer.
 
-On generated tables shaped like the paper's sugar experiment (tests/properties_synthetic.py:
+On generated tables shaped like the paper's sugar experiment (benchmarks/synthetic_tables.py:
 container A L = 120 mm, b = 60 mm; 17 heights 16-40 mm × 12 concentrations 0-160 g/100 g;
 4 % noise on λ, 0.3 % on ω), in one run:
 
@@ -17,15 +17,11 @@ Usage: python benchmarks/regression.py [--seeds 3] [--out benchmarks/results]
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-
-from properties_synthetic import (
+from synthetic_tables import (
     CONTAINER_B,
     PAPER_CONCENTRATIONS,
     PAPER_HEIGHTS_MM,
@@ -33,12 +29,13 @@ from properties_synthetic import (
     sugar_table,
 )
 
-from liquidtouch.models.property_model import train_regression
+from liquidtouch.io.tables import FEATURE_COLUMNS
+from liquidtouch.models.property_model import MODEL_KINDS, train_regression
 from liquidtouch.models.transfer import fit_transfer
 
-FEATURES = ["decay_rate", "angular_frequency"]
+FEATURES = list(FEATURE_COLUMNS)
 TARGETS = ["height_mm", "sugar_concentration", "log10_viscosity_cst"]
-KINDS = ["gpr", "quadratic", "physics-gpr"]
+KINDS = list(MODEL_KINDS)
 
 
 def _mae(model, table, targets) -> dict[str, float]:
@@ -103,13 +100,13 @@ def data_efficiency(seeds: int, png: Path) -> list[str]:
                 mae = _mae(_fit(sub, TARGETS[:2], kind), test, TARGETS[:2])
                 for t in TARGETS[:2]:
                     curves[(kind, t)][seed, j] = mae[t]
-    _plot(
-        png,
+    plot_curves(
         sizes,
         {f"{k}": curves[(k, "sugar_concentration")].mean(0) for k in KINDS},
         {f"{k}": curves[(k, "height_mm")].mean(0) for k in KINDS},
         "training points (container A)",
         "data efficiency (test: 8 × 12 held-out heights)",
+        path=png,
     )
     out = ["| n train | " + " | ".join(f"{k} c / h" for k in KINDS) + " |"]
     out.append("|---" * (len(KINDS) + 1) + "|")
@@ -142,13 +139,13 @@ def transfer_vs_scratch(seeds: int, png: Path) -> list[str]:
             scratch = _fit(tune, targets, "gpr")
             res["transfer"][seed, j] = list(_mae(tuned, test, targets).values())
             res["scratch"][seed, j] = list(_mae(scratch, test, targets).values())
-    _plot(
-        png,
+    plot_curves(
         sizes,
         {m: res[m][:, :, 1].mean(0) for m in res},
         {m: res[m][:, :, 0].mean(0) for m in res},
         "points of container B",
         "container B: transfer of model A vs GPR from scratch",
+        path=png,
     )
     out = [
         f"Model A unchanged on container B: MAE h {as_is['height_mm']:.2f} mm, "
@@ -166,32 +163,49 @@ def transfer_vs_scratch(seeds: int, png: Path) -> list[str]:
     return out
 
 
-def _plot(png: Path, sizes, c_curves: dict, h_curves: dict, xlabel: str, title: str) -> None:
-    import matplotlib
+def plot_curves(
+    sizes,
+    c_curves: dict,
+    h_curves: dict,
+    xlabel: str,
+    title: str,
+    ax=None,
+    path: Path | None = None,
+):
+    """MAE of concentration (left) and height (right) vs training points; return the Figure.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    ``ax``: a pair of matplotlib Axes to draw into (default: a new Figure, which
+    needs no display and does not touch pyplot's backend); ``path``: also save a PNG.
+    """
+    from matplotlib.figure import Figure
 
     from liquidtouch.io import atomic
 
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.6))
-    for ax, curves, ylabel in (
+    if ax is None:
+        fig = Figure(figsize=(9, 3.6))
+        axes = fig.subplots(1, 2)
+    else:
+        axes = list(ax)
+        fig = axes[0].figure
+    for axis, curves, ylabel in (
         (axes[0], c_curves, "MAE sugar concentration [g/100 g]"),
         (axes[1], h_curves, "MAE height [mm]"),
     ):
         for name, values in curves.items():
-            ax.plot(sizes, values, "o-", label=name)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel(ylabel)
-        ax.grid(True, which="both", alpha=0.3)
+            axis.plot(sizes, values, "o-", label=name)
+        axis.set_xscale("log")
+        axis.set_yscale("log")
+        axis.set_xlabel(xlabel)
+        axis.set_ylabel(ylabel)
+        axis.grid(True, which="both", alpha=0.3)
     axes[0].legend()
     fig.suptitle(title)
-    fig.tight_layout()
-    with atomic.atomic_path(png) as tmp:
-        fig.savefig(tmp, dpi=110)
-    plt.close(fig)
+    if ax is None:
+        fig.tight_layout()
+    if path is not None:
+        with atomic.atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110, format="png")
+    return fig
 
 
 def main() -> None:

@@ -140,3 +140,23 @@ def test_help_documents_options(capsys) -> None:
     out = capsys.readouterr().out
     for option in ("--json", "--loss", "--model", "--plot"):
         assert option in out
+
+
+def test_signal_csv_reader_and_writer_check_their_input(tmp_path) -> None:
+    with pytest.raises(TableError, match="is a directory; give a signal CSV file"):
+        read_signal_csv(tmp_path)
+    with pytest.raises(FileNotFoundError):
+        read_signal_csv(tmp_path / "missing.csv")
+    (tmp_path / "header.csv").write_text("t,u\n")
+    with pytest.raises(TableError, match="no data rows"):
+        read_signal_csv(tmp_path / "header.csv")
+    t = np.arange(5.0)
+    with pytest.raises(TableError, match=r"u holds 1 NaN/inf value\(s\) \(first at sample 2\)"):
+        write_signal_csv(tmp_path / "nan.csv", t, np.array([0, 1, np.nan, 3, 4.0]))
+    with pytest.raises(TableError, match="t holds 1 NaN/inf"):
+        write_signal_csv(tmp_path / "inf.csv", np.r_[t[:-1], np.inf], t)
+    with pytest.raises(TableError, match="real numbers"):
+        write_signal_csv(tmp_path / "text.csv", ["a", "b"], [1.0, 2.0])
+    with pytest.raises(TableError, match="1-D of equal length"):
+        write_signal_csv(tmp_path / "2d.csv", np.zeros((2, 2)), np.zeros((2, 2)))
+    assert [p.name for p in tmp_path.iterdir()] == ["header.csv"]  # nothing written

@@ -8,15 +8,16 @@ import re
 import numpy as np
 import pandas as pd
 import pytest
-from properties_synthetic import (
+
+from benchmarks.synthetic_tables import (
     CONTAINER_B,
     PAPER_CONCENTRATIONS,
     PAPER_HEIGHTS_MM,
     liquid_table,
     sugar_table,
 )
-
 from liquidtouch.cli import main
+from liquidtouch.io.tables import FEATURE_COLUMNS
 
 
 @pytest.fixture(scope="module")
@@ -147,7 +148,7 @@ def _bad_tables(d):
     nan.loc[4, "height_mm"] = np.nan
     (d / "nan.csv").write_text(nan.to_csv(index=False))
     (d / "few.csv").write_text(good.head(3).to_csv(index=False))
-    unlabelled = good[["decay_rate", "angular_frequency"]]
+    unlabelled = good[list(FEATURE_COLUMNS)]
     (d / "unlabelled.csv").write_text(unlabelled.to_csv(index=False))
     (d / "empty.csv").write_text("")
     (d / "foreign.json").write_text('{"weights": [1, 2]}')

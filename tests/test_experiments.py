@@ -1,6 +1,6 @@
 """The seven experiments and the report, on synthetic feature tables with known physics.
 
-The tables come from the sloshing formulas of ``properties_synthetic`` (no
+The tables come from the sloshing formulas of ``benchmarks.synthetic_tables`` (no
 video), so the test checks the experiments' numbers against what such data
 allow, and that the report is complete and self-contained.
 """
@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from properties_synthetic import (
+
+from benchmarks.synthetic_tables import (
     CONTAINER_A,
     CONTAINER_B,
     PAPER_HEIGHTS_MM,
@@ -21,7 +22,6 @@ from properties_synthetic import (
     paper_split,
     sugar_table,
 )
-
 from liquidtouch.experiments.report import write_report
 from liquidtouch.experiments.reproduce import failure_note, run_experiments
 
@@ -101,7 +101,7 @@ def test_classification_counts_the_failed_trial_as_wrong(report) -> None:
 
 def test_regression_errors_match_what_the_data_allow(report) -> None:
     _, summary = report
-    # features carry 4 % noise on λ and 0.3 % on ω (properties_synthetic); the paper's
+    # features carry 4 % noise on λ and 0.3 % on ω (synthetic_tables); the paper's
     # GPR reached 0.56 mm / 15.3 / 0.16 on real data, a guess of the mean 6 mm / 45 / 0.45
     assert _headline(summary, "sugar", "gpr test MAE h [mm]") < 0.4
     assert _headline(summary, "sugar", "gpr test MAE c [wt%]") < 6.0

@@ -7,11 +7,11 @@ import json
 import av
 import numpy as np
 import pytest
+from helpers import grid, render_blobs
 
 from liquidtouch.cli import main
 from liquidtouch.errors import VideoError
 from liquidtouch.io.frames import iter_video
-from tests.test_markers import grid, render_blobs
 
 LAM, OMEGA = 0.7, 2 * np.pi * 1.2
 
@@ -59,3 +59,14 @@ def test_extract_errors(tmp_path, capsys):
     assert "differ in length" in capsys.readouterr().err
     with pytest.raises(VideoError, match="is not a file"):
         list(iter_video(tmp_path))  # a folder is not a video file
+
+
+def test_extract_checks_signal_options_before_reading_any_video(tmp_path):
+    from liquidtouch.errors import SignalError
+    from liquidtouch.extraction import extract
+
+    missing = tmp_path / "missing.mp4"  # would be a VideoError if it were read
+    with pytest.raises(SignalError, match="n_markers must be a whole number >= 1"):
+        extract(missing, n_markers=0)
+    with pytest.raises(SignalError, match="lowpass_hz must be a cut-off frequency"):
+        extract(missing, lowpass_hz=-1.0)

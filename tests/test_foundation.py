@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import json
 
 import pytest
@@ -76,3 +77,27 @@ def test_manifest_round_trip_and_validation(tmp_path) -> None:
 def test_every_public_name_resolves() -> None:
     for name in liquidtouch.__all__:
         assert getattr(liquidtouch, name) is not None, name
+
+
+PUBLIC_API = {
+    "__version__",
+    *("LiquidTouchError", "SignalError", "NoOscillationError"),
+    *("fit_oscillation", "OscillationFit", "example_signal", "plot_fit"),
+    *("read_signal_csv", "write_signal_csv", "iter_frames", "read_frames"),
+    *("MarkerTracks", "detect_markers", "track_markers", "TactileSignal", "tactile_signal"),
+    *("extract", "extract_signal", "Extraction", "free_decay"),
+    *("GPRegressor", "QuadraticRegressor", "PhysicsGPRegressor", "LiquidClassifier"),
+    *("PropertyModel", "train_regression", "train_classifier", "fit_transfer"),
+    *("save_model", "load_model", "TrialMeta", "read_trial_meta", "read_manifest"),
+    *("extract_features", "simulate_trial", "write_trial", "simulate_dataset"),
+    *("write_sensor_videos", "FingerLoads", "reproduce"),
+}
+
+
+def test_public_api_is_pinned() -> None:
+    """The restructure moved modules; every public name of ``lt`` must stay as it was."""
+    assert set(liquidtouch.__all__) == PUBLIC_API
+    importlib.import_module("liquidtouch.extraction")  # a module once shadowed lt.extract
+
+    assert callable(liquidtouch.extract) and liquidtouch.extract.__name__ == "extract"
+    assert liquidtouch.fit_oscillation.__module__ == "liquidtouch.fit.oscillation"

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import grid, render_blobs
 from scipy.spatial import cKDTree
-from scipy.special import erf
 
-from liquidtouch.errors import MarkerError
+from liquidtouch.errors import MarkerError, VideoError
 from liquidtouch.tracking.tracks import (
     MarkerTracks,
     detect_markers,
@@ -20,28 +20,6 @@ from liquidtouch.tracking.tracks import (
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 REAL = SHARED / "data" / "real"
-
-
-def render_blobs(positions: np.ndarray, shape=(160, 200), radius=4.5, gain=1.0, noise=0.0, seed=0):
-    """Soft dark discs (anti-aliased edge) on a lit gradient background, uint8."""
-    height, width = shape
-    yy, xx = np.mgrid[0:height, 0:width].astype(float)
-    light = gain * (150 + 60 * xx / width + 20 * np.sin(yy / 40))
-    ink = np.zeros(shape)
-    for x, y in positions:
-        r = np.hypot(xx - x, yy - y)
-        ink = np.maximum(ink, 0.5 * (1 - erf((r - radius) / 0.9)))
-    image = light * (1 - 0.75 * ink)
-    if noise:
-        image = image + np.random.default_rng(seed).normal(0, noise, shape)
-    return np.clip(np.rint(image), 0, 255).astype(np.uint8)
-
-
-def grid(shape=(160, 200), pitch=24.0, jitter=0.3, seed=0):
-    rng = np.random.default_rng(seed)
-    ys, xs = np.mgrid[20 : shape[0] - 15 : pitch, 20 : shape[1] - 15 : pitch]
-    pts = np.stack([xs.ravel(), ys.ravel()], axis=1).astype(float)
-    return pts + rng.uniform(-jitter, jitter, pts.shape)
 
 
 def test_detect_subpixel_without_grid_size():
@@ -242,3 +220,92 @@ def test_real_gelsight_mini_press_at_a_third_of_the_frame_rate():
     x, y = full[..., 0], full[..., 1]
     inner = (x > 25) & (y > 25) & (x < 319 - 25) & (y < 239 - 25)
     assert not (inner & np.isnan(sparse[..., 0])).any()  # not lost while in view
+
+
+def test_detection_knobs_are_named_constants_with_the_default_behaviour():
+    from liquidtouch.tracking import detect
+
+    image = render_blobs(grid(), noise=1.0)
+    default = detect_markers(image)
+    explicit = detect_markers(
+        image,
+        threshold_range=detect.THRESHOLD_RANGE,
+        min_area_px=detect.MIN_AREA_PX,
+        area_ratio=detect.AREA_RATIO,
+        min_fill=detect.MIN_FILL,
+        max_aspect=detect.MAX_ASPECT,
+    )
+    np.testing.assert_array_equal(explicit.positions, default.positions)
+    # each knob acts: blobs smaller than min_area_px, or outside the area ratio, are dropped
+    assert len(detect_markers(image, min_area_px=10_000).positions) == 0
+    assert len(detect_markers(image, diameter_px=9.0, area_ratio=(2.0, 3.0)).positions) == 0
+
+
+@pytest.mark.parametrize(
+    ("image", "kwargs", "match"),
+    [
+        (np.zeros((5, 160, 200), np.uint8), {}, "pass one frame at a time"),
+        (np.zeros((0, 0), np.uint8), {}, "the image is empty"),
+        (np.full((100, 120), np.nan), {}, "NaN/inf"),
+        (np.full((100, 120), "a"), {}, "real grey levels"),
+        (np.zeros(100, np.uint8), {}, "expected a 2-D grey"),
+        (None, {"diameter_px": 0.0}, "diameter_px must be a marker diameter > 0"),
+        (None, {"diameter_px": -3.0}, "diameter_px must be"),
+        (None, {"diameter_px": float("nan")}, "diameter_px must be"),
+        (None, {"threshold_range": (0.7, 0.2)}, r"threshold_range must satisfy 0 <= low"),
+        (None, {"threshold_range": 0.2}, r"threshold_range must be a pair"),
+        (None, {"area_ratio": (3.0, 0.3)}, r"area_ratio must satisfy 0 <= low < high"),
+        (None, {"min_area_px": -1}, "min_area_px must be a finite number >= 0"),
+        (None, {"min_fill": 1.5}, r"min_fill must be a finite number in \[0, 1\]"),
+        (None, {"max_aspect": 0.5}, "max_aspect must be a finite number >= 1"),
+    ],
+)
+def test_detect_markers_checks_its_arguments(image, kwargs, match):
+    if image is None:
+        image = render_blobs(grid())
+    with pytest.raises(MarkerError, match=match):
+        detect_markers(image, **kwargs)
+
+
+def _still_frames(n=3, shape=(160, 200)):
+    image = render_blobs(grid(shape=shape), shape=shape)
+    return [(k / 30, image) for k in range(n)]
+
+
+@pytest.mark.parametrize(
+    ("frames", "kwargs", "exc", "match"),
+    [
+        (_still_frames(), {"reacquire_every": 0}, MarkerError, "reacquire_every must be"),
+        (_still_frames(), {"reacquire_every": -3}, MarkerError, "reacquire_every must be"),
+        (_still_frames(), {"reacquire_every": 2.5}, MarkerError, "whole number of frames"),
+        (_still_frames(), {"search_fraction": 0.0}, MarkerError, r"search_fraction .* \(0, 1\]"),
+        (_still_frames(), {"search_fraction": 2.0}, MarkerError, "search_fraction"),
+        (_still_frames(), {"area_change": (0.5, 0.9)}, MarkerError, "area_change must be"),
+        (_still_frames(), {"area_change": 3.0}, MarkerError, "area_change must be a pair"),
+        (_still_frames(), {"diameter_px": 0}, MarkerError, "diameter_px must be"),
+        (_still_frames(), {"sensor": ""}, MarkerError, "sensor must be a non-empty name"),
+        (_still_frames(), {"on_frame": 5}, MarkerError, "on_frame must be a function"),
+        (_still_frames(), {"min_area_px": 10_000}, MarkerError, "no markers found"),
+        ([], {}, VideoError, "no frames to track"),
+        (_still_frames()[::-1], {}, VideoError, "timestamps must be finite and increase"),
+        (_still_frames()[:1] * 2, {}, VideoError, "increase strictly"),
+        ([(float("nan"), _still_frames()[0][1])], {}, VideoError, "finite"),
+        ([_still_frames()[0][1]], {}, VideoError, r"not a \(timestamp \[s\], image\) pair"),
+        (
+            [*_still_frames(2), (1.0, render_blobs(grid((120, 200)), shape=(120, 200)))],
+            {},
+            VideoError,
+            r"frame 2 is \(120, 200\) but the first frame is \(160, 200\)",
+        ),
+    ],
+)
+def test_track_markers_checks_its_arguments(frames, kwargs, exc, match):
+    with pytest.raises(exc, match=match):
+        track_markers(frames, **kwargs)
+
+
+def test_track_markers_passes_detection_knobs_on():
+    with pytest.raises(TypeError, match="no_such_knob"):
+        track_markers(_still_frames(), no_such_knob=1)
+    tracks = track_markers(_still_frames(), search_fraction=0.3, area_change=(0.5, 2.0))
+    assert tracks.valid.all()

@@ -6,9 +6,15 @@ import json
 
 import numpy as np
 import pytest
-from properties_synthetic import PAPER_CONCENTRATIONS, PAPER_HEIGHTS_MM, liquid_table, sugar_table
 
+from benchmarks.synthetic_tables import (
+    PAPER_CONCENTRATIONS,
+    PAPER_HEIGHTS_MM,
+    liquid_table,
+    sugar_table,
+)
 from liquidtouch.errors import ModelFileError
+from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.models.modelfile import load_model, model_to_dict, save_model
 from liquidtouch.models.property_model import (
     FeatureMap,
@@ -17,7 +23,7 @@ from liquidtouch.models.property_model import (
     train_regression,
 )
 
-FEATURES = ["decay_rate", "angular_frequency"]
+FEATURES = list(FEATURE_COLUMNS)
 
 
 @pytest.fixture(scope="module")

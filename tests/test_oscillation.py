@@ -218,6 +218,9 @@ GOOD_U = np.exp(-0.3 * GOOD_T) * np.cos(9 * GOOD_T)
         (GOOD_T[::-1].copy(), GOOD_U, SignalError, "increase strictly"),
         (np.repeat(GOOD_T[::2], 2), np.repeat(GOOD_U[::2], 2), SignalError, "increase strictly"),
         (GOOD_T, GOOD_U[:-1], SignalError, "equal length"),
+        (GOOD_T, np.stack([GOOD_U, GOOD_U]), SignalError, "1-D arrays"),
+        (GOOD_T, np.array(["a"] * GOOD_T.size), SignalError, "real numbers"),
+        ([[0.0, 1.0]], [[1.0, 2.0]], SignalError, "1-D arrays"),
         (GOOD_T, 0.5 + 0.1 * GOOD_T - 0.01 * GOOD_T**2, NoOscillationError, "drift"),
         (GOOD_T, np.exp(-GOOD_T / 0.7), NoOscillationError, "overdamped"),
         (GOOD_T, (1 + 5 * GOOD_T) * np.exp(-5 * GOOD_T), NoOscillationError, "overdamped"),
@@ -246,6 +249,14 @@ def test_noise_only_is_reported_as_noise(seed: int, loss: str) -> None:
         ({"band_hz": (5.0, 1.0)}, "band_hz"),
         ({"band_hz": (20.0, 30.0)}, "Nyquist"),
         ({"delta_rel": 0.0}, "delta_rel"),
+        ({"delta_rel": -1.0}, "delta_rel must be a finite number > 0"),
+        ({"delta_rel": math.inf}, "delta_rel must be a finite number > 0"),
+        ({"delta_rel": math.nan}, "delta_rel must be a finite number > 0"),
+        ({"band_hz": 3.0}, r"band_hz must be a pair \(low, high\)"),
+        ({"band_hz": (0.3, 2.0, 5.0)}, r"band_hz must be a pair"),
+        ({"band_hz": ("low", "high")}, r"band_hz must be a pair"),
+        ({"band_hz": (math.nan, 5.0)}, r"0 < low < high"),
+        ({"band_hz": (0.0, 5.0)}, r"0 < low < high"),
     ],
 )
 def test_bad_options_raise(kwargs, match) -> None:
@@ -266,3 +277,65 @@ def test_a_sliver_of_undamped_signal_is_not_reported_as_the_slow_mode() -> None:
     fit = fit_oscillation(t, u)
     assert fit.angular_frequency == pytest.approx(15.7, rel=0.01)
     assert fit.decay_rate == pytest.approx(0.22, rel=0.15)
+
+
+def test_the_damped_cosine_is_written_once_and_matches_the_fitted_basis() -> None:
+    """``OscillationFit.modes`` and the example use ``fit.model.damped_cosine``.
+
+    The fit's linear form ``a cos + b sin`` with ``a = B cos ψ``, ``b = −B sin ψ``
+    gives the same curve as ``B e^{-λτ} cos(ωτ + ψ)``.
+    """
+    from liquidtouch.fit import model
+
+    t, u = example_signal()
+    fit = fit_oscillation(t, u, loss="ls")
+    tau = t - fit.t0
+    slow, fast, drift = fit.modes(t)
+    np.testing.assert_array_equal(
+        slow,
+        model.damped_cosine(tau, fit.amplitude, fit.decay_rate, fit.angular_frequency, fit.phase),
+    )
+    np.testing.assert_array_equal(
+        drift, model.quadratic_drift(tau, fit.drift_c0, fit.drift_c1, fit.drift_c2)
+    )
+    theta = [fit.decay_rate, fit.angular_frequency]
+    theta += [fit.fast_decay_rate - fit.decay_rate, fit.fast_angular_frequency]
+    for amplitude, phase in ((fit.amplitude, fit.phase), (fit.fast_amplitude, fit.fast_phase)):
+        theta += [amplitude * math.cos(phase), -amplitude * math.sin(phase)]
+    length = tau[-1]
+    theta += [fit.drift_c0, fit.drift_c1 * length, fit.drift_c2 * length**2]
+    basis_curve = model.curve(np.array(theta), tau, tau / length, n_modes=2)
+    np.testing.assert_allclose(basis_curve, slow + fast + drift, atol=1e-9)
+
+
+def test_plot_fit_draws_into_given_axes_without_touching_the_backend(tmp_path, monkeypatch):
+    import matplotlib
+    from matplotlib.figure import Figure
+
+    from liquidtouch.errors import LiquidTouchError, OutputError
+    from liquidtouch.fit.plot import plot_fit
+
+    def no_backend_switch(*args, **kwargs):
+        raise AssertionError("a library must not call matplotlib.use")
+
+    backend = matplotlib.get_backend()
+    monkeypatch.setattr(matplotlib, "use", no_backend_switch)
+    t, u = example_signal()
+    fit = fit_oscillation(t, u)
+    fig = Figure()
+    ax, ax_res = fig.subplots(2, 1)
+    assert plot_fit(t, u, fit, axes=(ax, ax_res)) is fig
+    assert ax.lines and ax_res.lines and ax.get_title().startswith("two-mode fit")
+    single = Figure().subplots()
+    assert plot_fit(t, u, fit, axes=single) is single.figure and single.lines
+    new = plot_fit(t, u, fit, tmp_path / "fit.svg")  # no axes: a new bare Figure, saved
+    assert isinstance(new, Figure) and len(new.axes) == 2
+    assert (tmp_path / "fit.svg").read_text().lstrip().startswith("<?xml")
+    plot_fit(t, u, fit, tmp_path / "fit")  # no suffix: PNG
+    assert (tmp_path / "fit").read_bytes().startswith(b"\x89PNG")
+    with pytest.raises(OutputError, match="unknown figure format"):
+        plot_fit(t, u, fit, tmp_path / "fit.notaformat")
+    assert not list(tmp_path.glob("*.notaformat"))
+    with pytest.raises(LiquidTouchError, match="1 or 2 matplotlib Axes"):
+        plot_fit(t, u, fit, axes=Figure().subplots(3))
+    assert matplotlib.get_backend() == backend

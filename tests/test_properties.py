@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from properties_synthetic import (
+
+from benchmarks.synthetic_tables import (
     CONTAINER_A,
     CONTAINER_B,
     PAPER_CONCENTRATIONS,
@@ -14,8 +15,8 @@ from properties_synthetic import (
     sloshing_features,
     sugar_table,
 )
-
 from liquidtouch.errors import TableError
+from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.models.classifier import LiquidClassifier
 from liquidtouch.models.physics_prior import (
     PhysicsGPRegressor,
@@ -27,7 +28,7 @@ from liquidtouch.models.property_model import FeatureMap, train_classifier, trai
 from liquidtouch.models.regressors import GPRegressor, QuadraticRegressor
 from liquidtouch.models.transfer import fit_transfer
 
-FEATURES = ["decay_rate", "angular_frequency"]
+FEATURES = list(FEATURE_COLUMNS)
 TARGETS = ["height_mm", "sugar_concentration", "log10_viscosity_cst"]
 
 
@@ -120,8 +121,11 @@ def test_physics_prior_names_and_errors() -> None:
     assert prior_for_target("sugar_concentration") == "viscosity"
     with pytest.raises(TableError, match="no physics prior"):
         prior_for_target("temperature_c")
+    unknown = PhysicsGPRegressor("colour")  # scikit-learn style: validated in fit, not __init__
     with pytest.raises(TableError, match="unknown physics prior"):
-        PhysicsGPRegressor("colour")
+        unknown.fit(
+            np.column_stack([np.linspace(0.1, 1, 10), np.linspace(10, 14, 10)]), np.ones(10)
+        )
     with pytest.raises(TableError, match="no physics prior"):
         train_regression(np.ones((10, 2)), {"temperature_c": np.ones(10)}, "physics-gpr")
 

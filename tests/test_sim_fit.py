@@ -13,9 +13,8 @@ from __future__ import annotations
 import pytest
 from scipy.signal import butter, sosfiltfilt
 
+from liquidtouch.fit import oscillation
 from liquidtouch.sim.trial import simulate_trial
-
-oscillation = pytest.importorskip("liquidtouch.fit.oscillation")
 
 
 def _fit(trial):

@@ -173,7 +173,8 @@ def test_cli_presets_and_quick_dataset(tmp_path: Path, capsys, monkeypatch):
 
 
 def test_write_trial_with_video_lists_the_sensor_videos(tmp_path: Path):
-    gelsight = pytest.importorskip("liquidtouch.sim.gelsight")
+    from liquidtouch.sim import gelsight
+
     assert hasattr(gelsight, "write_sensor_videos")
     trial = simulate_trial("water", height_mm=25.0, seed=3, duration_s=3.0)
     out = write_trial(trial, tmp_path / "v", video=True)
@@ -182,3 +183,32 @@ def test_write_trial_with_video_lists_the_sensor_videos(tmp_path: Path):
     assert 20.0 <= meta.fps <= 31.0
     for name in meta.sensors:
         assert (out / name).stat().st_size > 1000
+
+
+def test_plot_trial_returns_a_figure_and_saves_by_suffix(tmp_path: Path):
+    import matplotlib
+    from matplotlib.figure import Figure
+
+    from liquidtouch.sim.trial_io import plot_trial
+
+    backend = matplotlib.get_backend()
+    trial = simulate_trial("water", height_mm=25.0, seed=3, duration_s=3.0)
+    fig = plot_trial(trial, tmp_path / "loads.pdf")
+    assert isinstance(fig, Figure) and len(fig.axes) == 3
+    assert (tmp_path / "loads.pdf").read_bytes().startswith(b"%PDF")
+    assert [p.name for p in tmp_path.iterdir()] == ["loads.pdf"]  # no temporary file left
+    assert matplotlib.get_backend() == backend  # the library never switches the backend
+
+    host = Figure()
+    axes = host.subplots(3, 1)
+    assert plot_trial(trial, axes=axes) is host
+    assert all(ax.lines for ax in axes)
+    with pytest.raises(ValueError, match="3 panels"):
+        plot_trial(trial, axes=axes[:2])
+
+
+def test_trial_labels_are_the_dataset_columns():
+    from liquidtouch.io.dataset import LABEL_COLUMNS, TRUTH_COLUMNS
+
+    labels = simulate_trial("olive-oil", height_mm=28.0, seed=3, duration_s=3.0).labels()
+    assert tuple(labels) == (*LABEL_COLUMNS, *TRUTH_COLUMNS)

@@ -40,5 +40,9 @@ class DatasetError(LiquidTouchError):
     """A trial or dataset directory is malformed."""
 
 
+class OutputError(LiquidTouchError):
+    """An output path cannot be written (a directory, a read-only place, a full disk)."""
+
+
 class CatalogueError(LiquidTouchError):
     """An unknown liquid, container, preset or sensor name."""

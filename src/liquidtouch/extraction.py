@@ -12,13 +12,18 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from liquidtouch.errors import VideoError
 from liquidtouch.progress import progress_bar
-from liquidtouch.signal import TactileSignal, tactile_signal
+from liquidtouch.signal import TactileSignal, check_signal_options, tactile_signal
 from liquidtouch.tracking.tracks import MarkerTracks, track_markers
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 PathLike = str | os.PathLike[str]
 RATE_TOLERANCE = 0.01  # relative frame-rate difference allowed between the videos of a trial
@@ -116,7 +121,9 @@ def extract(
     """Tracks, tactile signal and (when ``fit``) the oscillation fit of one trial's videos.
 
     ``fps`` is the frame rate of image folders (video files carry their own timestamps).
+    The options are checked before any video is read.
     """
+    check_signal_options(lowpass_hz, n_markers)
     tracks = track_sources(resolve_sources(paths), fps=fps, progress=progress)
     signal = tactile_signal(tracks, lowpass_hz=lowpass_hz, n_markers=n_markers)
     result = None
@@ -147,45 +154,68 @@ def extract_trial(trial_dir: PathLike) -> dict[str, object]:
     return extract(trial_dir).to_dict()
 
 
-def plot_extraction(extraction: Extraction, path: PathLike) -> None:
-    """PNG: first frames with markers (chosen ones highlighted), marker motions, u(t) and fit."""
-    import matplotlib
+def plot_extraction(
+    extraction: Extraction, path: PathLike | None = None, *, axes: object = None
+) -> Figure:
+    """First frames with markers (chosen ones highlighted), marker motions, u(t) and fit.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from liquidtouch.io.atomic import atomic_path
+    ``axes``: one Axes (u(t) and fit only) or a 2 × ``max(2, sensors)`` grid of
+    Axes (first row: each sensor's first frame; second row: the motions, then
+    u(t)); by default a new :class:`~matplotlib.figure.Figure` (built without
+    pyplot: no backend is selected). ``path``: also save the figure there,
+    atomically (format from the suffix, PNG without one). Returns the figure.
+    """
+    from liquidtouch.fit.plot import as_axes_list, save_figure
 
     tracks, signal = extraction.tracks, extraction.signal
-    fig, axes = plt.subplots(
-        2, max(2, len(tracks)), figsize=(5 * max(2, len(tracks)), 8), squeeze=False
-    )
-    for ax, tr in zip(axes[0], tracks, strict=False):
-        if tr.first_frame is not None:
-            ax.imshow(tr.first_frame, cmap="gray")
-        ax.plot(*tr.reference.T, "o", mfc="none", mec="tab:blue", ms=6, label="markers")
-        chosen = [i for name, i in signal.markers if name == tr.sensor]
-        ax.plot(*tr.reference[chosen].T, "o", color="tab:red", ms=6, label="chosen")
-        ax.set_title(f"{tr.sensor}: {tr.n_markers} markers, {len(chosen)} chosen")
-        ax.legend(loc="upper right", fontsize=8)
-    motion = axes[1][0]
+    columns = max(2, len(tracks))
+    if axes is None:
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(5 * columns, 8))
+        panels = list(fig.subplots(2, columns, squeeze=False).ravel())
+    else:
+        panels = as_axes_list(axes, (1, 2 * columns), "plot_extraction")
+        fig = panels[0].figure
+    if len(panels) > 1:
+        for ax, tr in zip(panels[:columns], tracks, strict=False):
+            _draw_markers(ax, tr, signal)
+        _draw_motion(panels[columns], signal)
+    _draw_signal(panels[columns + 1] if len(panels) > 1 else panels[0], extraction)
+    if axes is None:
+        fig.tight_layout()
+    if path is not None:
+        save_figure(fig, path, dpi=90)
+    return fig
+
+
+def _draw_markers(ax: Axes, tr: MarkerTracks, signal: TactileSignal) -> None:
+    if tr.first_frame is not None:
+        ax.imshow(tr.first_frame, cmap="gray")
+    ax.plot(*tr.reference.T, "o", mfc="none", mec="tab:blue", ms=6, label="markers")
+    chosen = [i for name, i in signal.markers if name == tr.sensor]
+    ax.plot(*tr.reference[chosen].T, "o", color="tab:red", ms=6, label="chosen")
+    ax.set_title(f"{tr.sensor}: {tr.n_markers} markers, {len(chosen)} chosen")
+    ax.legend(loc="upper right", fontsize=8)
+
+
+def _draw_motion(ax: Axes, signal: TactileSignal) -> None:
     for k in range(signal.n_markers):
-        motion.plot(signal.t, signal.motion[:, k, 0], lw=0.8, color="tab:blue", alpha=0.6)
-        motion.plot(signal.t, signal.motion[:, k, 1], lw=0.8, color="tab:orange", alpha=0.6)
-    motion.set(xlabel="t [s]", ylabel="displacement [px] (x blue, y orange)")
-    motion.set_title(f"filtered motion of the {signal.n_markers} chosen markers")
-    sig = axes[1][1]
-    sig.plot(signal.t, signal.u, color="k", lw=1, label="u(t)")
+        ax.plot(signal.t, signal.motion[:, k, 0], lw=0.8, color="tab:blue", alpha=0.6)
+        ax.plot(signal.t, signal.motion[:, k, 1], lw=0.8, color="tab:orange", alpha=0.6)
+    ax.set(xlabel="t [s]", ylabel="displacement [px] (x blue, y orange)")
+    ax.set_title(f"filtered motion of the {signal.n_markers} chosen markers")
+
+
+def _draw_signal(ax: Axes, extraction: Extraction) -> None:
+    signal = extraction.signal
+    ax.plot(signal.t, signal.u, color="k", lw=1, label="u(t)")
     if extraction.fit is not None:
         fit = extraction.fit
-        sig.plot(signal.t, fit.curve(signal.t), color="tab:red", lw=1, label="fit")
-        sig.set_title(
+        ax.plot(signal.t, fit.curve(signal.t), color="tab:red", lw=1, label="fit")
+        ax.set_title(
             f"λ = {fit.decay_rate:.3g} 1/s, ω = {fit.angular_frequency:.3g} rad/s, "
             f"EV = {signal.explained_variance:.1%}"
         )
-    sig.set(xlabel="t [s]", ylabel="u [px]")
-    sig.legend(fontsize=8)
-    fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=90)
-    plt.close(fig)
+    ax.set(xlabel="t [s]", ylabel="u [px]")
+    ax.legend(fontsize=8)

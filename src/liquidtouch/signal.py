@@ -20,14 +20,17 @@ same sign of ``u``.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from liquidtouch.errors import MarkerError, SignalError
+from liquidtouch.tracking.detect import as_number
 from liquidtouch.tracking.tracks import MarkerTracks
 
+#: fewest usable markers (over all sensors) a signal is built from
 MIN_SELECTED = 2
 
 
@@ -62,10 +65,16 @@ class TactileSignal:
 
 
 def uniform_clock(t: np.ndarray, end_s: float | None = None) -> tuple[np.ndarray, float]:
-    """A uniform clock from 0 at the median interval of timestamps ``t`` [s]: (times, fps)."""
-    t = np.asarray(t, dtype=float)
-    if t.size < 2 or not np.all(np.diff(t) > 0):
-        raise SignalError("frame timestamps must be increasing with at least 2 frames")
+    """A uniform clock from 0 at the median interval of timestamps ``t`` [s]: (times, fps).
+
+    The clock spans ``t[0]`` to ``end_s`` (a time on the clock of ``t``; default
+    ``t[-1]``), shifted to start at 0.
+    """
+    t = _check_times(t, "frame timestamps")
+    if end_s is not None and not t[0] < as_number(end_s) < math.inf:
+        raise SignalError(
+            f"end_s must be a finite time after the first timestamp {t[0]:g} s, got {end_s!r}"
+        )
     step = float(np.median(np.diff(t)))
     end = float(t[-1] if end_s is None else end_s) - float(t[0])
     n = int(np.floor(end / step + 1e-6)) + 1
@@ -82,6 +91,7 @@ def resample_displacement(
 
     Unusable markers (too often or too long lost, cut by the border) get zeros.
     """
+    _check_gap_limits(max_lost_fraction, max_gap_s)
     t = tracks.t - tracks.t[0]
     valid = tracks.valid
     disp = tracks.displacement
@@ -124,6 +134,11 @@ def lowpass(x: np.ndarray, fps: float, cutoff_hz: float = 3.0, order: int = 4) -
     """Zero-phase Butterworth low-pass of ``x`` along axis 0 (``sosfiltfilt``)."""
     from scipy.signal import butter, sosfiltfilt
 
+    x = _finite_array(x, "the motion to low-pass", min_ndim=1)
+    if not 0 < as_number(fps) < math.inf:
+        raise SignalError(f"fps must be a frame rate > 0 in Hz, got {fps!r}")
+    if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
+        raise SignalError(f"the filter order must be a whole number >= 1, got {order!r}")
     nyquist = 0.5 * fps
     if not 0 < cutoff_hz < nyquist:
         raise SignalError(
@@ -141,6 +156,9 @@ def lowpass(x: np.ndarray, fps: float, cutoff_hz: float = 3.0, order: int = 4) -
 
 def first_component(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """PCA of (T, D) data: (scores (T,), weights (D,), explained variance fraction)."""
+    x = _finite_array(x, "the data for PCA", min_ndim=2)
+    if x.ndim != 2 or x.shape[0] < 2 or x.shape[1] < 1:
+        raise SignalError(f"PCA needs (samples >= 2, features >= 1) data, got shape {x.shape}")
     centred = x - x.mean(axis=0)
     _, singular, vt = np.linalg.svd(centred, full_matrices=False)
     weights = vt[0]
@@ -159,10 +177,32 @@ def tactile_signal(
     max_lost_fraction: float = 0.05,
     max_gap_s: float = 0.25,
 ) -> TactileSignal:
-    """The tactile signal ``u(t)`` from the tracks of one or more sensors (module docstring)."""
-    if not tracks:
-        raise MarkerError("no marker tracks given")
-    t_uniform, fps = uniform_clock(tracks[0].t, end_s=min(tr.t[-1] - tr.t[0] for tr in tracks))
+    """The tactile signal ``u(t)`` from the tracks of one or more sensors (module docstring).
+
+    Parameters
+    ----------
+    tracks : sequence of MarkerTracks
+        One per sensor (distinct sensor names), e.g. from :func:`track_markers`.
+    lowpass_hz : float or None
+        Low-pass cut-off [Hz], below the Nyquist frequency; ``None``: no filter.
+    n_markers : int
+        How many of the most moving markers (over all sensors) to keep [≥ 1].
+    max_lost_fraction : float
+        A marker lost in more than this fraction of the frames is not used [0–1].
+    max_gap_s : float
+        A marker lost for longer than this at a stretch is not used [s, ≥ 0].
+
+    Raises
+    ------
+    MarkerError
+        No tracks, malformed tracks, duplicate sensor names, or too few usable markers.
+    SignalError
+        Bad timestamps, a knob out of range, too few frames, or no motion at all.
+    """
+    tracks = _check_tracks(tracks)
+    check_signal_options(lowpass_hz, n_markers, max_lost_fraction, max_gap_s)
+    end_s = float(tracks[0].t[0]) + min(tr.t[-1] - tr.t[0] for tr in tracks)
+    t_uniform, fps = uniform_clock(tracks[0].t, end_s=end_s)
     blocks, names = [], []
     for tr in tracks:
         disp, usable = resample_displacement(tr, t_uniform, max_lost_fraction, max_gap_s)
@@ -190,3 +230,90 @@ def tactile_signal(
         motion=chosen_motion,
         lowpass_hz=lowpass_hz,
     )
+
+
+def _finite_array(x: object, what: str, min_ndim: int) -> np.ndarray:
+    try:
+        x = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise SignalError(f"{what} must be an array of real numbers") from None
+    if x.ndim < min_ndim or x.size == 0:
+        raise SignalError(f"{what} must be a non-empty {min_ndim}-D array, got shape {x.shape}")
+    if not np.isfinite(x).all():
+        raise SignalError(f"{what} holds NaN/inf values; interpolate or drop them first")
+    return x
+
+
+def _check_times(t: object, what: str) -> np.ndarray:
+    """Timestamps [s] as a 1-D float array: finite, strictly increasing, at least 2."""
+    t = _finite_array(t, what, min_ndim=1)
+    if t.ndim != 1 or t.size < 2 or not np.all(np.diff(t) > 0):
+        raise SignalError(
+            f"{what} must be a 1-D array of at least 2 strictly increasing times [s] "
+            f"(got shape {t.shape}); sort the frames and drop duplicates"
+        )
+    return t
+
+
+def check_signal_options(
+    lowpass_hz: float | None = 3.0,
+    n_markers: int = 16,
+    max_lost_fraction: float = 0.05,
+    max_gap_s: float = 0.25,
+) -> None:
+    """Check the knobs of :func:`tactile_signal` (before any tracking work); SignalError."""
+    if isinstance(n_markers, bool) or not isinstance(n_markers, int | np.integer) or n_markers < 1:
+        raise SignalError(
+            f"n_markers must be a whole number >= 1 (markers to keep), got {n_markers!r}"
+        )
+    if lowpass_hz is not None and not 0 < as_number(lowpass_hz) < math.inf:
+        raise SignalError(
+            f"lowpass_hz must be a cut-off frequency > 0 in Hz, or None for no filter; "
+            f"got {lowpass_hz!r}"
+        )
+    _check_gap_limits(max_lost_fraction, max_gap_s)
+
+
+def _check_gap_limits(max_lost_fraction: float, max_gap_s: float) -> None:
+    if not 0 <= as_number(max_lost_fraction) <= 1:
+        raise SignalError(
+            f"max_lost_fraction must be a fraction of the frames in [0, 1], "
+            f"got {max_lost_fraction!r}"
+        )
+    if not as_number(max_gap_s) >= 0:
+        raise SignalError(f"max_gap_s must be a duration >= 0 in seconds, got {max_gap_s!r}")
+
+
+def _check_tracks(tracks: Sequence[MarkerTracks]) -> list[MarkerTracks]:
+    """``tracks`` as a list of consistent :class:`MarkerTracks` with distinct sensor names."""
+    if isinstance(tracks, MarkerTracks):
+        raise MarkerError("tracks must be a list of MarkerTracks, one per sensor: pass [tracks]")
+    try:
+        tracks = list(tracks)
+    except TypeError:
+        raise MarkerError(f"tracks must be a list of MarkerTracks, got {tracks!r}") from None
+    if not tracks:
+        raise MarkerError("no marker tracks given; track at least one sensor video first")
+    names = [getattr(tr, "sensor", None) for tr in tracks]
+    for tr in tracks:
+        if not isinstance(tr, MarkerTracks):
+            raise MarkerError(
+                f"expected MarkerTracks (from track_markers or load_tracks), "
+                f"got {type(tr).__name__}"
+            )
+        t_shape, shapes = np.shape(tr.t), (np.shape(tr.positions), np.shape(tr.valid))
+        n_frames = t_shape[0] if len(t_shape) == 1 else -1
+        n = np.shape(tr.reference)[0] if np.ndim(tr.reference) == 2 else -1
+        shapes += (np.shape(tr.reference),)
+        if min(n_frames, n) < 0 or shapes != ((n_frames, n, 2), (n_frames, n), (n, 2)):
+            raise MarkerError(
+                f"{tr.sensor}: inconsistent tracks: t {np.shape(tr.t)}, positions {shapes[0]}, "
+                f"valid {shapes[1]}, reference {shapes[2]}; expected (T,), (T, N, 2), (T, N), "
+                "(N, 2)"
+            )
+        _check_times(tr.t, f"{tr.sensor}: frame timestamps")
+        if names.count(tr.sensor) > 1:
+            raise MarkerError(
+                f"two tracks are both named {tr.sensor!r}; give each sensor its own name"
+            )
+    return tracks

@@ -7,6 +7,7 @@ care which one it gets.
 from __future__ import annotations
 
 import contextlib
+import os
 from collections.abc import Callable, Hashable, Iterator, Mapping
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
 from typing import Any
@@ -29,14 +30,18 @@ class SerialExecutor(Executor):
 
 
 @contextlib.contextmanager
-def open_executor(jobs: int = 1, dask_address: str | None = None) -> Iterator[Executor]:
+def open_executor(
+    jobs: int = 1, dask_address: str | None = None, *, n_tasks: int | None = None
+) -> Iterator[Executor]:
     """Yield an executor: Dask (``dask_address``), a process pool (``jobs > 1``) or serial.
 
     ``dask_address`` is a scheduler address such as ``tcp://127.0.0.1:8786``;
-    it needs the optional extra ``liquidtouch[dask]``.
+    it needs the optional extra ``liquidtouch[dask]``. A local pool never has
+    more workers than cores or than ``n_tasks`` (idle workers only cost memory).
     """
     if jobs < 1:
         raise LiquidTouchError(f"--jobs must be at least 1, got {jobs}")
+    jobs = min(jobs, os.cpu_count() or 1, n_tasks or jobs)
     if dask_address:
         try:
             from distributed import Client
@@ -46,7 +51,7 @@ def open_executor(jobs: int = 1, dask_address: str | None = None) -> Iterator[Ex
             ) from None
         try:
             client = Client(dask_address, timeout=10)
-        except OSError as exc:
+        except (OSError, ValueError, TypeError) as exc:  # unreachable, or not an address
             raise LiquidTouchError(
                 f"cannot reach the Dask scheduler at {dask_address}: {exc}"
             ) from None

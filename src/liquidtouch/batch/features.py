@@ -28,14 +28,16 @@ from liquidtouch.io.dataset import (
     read_trial_meta,
     trial_path,
 )
+from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.progress import progress_bar
 
 #: Bump when extraction or fitting changes in a way that changes features.
 FEATURES_VERSION = 2
 SOURCES = ("gelsight", "wrench")
-FEATURE_COLUMNS = (
-    "decay_rate",
-    "angular_frequency",
+#: The measured columns of a feature row (after the manifest's): the two model
+#: features (:data:`liquidtouch.io.tables.FEATURE_COLUMNS`) first, then fit diagnostics.
+FEATURE_ROW_COLUMNS = (
+    *FEATURE_COLUMNS,
     "fast_decay_rate",
     "fast_angular_frequency",
     "decay_rate_std",
@@ -91,9 +93,11 @@ def _cache_file(root: Path, trial: str, source: str) -> Path:
 def _read_cache(path: Path, fingerprint: str) -> dict[str, object] | None:
     try:
         entry = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError):
+    except (OSError, ValueError, RecursionError):  # unreadable or damaged: recompute
         return None
-    return entry if entry.get("fingerprint") == fingerprint else None
+    if not isinstance(entry, dict) or entry.get("fingerprint") != fingerprint:
+        return None
+    return entry
 
 
 def extract_features(
@@ -108,7 +112,7 @@ def extract_features(
 ) -> pd.DataFrame:
     """Extract features of every trial of ``dataset``; write ``out`` (default ``features.csv``).
 
-    Returns the table: the manifest's columns, then :data:`FEATURE_COLUMNS`,
+    Returns the table: the manifest's columns, then :data:`FEATURE_ROW_COLUMNS`,
     then ``error`` (empty for good trials). ``on_trial(trial, result)`` is
     called as each trial finishes (used by tests and progress reports).
     """
@@ -135,7 +139,7 @@ def extract_features(
 
     if todo:
         with (
-            open_executor(jobs, dask_address) as pool,
+            open_executor(jobs, dask_address, n_tasks=len(todo)) as pool,
             progress_bar(f"features ({source})", len(todo), enabled=progress) as advance,
         ):
             tasks = {trial: (str(tdir), source) for trial, (tdir, _) in todo.items()}
@@ -154,7 +158,7 @@ def extract_features(
         result = results[record["trial"]]
         features = result.get("features") or {}
         row = dict(record)
-        row.update({name: features.get(name, math.nan) for name in FEATURE_COLUMNS})
+        row.update({name: features.get(name, math.nan) for name in FEATURE_ROW_COLUMNS})
         row["error"] = result.get("error") or ""
         rows.append(row)
     table = pd.DataFrame(rows)

@@ -77,6 +77,13 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except FileNotFoundError as exc:
         return error_exit(f"file not found: {exc.filename or exc}")
+    except OSError as exc:  # permissions, full disk, a directory where a file was expected
+        where = f"{exc.filename}: " if exc.filename else ""
+        return error_exit(f"{where}{exc.strerror or exc}")
+    except RecursionError:
+        return error_exit("the input is nested too deeply to be one of liquidtouch's files")
+    except MemoryError:
+        return error_exit("out of memory: the input is too large (see the README's limits)")
     return result if isinstance(result, int) else 0
 
 

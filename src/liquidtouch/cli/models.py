@@ -8,8 +8,6 @@ from pathlib import Path
 
 import typer
 
-MODEL_KINDS = ("gpr", "quadratic", "physics-gpr")
-
 
 def _echo_summary(lines: list[str], out: Path) -> None:
     for line in lines:
@@ -38,7 +36,7 @@ def train(
     from liquidtouch.errors import TableError
     from liquidtouch.io.tables import numeric_column, read_feature_table
     from liquidtouch.models.modelfile import save_model
-    from liquidtouch.models.property_model import train_regression
+    from liquidtouch.models.property_model import MODEL_KINDS, train_regression
     from liquidtouch.progress import progress_bar
 
     if model not in MODEL_KINDS:

@@ -8,15 +8,15 @@ import numpy as np
 import pandas as pd
 
 from liquidtouch.io import atomic
+from liquidtouch.io.tables import FEATURE_COLUMNS
 
 #: The regression targets of the paper and their short names in tables.
 TARGETS = {"height_mm": "h [mm]", "sugar_concentration": "c [wt%]", "log10_viscosity_cst": "μ"}
-FEATURES = ["decay_rate", "angular_frequency"]
 
 
 def usable(table: pd.DataFrame) -> pd.DataFrame:
     """Rows whose feature extraction succeeded (finite λ and ω, no error)."""
-    ok = np.isfinite(table[FEATURES].to_numpy(dtype=float)).all(axis=1)
+    ok = np.isfinite(table[list(FEATURE_COLUMNS)].to_numpy(dtype=float)).all(axis=1)
     if "error" in table.columns:
         ok &= table["error"].fillna("").astype(str).eq("").to_numpy()
     return table[ok].reset_index(drop=True)
@@ -31,7 +31,7 @@ def split(table: pd.DataFrame, name: str) -> pd.DataFrame:
 
 def X(table: pd.DataFrame) -> np.ndarray:
     """The (n, 2) feature matrix (λ [1/s], ω [rad/s])."""
-    return table[FEATURES].to_numpy(dtype=float)
+    return table[list(FEATURE_COLUMNS)].to_numpy(dtype=float)
 
 
 def mae(predicted: np.ndarray, truth: np.ndarray) -> float:
@@ -51,10 +51,17 @@ def save_figure(fig, path: Path) -> Path:
 
 
 def pyplot():
-    """matplotlib.pyplot on the Agg backend (no display needed)."""
-    import matplotlib
+    """A stand-in for ``matplotlib.pyplot`` whose ``subplots`` builds a bare ``Figure``.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    No backend is selected (no global ``matplotlib.use``): the figures need no
+    display and a notebook's inline backend stays as it is.
+    """
+    from types import SimpleNamespace
 
-    return plt
+    from matplotlib.figure import Figure
+
+    def subplots(*args, figsize=None, dpi=None, layout=None, **kwargs):
+        fig = Figure(figsize=figsize, dpi=dpi, layout=layout)
+        return fig, fig.subplots(*args, **kwargs)
+
+    return SimpleNamespace(subplots=subplots)

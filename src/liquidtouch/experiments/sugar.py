@@ -35,9 +35,15 @@ def errors(model, table: pd.DataFrame) -> dict[str, float]:
 
 
 def run(
-    table: pd.DataFrame, out_dir: Path, kinds=("gpr", "quadratic", "physics-gpr")
+    table: pd.DataFrame, out_dir: Path, kinds: tuple[str, ...] | None = None
 ) -> tuple[ExperimentResult, object]:
-    """Experiment 3; also returns the sugar-trained GPR (experiments 4 and 7 reuse it)."""
+    """Experiment 3; also returns the sugar-trained GPR (experiments 4 and 7 reuse it).
+
+    ``kinds``: the regressor kinds to compare (default: all of ``MODEL_KINDS``).
+    """
+    from liquidtouch.models.property_model import MODEL_KINDS
+
+    kinds = MODEL_KINDS if kinds is None else kinds
     start = time.perf_counter()
     train, test = usable(split(table, "train")), usable(split(table, "test"))
     rows, models = [], {}
@@ -72,7 +78,7 @@ def run(
             float(test_rows.loc[kind, TARGETS[t]]),
             PAPER_TEST[kind][t],
         )
-        for kind in ("gpr", "quadratic")
+        for kind in PAPER_TEST
         if kind in test_rows.index
         for t in TARGETS
     ]

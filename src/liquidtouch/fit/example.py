@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from liquidtouch.fit.model import damped_cosine, quadratic_drift
+
 #: true parameters of :func:`example_signal` (time from the first sample, u in px)
 EXAMPLE_PARAMETERS: dict[str, float] = {
     "decay_rate": 0.35,
@@ -38,16 +40,10 @@ def example_signal(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     keep = rng.random(n) > 0.02
     keep[[0, -1]] = True
     t = t[keep]
-    slow = (
-        p["amplitude"]
-        * np.exp(-p["decay_rate"] * t)
-        * np.cos(p["angular_frequency"] * t + p["phase"])
+    slow = damped_cosine(t, p["amplitude"], p["decay_rate"], p["angular_frequency"], p["phase"])
+    fast = damped_cosine(
+        t, p["fast_amplitude"], p["fast_decay_rate"], p["fast_angular_frequency"], p["fast_phase"]
     )
-    fast = (
-        p["fast_amplitude"]
-        * np.exp(-p["fast_decay_rate"] * t)
-        * np.cos(p["fast_angular_frequency"] * t + p["fast_phase"])
-    )
-    drift = p["drift_c0"] + p["drift_c1"] * t + p["drift_c2"] * t * t
+    drift = quadratic_drift(t, p["drift_c0"], p["drift_c1"], p["drift_c2"])
     u = slow + fast + drift + rng.normal(0.0, p["noise_std"], t.size)
     return t, u

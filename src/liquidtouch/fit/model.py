@@ -1,6 +1,8 @@
 """The damped-oscillation model of the tactile signal: curve, analytic Jacobian, linear part.
 
-The model (DESIGN.md, stage 4), in time ``tau`` [s] measured from the first sample::
+Each mode is a damped cosine ``B e^{-λτ} cos(ωτ + ψ)`` (:func:`damped_cosine`, the one
+place it is written out) on a quadratic drift (:func:`quadratic_drift`). For the
+fit the model is written, in time ``tau`` [s] measured from the first sample, as::
 
     u(tau) = sum_k exp(-r_k tau) (a_k cos(w_k tau) + b_k sin(w_k tau)) + d0 + d1 x + d2 x**2
 
@@ -18,6 +20,24 @@ from __future__ import annotations
 import numpy as np
 
 N_DRIFT = 3
+
+
+def damped_cosine(
+    tau: np.ndarray, amplitude: float, rate: float, angular_frequency: float, phase: float
+) -> np.ndarray:
+    """One mode, ``B e^{-λτ} cos(ωτ + ψ)``, at times ``tau`` [s] from the model's origin.
+
+    ``amplitude`` B (unit of u), decay ``rate`` λ [1/s], ``angular_frequency`` ω
+    [rad/s], ``phase`` ψ [rad].
+    """
+    tau = np.asarray(tau, dtype=float)
+    return amplitude * np.exp(-rate * tau) * np.cos(angular_frequency * tau + phase)
+
+
+def quadratic_drift(tau: np.ndarray, c0: float, c1: float, c2: float) -> np.ndarray:
+    """The slow drift ``c0 + c1 τ + c2 τ²`` at times ``tau`` [s]."""
+    tau = np.asarray(tau, dtype=float)
+    return c0 + c1 * tau + c2 * tau * tau
 
 
 def n_nonlinear(n_modes: int) -> int:

@@ -1,4 +1,4 @@
-"""Fit the damped two-mode oscillation of a tactile signal (DESIGN.md, stage 4).
+"""Fit the damped two-mode oscillation of a tactile signal (the oscillation-fit stage).
 
 Model (Huang, Guo, Yuan, RSS 2022)::
 
@@ -53,6 +53,7 @@ import numpy as np
 
 from liquidtouch.errors import NoOscillationError, SignalError
 from liquidtouch.fit.example import EXAMPLE_PARAMETERS, example_signal
+from liquidtouch.fit.model import damped_cosine, quadratic_drift
 from liquidtouch.fit.solve import FitState, optimise_single_mode, optimise_two_mode
 
 __all__ = ["EXAMPLE_PARAMETERS", "OscillationFit", "example_signal", "fit_oscillation"]
@@ -110,20 +111,20 @@ class OscillationFit:
     def modes(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The slow mode, the fast mode (zeros if unused) and the drift at times ``t`` [s]."""
         tau = np.asarray(t, dtype=float) - self.t0
-        slow = (
-            self.amplitude
-            * np.exp(-self.decay_rate * tau)
-            * np.cos(self.angular_frequency * tau + self.phase)
+        slow = damped_cosine(
+            tau, self.amplitude, self.decay_rate, self.angular_frequency, self.phase
         )
         if self.model == "two-mode":
-            fast = (
-                self.fast_amplitude
-                * np.exp(-self.fast_decay_rate * tau)
-                * np.cos(self.fast_angular_frequency * tau + self.fast_phase)
+            fast = damped_cosine(
+                tau,
+                self.fast_amplitude,
+                self.fast_decay_rate,
+                self.fast_angular_frequency,
+                self.fast_phase,
             )
         else:
             fast = np.zeros_like(tau)
-        drift = self.drift_c0 + self.drift_c1 * tau + self.drift_c2 * tau * tau
+        drift = quadratic_drift(tau, self.drift_c0, self.drift_c1, self.drift_c2)
         return slow, fast, drift
 
     def curve(self, t: np.ndarray) -> np.ndarray:
@@ -145,8 +146,11 @@ class OscillationFit:
 
 
 def _validate(t: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    t = np.asarray(t, dtype=float)
-    u = np.asarray(u, dtype=float)
+    try:
+        t = np.asarray(t, dtype=float)
+        u = np.asarray(u, dtype=float)
+    except (TypeError, ValueError):
+        raise SignalError("t and u must be arrays of real numbers (time [s], signal)") from None
     if t.ndim != 1 or u.ndim != 1 or t.shape != u.shape:
         raise SignalError(
             f"t and u must be 1-D arrays of equal length (got shapes {t.shape} and {u.shape})"
@@ -180,7 +184,10 @@ def _validate(t: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _band(band_hz: tuple[float, float], t: np.ndarray) -> tuple[float, float]:
-    lo, hi = (float(v) for v in band_hz)
+    try:
+        lo, hi = (float(v) for v in band_hz)
+    except (TypeError, ValueError):
+        raise SignalError(f"band_hz must be a pair (low, high) in Hz (got {band_hz!r})") from None
     if not (0 < lo < hi):
         raise SignalError(f"band_hz must satisfy 0 < low < high (got {band_hz})")
     nyquist_hz = 0.5 / float(np.median(np.diff(t)))
@@ -241,7 +248,9 @@ def fit_oscillation(
     Raises
     ------
     SignalError
-        Too short (< 2 s or < 20 samples), NaN/inf, flat, or non-increasing time.
+        ``t``/``u`` not 1-D of one length, too short (< 2 s or < 20 samples),
+        NaN/inf, flat or non-increasing time; an unknown ``loss``/``model``/``noise``,
+        a band not ``0 < low < high`` below Nyquist, or ``delta_rel`` not finite > 0.
     NoOscillationError
         No oscillation: noise only, or overdamped (the message says which).
     """
@@ -251,8 +260,8 @@ def fit_oscillation(
         raise SignalError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
     if noise not in NOISE_MODELS:
         raise SignalError(f"unknown noise model {noise!r}; use one of {', '.join(NOISE_MODELS)}")
-    if not delta_rel > 0:
-        raise SignalError(f"delta_rel must be > 0 (got {delta_rel})")
+    if not 0 < delta_rel < math.inf:
+        raise SignalError(f"delta_rel must be a finite number > 0 (got {delta_rel}); 1 is usual")
     t, u = _validate(t, u)
     band = _band(band_hz, t)
     tau = t - t[0]

@@ -1,6 +1,7 @@
 """Start values for the oscillation fit, found without user input.
 
-1. Remove slow drift (a quadratic in time) so the spectrum shows the slosh.
+1. The caller removes the slow drift (a least-squares quadratic in time) so the
+   spectrum shows the slosh (:func:`~liquidtouch.fit.oscillation.fit_oscillation`).
 2. Spectral peaks of the detrended signal inside the frequency band (the signal
    is resampled to a uniform grid only for this step, so non-uniform time
    stamps are fine).
@@ -19,13 +20,6 @@ from liquidtouch.fit.model import profile_cost_grid
 
 #: decay rates [1/s] tried on the profile grid
 RATE_GRID = np.geomspace(0.01, 8.0, 22)
-
-
-def detrend(x: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``u`` minus its least-squares quadratic in ``x``."""
-    design = np.vander(x, 3)
-    coef, *_ = np.linalg.lstsq(design, u, rcond=None)
-    return u - design @ coef
 
 
 def spectral_peaks(

@@ -13,7 +13,7 @@ import json
 from pathlib import Path
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError
 
 from liquidtouch.errors import DatasetError
 from liquidtouch.io import atomic
@@ -62,8 +62,8 @@ class TrialMeta(BaseModel):
 
     model_config = ConfigDict(extra="allow")
 
-    format_version: int = TRIAL_FORMAT_VERSION
-    fps: float
+    format_version: StrictInt = TRIAL_FORMAT_VERSION
+    fps: float = Field(gt=0, allow_inf_nan=False)
     sensors: list[str] = []
     liquid: str | None = None
     container: str | None = None
@@ -89,6 +89,10 @@ def read_trial_meta(trial_dir: str | Path) -> TrialMeta:
         meta = TrialMeta.model_validate(json.loads(path.read_text(encoding="utf-8")))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise DatasetError(f"{path} is not valid JSON: {exc}") from None
+    except RecursionError:
+        raise DatasetError(f"{path} is nested too deeply to be a trial's meta.json") from None
+    except OSError as exc:
+        raise DatasetError(f"cannot read {path}: {exc.strerror or exc}") from None
     except ValidationError as exc:
         first = exc.errors()[0]
         where = ".".join(str(p) for p in first["loc"]) or "(root)"
@@ -98,8 +102,10 @@ def read_trial_meta(trial_dir: str | Path) -> TrialMeta:
             f"{path} has format version {meta.format_version}; this liquidtouch reads "
             f"up to {TRIAL_FORMAT_VERSION} (upgrade liquidtouch)"
         )
+    root = Path(trial_dir).resolve()
     for name in meta.sensors:
-        if Path(name).is_absolute() or ".." in Path(name).parts:
+        resolved = (root / name).resolve()  # a symlink must not lead outside the trial either
+        if Path(name).is_absolute() or ".." in Path(name).parts or root not in resolved.parents:
             raise DatasetError(
                 f"{path}: sensor video {name!r} must stay inside the trial directory"
             )

@@ -3,17 +3,26 @@
 Regressors (Gaussian process, quadratic, physics-informed GP) for fill height
 [mm], sugar concentration [g per 100 g water] and log10 viscosity [cSt]; the
 liquid classifier (RBF SVM); container transfer; and the JSON model files.
-This layer imports neither PyAV nor OpenCV: it trains on feature tables alone.
+The estimators are scikit-learn estimators (one target each); see
+:mod:`liquidtouch.models.regressors`. This layer imports neither PyAV nor
+OpenCV nor the video stages: it trains on feature tables alone
+(``tests/test_layers.py`` checks this).
 """
 
 from liquidtouch.models.classifier import LiquidClassifier
 from liquidtouch.models.modelfile import load_model, save_model
 from liquidtouch.models.physics_prior import PhysicsGPRegressor
-from liquidtouch.models.property_model import PropertyModel, train_classifier, train_regression
+from liquidtouch.models.property_model import (
+    MODEL_KINDS,
+    PropertyModel,
+    train_classifier,
+    train_regression,
+)
 from liquidtouch.models.regressors import GPRegressor, QuadraticRegressor
 from liquidtouch.models.transfer import fit_transfer
 
 __all__ = [
+    "MODEL_KINDS",
     "GPRegressor",
     "LiquidClassifier",
     "PhysicsGPRegressor",

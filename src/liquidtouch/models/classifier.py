@@ -13,9 +13,12 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.utils.validation import check_is_fitted
 
-from liquidtouch.errors import TableError
-from liquidtouch.models.regressors import _scale, check_features
+from liquidtouch.errors import ModelFileError, TableError
+from liquidtouch.models.regressors import single_threaded_blas
+from liquidtouch.models.validation import check_positive, mean_and_scale, validate_X, validate_X_y
 
 MIN_ROWS_PER_CLASS = 3
 # Moderate values first: on a tie of cross-validated accuracy (small, well-separated
@@ -25,11 +28,18 @@ C_GRID = (10.0, 1.0, 100.0, 0.1, 1000.0)
 GAMMA_GRID = (1.0, 0.3, 3.0, 0.1, 10.0)
 
 
-class LiquidClassifier:
+class LiquidClassifier(ClassifierMixin, BaseEstimator):
     """RBF-kernel SVM on standardised (λ, ω) with calibrated class probabilities.
 
-    ``C`` and ``gamma`` (in standardised units) default to ``None``: choose
-    them by cross-validated accuracy on :data:`C_GRID` × :data:`GAMMA_GRID`.
+    A scikit-learn classifier. ``C`` and ``gamma`` (in standardised units)
+    default to ``None``: choose them by stratified cross-validated accuracy on
+    :data:`C_GRID` × :data:`GAMMA_GRID`. Needs at least 2 classes and
+    :data:`MIN_ROWS_PER_CLASS` rows of each. Class labels keep their type
+    (model files store them as strings; ``train_classifier`` converts them).
+
+    Fitted attributes: ``classes_``, ``C_``, ``gamma_`` (the values used),
+    ``model_`` (the calibrated SVM), ``X_train_``, ``labels_train_``, ``x_mean_``,
+    ``x_scale_``, ``n_features_in_``.
     """
 
     model_name = "svm"
@@ -47,69 +57,86 @@ class LiquidClassifier:
         from sklearn.svm import SVC
 
         grid = {
-            "C": [self.C] if self.C is not None else list(C_GRID),
-            "gamma": [self.gamma] if self.gamma is not None else list(GAMMA_GRID),
+            "C": [float(self.C)] if self.C is not None else list(C_GRID),
+            "gamma": [float(self.gamma)] if self.gamma is not None else list(GAMMA_GRID),
         }
         if len(grid["C"]) * len(grid["gamma"]) == 1:
-            return float(grid["C"][0]), float(grid["gamma"][0])
+            return grid["C"][0], grid["gamma"][0]
         search = GridSearchCV(SVC(kernel="rbf"), grid, cv=StratifiedKFold(self._folds(labels)))
         search.fit(Z, labels)
         return float(search.best_params_["C"]), float(search.best_params_["gamma"])
 
-    def fit(self, X: Any, labels: Any) -> LiquidClassifier:
-        """Fit on (n, 2) features and class names; return ``self``."""
+    def fit(self, X: Any, y: Any) -> LiquidClassifier:
+        """Fit on (n, d) features ``X`` and class labels ``y`` (n,); return ``self``.
+
+        Raises :class:`TableError` for C or gamma not > 0, bad features, continuous
+        labels, fewer than 2 classes or fewer than 3 rows of a class.
+        """
         from sklearn.calibration import CalibratedClassifierCV
         from sklearn.model_selection import StratifiedKFold
         from sklearn.svm import SVC
 
-        X = check_features(X)
-        labels = np.asarray(labels).astype(str).ravel()
-        if labels.shape[0] != X.shape[0]:
-            raise TableError(f"{X.shape[0]} feature rows but {labels.shape[0]} labels")
+        for name in ("C", "gamma"):
+            if getattr(self, name) is not None:
+                check_positive(getattr(self, name), name)
+        X, labels = validate_X_y(self, X, y, classification=True)
         classes, counts = np.unique(labels, return_counts=True)
         if classes.size < 2:
             raise TableError(
-                f"classification needs at least 2 classes; got only {classes.tolist()}"
+                f"classification needs at least 2 classes; got 1 class: {classes.tolist()}"
             )
         if counts.min() < MIN_ROWS_PER_CLASS:
-            few = ", ".join(f"{c} ({n})" for c, n in zip(classes, counts, strict=True) if n < 3)
+            few = ", ".join(
+                f"{c} ({n})" for c, n in zip(classes, counts, strict=True) if n < MIN_ROWS_PER_CLASS
+            )
             raise TableError(
                 f"classification needs at least {MIN_ROWS_PER_CLASS} rows per class; "
                 f"too few for: {few} (add trials)"
             )
         self.X_train_, self.labels_train_ = X, labels
-        self.x_mean_, self.x_scale_ = _scale(X)
+        self.x_mean_, self.x_scale_ = mean_and_scale(X)
         Z = (X - self.x_mean_) / self.x_scale_
-        self.C_, self.gamma_ = self._select(Z, labels)
-        self.model_ = CalibratedClassifierCV(
-            SVC(kernel="rbf", C=self.C_, gamma=self.gamma_),
-            method="sigmoid",
-            cv=StratifiedKFold(self._folds(labels)),
-            ensemble=False,
-        ).fit(Z, labels)
+        with single_threaded_blas():  # small problems: BLAS threads only contend (3× slower)
+            self.C_, self.gamma_ = self._select(Z, labels)
+            self.model_ = CalibratedClassifierCV(
+                SVC(kernel="rbf", C=self.C_, gamma=self.gamma_),
+                method="sigmoid",
+                cv=StratifiedKFold(self._folds(labels)),
+                ensemble=False,
+            ).fit(Z, labels)
         self.classes_ = self.model_.classes_
         return self
 
     def _z(self, X: Any) -> np.ndarray:
-        return (check_features(X) - self.x_mean_) / self.x_scale_
+        check_is_fitted(self, "model_")
+        return (validate_X(self, X) - self.x_mean_) / self.x_scale_
 
     def predict(self, X: Any) -> np.ndarray:
         """The most probable class of each row (consistent with :meth:`predict_proba`)."""
+        check_is_fitted(self, "model_")
         return self.classes_[np.argmax(self.predict_proba(X), axis=1)]
 
     def predict_proba(self, X: Any) -> np.ndarray:
-        """Calibrated class probabilities, columns in the order of ``classes_``."""
-        return self.model_.predict_proba(self._z(X))
+        """Calibrated class probabilities (n, n_classes), columns in the order of ``classes_``."""
+        Z = self._z(X)
+        return self.model_.predict_proba(Z)
 
     def describe(self) -> str:
         """The chosen hyperparameters and class names."""
+        check_is_fitted(self, "model_")
         return (
             f"RBF SVM, C={self.C_:.3g}, gamma={self.gamma_:.3g} (standardised λ, ω); "
-            f"classes: {', '.join(self.classes_)}"
+            f"classes: {', '.join(map(str, self.classes_))}"
         )
 
     def to_state(self) -> dict[str, Any]:
-        """Plain-data state: chosen hyperparameters and training data."""
+        """Plain-data state: chosen hyperparameters and training data (labels as strings)."""
+        check_is_fitted(self, "model_")
+        if not all(isinstance(label, str) for label in self.labels_train_.tolist()):
+            raise ModelFileError(
+                "a model file stores class names as strings; fit the classifier on string "
+                "labels (train_classifier converts them)"
+            )
         return {
             "model": self.model_name,
             "C": self.C_,
@@ -121,4 +148,5 @@ class LiquidClassifier:
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> LiquidClassifier:
         """Rebuild exactly by the deterministic refit with the stored C and gamma."""
-        return cls(C=state["C"], gamma=state["gamma"]).fit(state["X_train"], state["labels_train"])
+        labels = np.asarray(state["labels_train"], dtype=str)
+        return cls(C=state["C"], gamma=state["gamma"]).fit(state["X_train"], labels)

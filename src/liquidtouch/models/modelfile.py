@@ -16,7 +16,8 @@ coefficients), its feature/target scaling and its training data; loading
 refits deterministically with those hyperparameters (no optimiser), so
 predictions are identical to the saved model's. Loading validates everything
 (pydantic) and raises :class:`ModelFileError` for a file that is not ours, is
-of a newer format version, or is corrupt.
+of a newer format version, or is corrupt. The format is described in
+``docs/formats.md``.
 """
 
 from __future__ import annotations
@@ -34,9 +35,7 @@ from liquidtouch.errors import ModelFileError
 from liquidtouch.io import atomic
 from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.models.classifier import LiquidClassifier
-from liquidtouch.models.physics_prior import PhysicsGPRegressor
-from liquidtouch.models.property_model import FeatureMap, PropertyModel
-from liquidtouch.models.regressors import GPRegressor, QuadraticRegressor
+from liquidtouch.models.property_model import REGRESSORS, FeatureMap, PropertyModel
 
 FORMAT_NAME = "liquidtouch-model"
 FORMAT_VERSION = 1
@@ -158,11 +157,20 @@ class ModelFile(_Strict):
         return self
 
 
-_REBUILD = {"gpr": GPRegressor, "physics-gpr": PhysicsGPRegressor, "quadratic": QuadraticRegressor}
+def _require_model(model: Any) -> None:
+    if not isinstance(model, PropertyModel):
+        raise ModelFileError(
+            f"only a PropertyModel can be saved; got {type(model).__name__} (wrap a fitted "
+            "estimator: PropertyModel(regressors={'height_mm': estimator}))"
+        )
 
 
 def model_to_dict(model: PropertyModel) -> dict[str, Any]:
-    """The JSON-ready dict of ``model`` (validated against :class:`ModelFile`)."""
+    """The JSON-ready dict of ``model`` (validated against :class:`ModelFile`).
+
+    Raises :class:`ModelFileError` if ``model`` cannot be stored.
+    """
+    _require_model(model)
     doc = {
         "format": FORMAT_NAME,
         "format_version": FORMAT_VERSION,
@@ -178,15 +186,25 @@ def model_to_dict(model: PropertyModel) -> dict[str, Any]:
         "regressors": {t: r.to_state() for t, r in model.regressors.items()},
         "classifier": model.classifier.to_state() if model.classifier is not None else None,
     }
-    ModelFile.model_validate(doc)  # never write a file we would refuse to read
+    try:
+        ModelFile.model_validate(doc)  # never write a file we would refuse to read
+    except ValidationError as exc:
+        raise ModelFileError(f"the model cannot be saved: {_first_error(exc)}") from None
     return doc
 
 
 def save_model(model: PropertyModel, path: str | os.PathLike[str]) -> Path:
     """Atomically write ``model`` as a JSON model file; return the path."""
+    doc = model_to_dict(model)
     path = Path(path)
-    atomic.write_json(path, model_to_dict(model))
+    atomic.write_json(path, doc)
     return path
+
+
+def _first_error(exc: ValidationError) -> str:
+    first = exc.errors()[0]
+    loc = ".".join(str(p) for p in first["loc"]) or "(root)"
+    return f"{loc}: {first['msg']}"
 
 
 def _validate(doc: Any, where: str) -> ModelFile:
@@ -204,10 +222,8 @@ def _validate(doc: Any, where: str) -> ModelFile:
     try:
         return ModelFile.model_validate(doc)
     except ValidationError as exc:
-        first = exc.errors()[0]
-        loc = ".".join(str(p) for p in first["loc"]) or "(root)"
         raise ModelFileError(
-            f"{where} is a corrupt model file: {loc}: {first['msg']} (retrain the model)"
+            f"{where} is a corrupt model file: {_first_error(exc)} (retrain the model)"
         ) from None
 
 
@@ -220,7 +236,7 @@ def model_from_dict(doc: Any, where: str = "model") -> PropertyModel:
             clf = LiquidClassifier.from_state(data.classifier.model_dump())
             return PropertyModel(classifier=clf, label=data.label, feature_map=fmap)
         regressors = {
-            t: _REBUILD[s.model].from_state(s.model_dump()) for t, s in data.regressors.items()
+            t: REGRESSORS[s.model].from_state(s.model_dump()) for t, s in data.regressors.items()
         }
     except ModelFileError:
         raise

@@ -24,14 +24,17 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from sklearn.utils.validation import check_is_fitted
 
 from liquidtouch.errors import TableError
 from liquidtouch.models.regressors import GPRegressor
+from liquidtouch.models.validation import check_positive
 
 GRAVITY_M_S2 = 9.81
 # effective container lengths searched when fitting k = π / L
 _LENGTH_BOUNDS_M = (0.02, 2.0)
 # which physics feature suits which label column
+PRIORS = ("height", "viscosity")
 PRIOR_OF_TARGET = {
     "height_mm": "height",
     "log10_viscosity_cst": "viscosity",
@@ -40,14 +43,28 @@ PRIOR_OF_TARGET = {
 }
 
 
+def _same_length(**arrays: Any) -> list[np.ndarray]:
+    values = [np.asarray(v, dtype=float).ravel() for v in arrays.values()]
+    sizes = {v.size for v in values}
+    if len(sizes) != 1 or 0 in sizes:
+        shown = ", ".join(f"{k} ({v.size})" for k, v in zip(arrays, values, strict=True))
+        raise TableError(f"need equally many values, at least one, of: {shown}")
+    for name, v in zip(arrays, values, strict=True):
+        if not np.isfinite(v).all():
+            raise TableError(f"{name} contains NaN or infinite values; drop or fix those rows")
+    return values
+
+
 def dispersion_height_mm(
     decay_rate: np.ndarray, angular_frequency: np.ndarray, wavenumber: float
 ) -> np.ndarray:
     """Fill height [mm] implied by ``ω² + λ² = g k tanh(k h)`` for wavenumber ``k`` [1/m].
 
     Frequencies at or above the deep-liquid limit ``sqrt(g k)`` are clipped
-    just below it (the height would be infinite).
+    just below it (the height would be infinite). Raises :class:`TableError`
+    unless ``wavenumber`` is a finite number > 0.
     """
+    wavenumber = check_positive(wavenumber, "wavenumber")
     omega0_sq = np.square(angular_frequency) + np.square(decay_rate)
     ratio = np.clip(omega0_sq / (GRAVITY_M_S2 * wavenumber), 0.0, 1.0 - 1e-9)
     return 1000.0 * np.arctanh(ratio) / wavenumber
@@ -56,8 +73,15 @@ def dispersion_height_mm(
 def fit_wavenumber(
     decay_rate: np.ndarray, angular_frequency: np.ndarray, height_mm: np.ndarray
 ) -> float:
-    """Effective wavenumber k = π / L [1/m] that best explains the heights (least squares)."""
+    """Effective wavenumber k = π / L [1/m] that best explains the heights (least squares).
+
+    The three arrays must be finite and of equal length (at least one value).
+    """
     from scipy.optimize import minimize_scalar
+
+    decay_rate, angular_frequency, height_mm = _same_length(
+        decay_rate=decay_rate, angular_frequency=angular_frequency, height_mm=height_mm
+    )
 
     def loss(log_k: float) -> float:
         h = dispersion_height_mm(decay_rate, angular_frequency, float(np.exp(log_k)))
@@ -81,20 +105,62 @@ def stokes_viscosity_feature(decay_rate: np.ndarray, angular_frequency: np.ndarr
 
 
 class PhysicsGPRegressor(GPRegressor):
-    """GP regression with a physics prior mean and a physics feature as extra input.
+    """GP regression with a physics prior mean (and, for viscosity, a physics input).
 
-    ``prior="height"`` uses the dispersion-relation height (fitted wavenumber);
-    ``prior="viscosity"`` uses the Stokes-layer viscosity feature. Use
-    :func:`prior_for_target` to choose from a label column's name.
+    A scikit-learn regressor like :class:`GPRegressor` (one target per
+    estimator; ``predict(X, return_std=False)``), but ``X`` must have exactly the
+    two columns (decay_rate λ [1/s], angular_frequency ω [rad/s]) with ω > 0,
+    since the prior is a formula in them.
+
+    Parameters
+    ----------
+    prior : {"height", "viscosity"}
+        ``"height"`` uses the dispersion-relation height (fitted wavenumber);
+        ``"viscosity"`` the Stokes-layer viscosity feature. Use
+        :func:`prior_for_target` to choose from a label column's name.
+    n_restarts, random_state
+        As for :class:`GPRegressor`.
+
+    Extra fitted attributes: ``wavenumber_`` [1/m] (0 for a viscosity prior) and
+    ``prior_coef_`` (b0, b1) of the prior mean ``b0 + b1 p(λ, ω)``.
     """
 
     model_name = "physics-gpr"
 
-    def __init__(self, prior: str = "height", n_restarts: int = 5, random_state: int = 0) -> None:
-        if prior not in ("height", "viscosity"):
-            raise TableError(f"unknown physics prior {prior!r}; use 'height' or 'viscosity'")
-        super().__init__(n_restarts=n_restarts, random_state=random_state)
+    def __init__(self, prior: str = "height", n_restarts: int = 5, random_state: Any = 0) -> None:
         self.prior = prior
+        self.n_restarts = n_restarts
+        self.random_state = random_state
+
+    def _check_params(self) -> None:
+        super()._check_params()
+        if self.prior not in PRIORS:
+            raise TableError(
+                f"unknown physics prior {self.prior!r}; use one of {', '.join(map(repr, PRIORS))}"
+            )
+
+    def __sklearn_tags__(self) -> Any:
+        tags = super().__sklearn_tags__()
+        tags.input_tags.positive_only = True  # λ >= 0, ω > 0
+        return tags
+
+    def _check_input(self, X: np.ndarray) -> None:
+        name = type(self).__name__
+        if (X < 0).any():
+            raise TableError(
+                f"{name}: Negative values in data: decay_rate λ must be >= 0 and "
+                "angular_frequency ω > 0 (drop failed oscillation fits)"
+            )
+        if X.shape[1] != 2:
+            raise TableError(
+                f"{name} needs exactly 2 features (decay_rate λ [1/s], "
+                f"angular_frequency ω [rad/s]); got n_features={X.shape[1]}"
+            )
+        if (X[:, 1] == 0).any():
+            raise TableError(
+                f"{name}: angular_frequency ω (column 1) must be > 0 in every row; "
+                "drop failed oscillation fits"
+            )
 
     def _physics_feature(self, X: np.ndarray) -> np.ndarray:
         if self.prior == "height":
@@ -130,6 +196,7 @@ class PhysicsGPRegressor(GPRegressor):
 
     def describe(self) -> str:
         """Summary: the physics prior's parameters and the residual kernel."""
+        check_is_fitted(self, "prior_coef_")
         b0, b1 = self.prior_coef_
         if self.prior == "height":
             length_m = np.pi / self.wavenumber_

@@ -16,16 +16,18 @@ import numpy as np
 import pandas as pd
 
 from liquidtouch.errors import TableError
-from liquidtouch.io.tables import feature_matrix
+from liquidtouch.io.tables import FEATURE_COLUMNS, feature_matrix
 from liquidtouch.models.classifier import LiquidClassifier
 from liquidtouch.models.physics_prior import PhysicsGPRegressor, prior_for_target
-from liquidtouch.models.regressors import GPRegressor, QuadraticRegressor, check_features
+from liquidtouch.models.regressors import GPRegressor, QuadraticRegressor
+from liquidtouch.models.validation import check_features
 
-REGRESSORS: dict[str, type] = {
-    "gpr": GPRegressor,
-    "quadratic": QuadraticRegressor,
-    "physics-gpr": PhysicsGPRegressor,
-}
+#: The regressor kinds, by the name used on the command line and in model files:
+#: the paper's GP, the paper's 6-parameter quadratic, our physics-informed GP.
+MODEL_KINDS: tuple[str, ...] = ("gpr", "quadratic", "physics-gpr")
+REGRESSORS: dict[str, type] = dict(
+    zip(MODEL_KINDS, (GPRegressor, QuadraticRegressor, PhysicsGPRegressor), strict=True)
+)
 
 
 @dataclass(frozen=True)
@@ -35,14 +37,23 @@ class FeatureMap:
     alpha: tuple[float, float] = (1.0, 0.0)
     beta: tuple[float, float] = (1.0, 0.0)
 
-    def apply(self, X: np.ndarray) -> np.ndarray:
+    def __post_init__(self) -> None:
+        for name in ("alpha", "beta"):
+            pair = np.asarray(getattr(self, name), dtype=float)
+            if pair.shape != (2,) or not np.isfinite(pair).all():
+                raise TableError(f"FeatureMap.{name} must be two finite numbers; got {pair!r}")
+
+    def apply(self, X: Any) -> np.ndarray:
         """Map an (n, 2) array of (λ, ω)."""
+        X = check_features(X)
         return np.column_stack(
             [self.alpha[0] * X[:, 0] + self.alpha[1], self.beta[0] * X[:, 1] + self.beta[1]]
         )
 
     def then(self, inner: FeatureMap) -> FeatureMap:
         """The map ``x → self.apply(inner.apply(x))``."""
+        if not isinstance(inner, FeatureMap):
+            raise TableError(f"can only compose with a FeatureMap; got {type(inner).__name__}")
         a1, a2 = self.alpha
         b1, b2 = self.beta
         return FeatureMap(
@@ -56,7 +67,13 @@ class FeatureMap:
 
 
 class PropertyModel:
-    """Regressors (one per target column) or a classifier, plus an optional feature map."""
+    """Regressors (one per target column) or a classifier, plus an optional feature map.
+
+    The project's multi-target model (not a scikit-learn estimator): a dict of
+    fitted single-target estimators, each trained on the two features
+    ``FEATURE_COLUMNS`` (λ [1/s], ω [rad/s]). :meth:`predict` returns
+    ``{target: (mean, std)}``.
+    """
 
     def __init__(
         self,
@@ -66,7 +83,18 @@ class PropertyModel:
         feature_map: FeatureMap | None = None,
     ) -> None:
         if bool(regressors) == (classifier is not None):
-            raise ValueError("a PropertyModel holds either regressors or a classifier")
+            raise TableError("a PropertyModel holds either regressors or a classifier")
+        if feature_map is not None and not isinstance(feature_map, FeatureMap):
+            raise TableError(f"feature_map must be a FeatureMap; got {type(feature_map).__name__}")
+        estimators = dict(regressors or {})
+        if classifier is not None:
+            estimators[label or "liquid"] = classifier
+        for target, estimator in estimators.items():
+            if getattr(estimator, "n_features_in_", None) != len(FEATURE_COLUMNS):
+                raise TableError(
+                    f"the estimator for {target!r} must be fitted on the "
+                    f"{len(FEATURE_COLUMNS)} features ({', '.join(FEATURE_COLUMNS)})"
+                )
         self.regressors = dict(regressors or {})
         self.classifier = classifier
         self.label = label
@@ -83,7 +111,7 @@ class PropertyModel:
         return [self.label or "liquid"] if self.classifier is not None else list(self.regressors)
 
     def _mapped(self, X: Any) -> np.ndarray:
-        return self.feature_map.apply(check_features(X))
+        return self.feature_map.apply(X)
 
     def predict(self, X: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """Regression: ``{target: (mean, std)}`` at the (n, 2) features ``X``."""
@@ -148,9 +176,13 @@ class PropertyModel:
 
 
 def make_regressor(model: str, target: str, random_state: int = 0) -> Any:
-    """A fresh regressor of kind ``model`` (gpr, quadratic, physics-gpr) for ``target``."""
+    """A fresh (unfitted) regressor of kind ``model`` (one of :data:`MODEL_KINDS`) for ``target``.
+
+    ``target`` picks the physics prior of a ``physics-gpr``
+    (:func:`~liquidtouch.models.physics_prior.prior_for_target`).
+    """
     if model not in REGRESSORS:
-        raise TableError(f"unknown model {model!r}; choose one of {', '.join(REGRESSORS)}")
+        raise TableError(f"unknown model {model!r}; choose one of {', '.join(MODEL_KINDS)}")
     if model == "physics-gpr":
         return PhysicsGPRegressor(prior_for_target(target), random_state=random_state)
     if model == "gpr":
@@ -166,10 +198,23 @@ def train_regression(
 ) -> PropertyModel:
     """Fit one regressor of kind ``model`` per target; ``targets`` maps column → values.
 
-    ``progress(target)`` is called after each target (for progress bars).
+    ``X`` is the (n, 2) array of (λ [1/s], ω [rad/s]); each target has n finite
+    values. ``progress(target)`` is called after each target (for progress bars).
+    Raises :class:`TableError` for bad input, before any fitting.
     """
-    if not targets:
-        raise TableError("give at least one target column to train on")
+    if model not in REGRESSORS:
+        raise TableError(f"unknown model {model!r}; choose one of {', '.join(MODEL_KINDS)}")
+    X = check_features(X)
+    if not isinstance(targets, Mapping) or not targets:
+        raise TableError("give at least one target column to train on (a dict column → values)")
+    if progress is not None and not callable(progress):
+        raise TableError("progress must be a callable taking the target name, or None")
+    for target, y in targets.items():
+        n_y = np.shape(y)[0] if np.ndim(y) >= 1 else 0
+        if n_y != X.shape[0]:
+            raise TableError(f"target {target}: {X.shape[0]} feature rows but {n_y} values")
+        if model == "physics-gpr":
+            prior_for_target(target)  # an unknown target fails before the first (slow) fit
     regressors = {}
     for target, y in targets.items():
         regressors[target] = make_regressor(model, target).fit(X, y)
@@ -179,5 +224,15 @@ def train_regression(
 
 
 def train_classifier(X: Any, labels: Any, label: str = "liquid") -> PropertyModel:
-    """Fit the RBF-SVM liquid classifier on features ``X`` and class names ``labels``."""
+    """Fit the RBF-SVM liquid classifier on (n, 2) features ``X`` and class names ``labels``.
+
+    Labels are converted to strings (model files store class names).
+    """
+    X = check_features(X)
+    if not isinstance(label, str) or not label:
+        raise TableError(f"label must be a non-empty column name; got {label!r}")
+    labels = np.asarray(labels)
+    if labels.ndim != 1 or labels.shape[0] != X.shape[0]:
+        raise TableError(f"{X.shape[0]} feature rows but labels of shape {labels.shape}")
+    labels = labels.astype(str)
     return PropertyModel(classifier=LiquidClassifier().fit(X, labels), label=label)

@@ -1,28 +1,52 @@
 """Regression of liquid properties from the slow sloshing mode's (λ, ω).
 
-Estimators follow scikit-learn conventions: ``fit(X, y)`` with ``X`` an
-(n, 2) array of (decay_rate λ [1/s], angular_frequency ω [rad/s]) and ``y``
-one numeric label (``height_mm``, ``sugar_concentration``,
-``log10_viscosity_cst``, ...), and ``predict(X, return_std=...)``.
+Both estimators are scikit-learn estimators (``RegressorMixin`` +
+``BaseEstimator``): ``__init__`` only stores its arguments, ``fit(X, y)``
+validates and returns ``self``, fitted attributes end with ``_``, and they work
+with :func:`sklearn.base.clone`, pipelines, ``cross_val_score`` and
+``GridSearchCV``. In this project ``X`` is the (n, 2) array of
+(decay_rate λ [1/s], angular_frequency ω [rad/s]); the estimators themselves
+accept any number of feature columns (only model files and
+:class:`~liquidtouch.models.property_model.PropertyModel` require exactly these two).
+
+**One target per estimator** (single-output, like ``sklearn.svm.SVR``): ``y``
+is one numeric label (``height_mm``, ``sugar_concentration``,
+``log10_viscosity_cst``, ...) of shape (n,), and ``predict(X)`` returns shape
+(n,); ``predict(X, return_std=True)`` returns ``(mean, std)``, both (n,), as
+``sklearn.gaussian_process.GaussianProcessRegressor`` does. Several targets are
+several estimators, each with its own hyperparameters (and physics prior):
+:func:`~liquidtouch.models.property_model.train_regression` builds one per
+target; ``sklearn.multioutput.MultiOutputRegressor`` does the same and returns (n, k).
 
 - :class:`GPRegressor` — Gaussian-process regression with an anisotropic RBF +
   white-noise kernel on standardised inputs and targets (the paper's model).
 - :class:`QuadraticRegressor` — the paper's 6-parameter quadratic in (λ, ω).
 
-Every estimator can be written as a plain dict (``to_state``) holding its
-hyperparameters and training data, and rebuilt exactly from it
+Every fitted estimator can be written as a plain dict (``to_state``) holding
+its hyperparameters and training data, and rebuilt exactly from it
 (``from_state``): the rebuild refits deterministically with the stored
 hyperparameters (no optimiser), so predictions are bit-identical.
 """
 
 from __future__ import annotations
 
+import numbers
 import warnings
+from itertools import combinations_with_replacement
 from typing import Any
 
 import numpy as np
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.utils.validation import check_is_fitted
 
 from liquidtouch.errors import ModelFileError, TableError
+from liquidtouch.models.validation import (
+    check_int,
+    mean_and_scale,
+    require_rows,
+    validate_X,
+    validate_X_y,
+)
 
 MIN_ROWS_GPR = 5
 # RBF length scales in standardised input units. Labels are usually set on a grid
@@ -30,7 +54,7 @@ MIN_ROWS_GPR = 5
 # fit a staircase through the grid levels with zero noise — a higher likelihood
 # but a worse interpolant (3 mm vs 0.2 mm test MAE on the sugar benchmark).
 LENGTH_SCALE_BOUNDS = (0.3, 100.0)
-MIN_ROWS_QUADRATIC = 7  # six coefficients plus one degree of freedom for the noise
+MIN_ROWS_QUADRATIC = 7  # (λ, ω): six coefficients plus one degree of freedom for the noise
 
 
 def single_threaded_blas() -> Any:
@@ -45,59 +69,52 @@ def single_threaded_blas() -> Any:
     return threadpool_limits(limits=1, user_api="blas")
 
 
-def check_features(X: Any, n_columns: int = 2) -> np.ndarray:
-    """Validate and return ``X`` as a finite float (n, 2) array of (λ, ω)."""
-    # one memory layout, so that a refit on stored data repeats the same float operations
-    X = np.ascontiguousarray(X, dtype=float)
-    if X.ndim != 2 or X.shape[1] != n_columns:
+def _check_random_state(value: Any) -> None:
+    if value is None or isinstance(value, np.random.RandomState):
+        return
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
         raise TableError(
-            f"features must be an (n, {n_columns}) array of (decay_rate, angular_frequency); "
-            f"got shape {X.shape}"
+            f"random_state must be None, an integer >= 0 or a numpy RandomState; got {value!r}"
         )
-    if not np.isfinite(X).all():
-        raise TableError("features contain NaN or infinite values; drop or fix those rows")
-    return X
 
 
-def check_training(X: Any, y: Any, min_rows: int, what: str) -> tuple[np.ndarray, np.ndarray]:
-    """Validate a training set: finite (n, 2) ``X``, finite ``y`` of length n, n >= ``min_rows``."""
-    X = check_features(X)
-    y = np.asarray(y, dtype=float).ravel()
-    if y.shape[0] != X.shape[0]:
-        raise TableError(f"{X.shape[0]} feature rows but {y.shape[0]} target values")
-    if not np.isfinite(y).all():
-        raise TableError("the target contains NaN or infinite values; drop or fix those rows")
-    if X.shape[0] < min_rows:
-        raise TableError(
-            f"{what} needs at least {min_rows} training rows; got {X.shape[0]} (add trials)"
-        )
-    return X, y
-
-
-def _scale(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    mean = values.mean(axis=0)
-    scale = values.std(axis=0)
-    # a constant column carries no information; keep it finite instead of dividing by zero
-    return mean, np.where(scale > 0, scale, 1.0)
-
-
-class GPRegressor:
+class GPRegressor(RegressorMixin, BaseEstimator):
     """Gaussian-process regression of one property from (λ, ω).
 
-    Kernel ``C · RBF(ℓ_λ, ℓ_ω) + White(σ²)`` on standardised inputs and a
+    Kernel ``C · RBF(ℓ_1, …, ℓ_d) + White(σ²)`` on standardised inputs and a
     standardised target; hyperparameters by maximum marginal likelihood with
     ``n_restarts`` random restarts (seeded by ``random_state``). Subclasses may
     add a prior mean and extra physics inputs (:mod:`liquidtouch.models.physics_prior`).
+
+    Parameters
+    ----------
+    n_restarts : int >= 0
+        Restarts of the marginal-likelihood optimiser from random kernels.
+    random_state : int >= 0, None or numpy RandomState
+        Seed of the restarts. Saving to a model file needs an int.
+
+    Fitted attributes: ``X_train_``, ``y_train_``, ``x_mean_``, ``x_scale_``,
+    ``y_mean_``, ``y_scale_``, ``gp_`` (the inner scikit-learn GP),
+    ``kernel_params_``, ``n_features_in_`` (and ``feature_names_in_`` when fitted on
+    a DataFrame).
     """
 
     model_name = "gpr"
     min_rows = MIN_ROWS_GPR
 
-    def __init__(self, n_restarts: int = 5, random_state: int = 0) -> None:
+    def __init__(self, n_restarts: int = 5, random_state: Any = 0) -> None:
         self.n_restarts = n_restarts
         self.random_state = random_state
 
     # hooks for physics-informed subclasses ---------------------------------
+    def _check_params(self) -> None:
+        """Validate the hyperparameters (at fit time, as scikit-learn wants)."""
+        check_int(self.n_restarts, "n_restarts", 0)
+        _check_random_state(self.random_state)
+
+    def _check_input(self, X: np.ndarray) -> None:
+        """Extra checks of validated features, in fit and predict (none for the plain GP)."""
+
     def _fit_prior(self, X: np.ndarray, y: np.ndarray) -> None:
         """Fit the prior mean's parameters (none for the plain GP)."""
 
@@ -140,10 +157,17 @@ class GPRegressor:
             self.gp_.fit(Z, r)
 
     def fit(self, X: Any, y: Any) -> GPRegressor:
-        """Fit on (n, 2) features ``X`` and targets ``y``; return ``self``."""
-        self.X_train_, self.y_train_ = check_training(X, y, self.min_rows, "a GP regressor")
+        """Fit on (n, d) features ``X`` and one target ``y`` of shape (n,); return ``self``.
+
+        Raises :class:`TableError` for bad hyperparameters, a bad shape, NaN or
+        infinity, or fewer than :data:`MIN_ROWS_GPR` rows.
+        """
+        self._check_params()
+        X, y = validate_X_y(self, X, y, self.min_rows)
+        self._check_input(X)
+        self.X_train_, self.y_train_ = X, y
         self._fit_prior(self.X_train_, self.y_train_)
-        self.x_mean_, self.x_scale_ = _scale(self._inputs(self.X_train_))
+        self.x_mean_, self.x_scale_ = mean_and_scale(self._inputs(self.X_train_))
         residual = self.y_train_ - self._prior_mean(self.X_train_)
         self.y_mean_, self.y_scale_ = float(residual.mean()), float(residual.std() or 1.0)
         n_inputs = self.x_mean_.shape[0]
@@ -153,6 +177,7 @@ class GPRegressor:
     @property
     def kernel_params_(self) -> dict[str, Any]:
         """Fitted kernel: ``constant``, ``length_scale`` (standardised), ``noise_level``."""
+        check_is_fitted(self, "gp_")
         params = self.gp_.kernel_.get_params()
         length_scale = np.atleast_1d(params["k1__k2__length_scale"]).astype(float)
         return {
@@ -161,9 +186,15 @@ class GPRegressor:
             "noise_level": float(params["k2__noise_level"]),
         }
 
-    def predict(self, X: Any, return_std: bool = False):
-        """Predicted target (and its standard deviation, including the noise) at ``X``."""
-        X = check_features(X)
+    def predict(self, X: Any, return_std: bool = False) -> Any:
+        """Predicted target at ``X``, shape (n,).
+
+        With ``return_std=True`` return ``(mean, std)``, both (n,); the standard
+        deviation is that of a new observation (it includes the fitted noise).
+        """
+        check_is_fitted(self, "gp_")
+        X = validate_X(self, X)
+        self._check_input(X)
         Z = (self._inputs(X) - self.x_mean_) / self.x_scale_
         prior = self._prior_mean(X)
         if not return_std:
@@ -179,10 +210,18 @@ class GPRegressor:
 
     def to_state(self) -> dict[str, Any]:
         """Plain-data state: hyperparameters, scaling, kernel and training data."""
+        check_is_fitted(self, "gp_")
+        if isinstance(self.random_state, bool) or not isinstance(
+            self.random_state, numbers.Integral
+        ):
+            raise ModelFileError(
+                f"a model file stores an integer random_state; this {type(self).__name__} has "
+                f"random_state={self.random_state!r} (refit it with an integer)"
+            )
         return {
             "model": self.model_name,
-            "n_restarts": self.n_restarts,
-            "random_state": self.random_state,
+            "n_restarts": int(self.n_restarts),
+            "random_state": int(self.random_state),
             "kernel": self.kernel_params_,
             "prior": self._prior_state(),
             "x_mean": self.x_mean_.tolist(),
@@ -203,6 +242,7 @@ class GPRegressor:
         self = cls._construct(state)
         self.X_train_ = np.asarray(state["X_train"], dtype=float)
         self.y_train_ = np.asarray(state["y_train"], dtype=float)
+        self.n_features_in_ = self.X_train_.shape[1]
         self._set_prior_state(state["prior"])
         self.x_mean_ = np.asarray(state["x_mean"], dtype=float)
         self.x_scale_ = np.asarray(state["x_scale"], dtype=float)
@@ -213,26 +253,39 @@ class GPRegressor:
         return self
 
 
-class QuadraticRegressor:
+def n_quadratic_terms(n_features: int) -> int:
+    """Coefficients of a full quadratic in ``n_features`` variables (6 for (λ, ω))."""
+    return (n_features + 1) * (n_features + 2) // 2
+
+
+class QuadraticRegressor(RegressorMixin, BaseEstimator):
     """The paper's 6-parameter model ``y = a0 + a1 λ + a2 ω + a3 λ² + a4 λω + a5 ω²``.
 
     Least squares on standardised (λ, ω) for conditioning; the predictive
     standard deviation is the ordinary-least-squares one,
-    ``s · sqrt(1 + φᵀ (ΦᵀΦ)⁻¹ φ)``.
+    ``s · sqrt(1 + φᵀ (ΦᵀΦ)⁻¹ φ)``. With d features the model is the full
+    quadratic in d variables; fitting needs one row more than coefficients
+    (:data:`MIN_ROWS_QUADRATIC` = 7 for (λ, ω)). No hyperparameters.
+
+    Fitted attributes: ``coef_``, ``noise_variance_``, ``covariance_``,
+    ``X_train_``, ``y_train_``, ``x_mean_``, ``x_scale_``, ``n_features_in_``.
     """
 
     model_name = "quadratic"
-    min_rows = MIN_ROWS_QUADRATIC
 
     @staticmethod
     def _design(Z: np.ndarray) -> np.ndarray:
-        z1, z2 = Z[:, 0], Z[:, 1]
-        return np.column_stack([np.ones_like(z1), z1, z2, z1 * z1, z1 * z2, z2 * z2])
+        d = Z.shape[1]
+        linear = [Z[:, i] for i in range(d)]
+        pairs = [Z[:, i] * Z[:, j] for i, j in combinations_with_replacement(range(d), 2)]
+        return np.column_stack([np.ones_like(Z[:, 0]), *linear, *pairs])
 
     def fit(self, X: Any, y: Any) -> QuadraticRegressor:
-        """Least-squares fit on (n, 2) features ``X`` and targets ``y``; return ``self``."""
-        self.X_train_, self.y_train_ = check_training(X, y, self.min_rows, "the quadratic model")
-        self.x_mean_, self.x_scale_ = _scale(self.X_train_)
+        """Least-squares fit on (n, d) features ``X`` and one target ``y`` (n,); return ``self``."""
+        X, y = validate_X_y(self, X, y)
+        require_rows(self, X.shape[0], n_quadratic_terms(X.shape[1]) + 1)
+        self.X_train_, self.y_train_ = X, y
+        self.x_mean_, self.x_scale_ = mean_and_scale(self.X_train_)
         design = self._design((self.X_train_ - self.x_mean_) / self.x_scale_)
         self.coef_, *_ = np.linalg.lstsq(design, self.y_train_, rcond=None)
         residual = self.y_train_ - design @ self.coef_
@@ -241,9 +294,10 @@ class QuadraticRegressor:
         self.covariance_ = np.linalg.pinv(design.T @ design)
         return self
 
-    def predict(self, X: Any, return_std: bool = False):
-        """Predicted target (and its OLS predictive standard deviation) at ``X``."""
-        design = self._design((check_features(X) - self.x_mean_) / self.x_scale_)
+    def predict(self, X: Any, return_std: bool = False) -> Any:
+        """Predicted target at ``X``, shape (n,); with ``return_std=True`` also its OLS std."""
+        check_is_fitted(self, "coef_")
+        design = self._design((validate_X(self, X) - self.x_mean_) / self.x_scale_)
         mean = design @ self.coef_
         if not return_std:
             return mean
@@ -251,13 +305,22 @@ class QuadraticRegressor:
         return mean, np.sqrt(self.noise_variance_ * (1.0 + leverage))
 
     def describe(self) -> str:
-        """The fitted coefficients (on standardised λ, ω)."""
-        names = ("1", "λ", "ω", "λ²", "λω", "ω²")
+        """The fitted coefficients (on standardised features)."""
+        check_is_fitted(self, "coef_")
+        d = self.n_features_in_
+        if d == 2:
+            names = ("1", "λ", "ω", "λ²", "λω", "ω²")
+            where = "standardised (λ, ω)"
+        else:
+            pairs = combinations_with_replacement(range(d), 2)
+            names = ("1", *(f"x{i}" for i in range(d)), *(f"x{i}·x{j}" for i, j in pairs))
+            where = f"{d} standardised features"
         terms = " ".join(f"{c:+.4g}·{n}" for c, n in zip(self.coef_, names, strict=True))
-        return f"quadratic in standardised (λ, ω): {terms}"
+        return f"quadratic in {where}: {terms}"
 
     def to_state(self) -> dict[str, Any]:
         """Plain-data state: training data (the fit is deterministic) and the coefficients."""
+        check_is_fitted(self, "coef_")
         return {
             "model": self.model_name,
             "coef": self.coef_.tolist(),

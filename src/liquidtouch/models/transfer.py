@@ -19,7 +19,8 @@ import numpy as np
 
 from liquidtouch.errors import TableError
 from liquidtouch.models.property_model import FeatureMap, PropertyModel
-from liquidtouch.models.regressors import check_features, single_threaded_blas
+from liquidtouch.models.regressors import single_threaded_blas
+from liquidtouch.models.validation import check_features, check_positive
 
 MIN_TUNE_ROWS = 4  # four parameters (α1, α2, β1, β2)
 START_ALPHA1 = (0.5, 1.0, 2.0)  # decay-rate scales tried as starts (walls damp differently)
@@ -69,8 +70,14 @@ def fit_transfer(
     """
     from scipy.optimize import least_squares
 
+    if not isinstance(model, PropertyModel):
+        raise TableError(f"fit_transfer needs a PropertyModel; got {type(model).__name__}")
     if model.kind != "regression":
         raise TableError("container transfer needs a regression model (train one with `train`)")
+    f_scale = check_positive(f_scale, "f_scale")
+    identity_weight = check_positive(identity_weight, "identity_weight", allow_zero=True)
+    if not isinstance(targets, Mapping):
+        raise TableError("targets must map target column → values")
     X = check_features(X)
     unknown = [t for t in targets if t not in model.regressors]
     if unknown or not targets:
@@ -83,7 +90,10 @@ def fit_transfer(
             f"container transfer fits 4 parameters and needs at least {MIN_TUNE_ROWS} "
             f"tuning rows; got {X.shape[0]}"
         )
-    ys = {t: np.asarray(v, dtype=float).ravel() for t, v in targets.items()}
+    try:
+        ys = {t: np.asarray(v, dtype=float).ravel() for t, v in targets.items()}
+    except (TypeError, ValueError):
+        raise TableError("target values must be numeric") from None
     for t, y in ys.items():
         if y.shape[0] != X.shape[0] or not np.isfinite(y).all():
             raise TableError(f"target {t}: need {X.shape[0]} finite values")

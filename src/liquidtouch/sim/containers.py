@@ -12,7 +12,8 @@ so that the first slosh mode stays below the signal's 3 Hz low-pass (1.9-2.6
 Hz over 16-40 mm). The plain cuboid (15-38 mm fills), the cylinder on its side
 (12-35 mm) and the glass container (22-39 mm) are sized the same way from the
 paper's fill ranges. Wall factors multiply the Stokes boundary-layer damping
-(DESIGN.md: empirical 1.4-1.65; grooves dissipate more, smooth glass less).
+(1.4-1.65, the empirical range for real containers; grooves dissipate more,
+smooth glass less).
 ``contact_line_damping`` is the small viscosity-independent contact-line term
 [1/s]. Masses: thin plastic 40-70 g; the glass container is heavy (320 g),
 comparable to the liquid it holds.
@@ -67,10 +68,6 @@ class Container:
         area, surface_width = self.cross_section(height_mm)
         return area / surface_width
 
-    def liquid_volume_ml(self, height_mm: float) -> float:
-        """Volume of liquid [mL] at fill ``height_mm``."""
-        return self.cross_section(height_mm)[0] * self.length_mm * 1e-3
-
     def fill_fraction(self, height_mm: float) -> float:
         """Fraction of the inner volume that is filled (0-1)."""
         full, _ = self.cross_section(self.depth_mm * (1 - 1e-12))
@@ -94,11 +91,6 @@ CONTAINERS: dict[str, Container] = {
         note="heavy glass container, mass comparable to the liquid's",
     ),
 }  # fmt: skip
-
-
-def container_names() -> list[str]:
-    """Names of the catalogued containers."""
-    return list(CONTAINERS)
 
 
 def get_container(name: str) -> Container:

@@ -37,12 +37,10 @@ def encode_video(
     timestamps_s: np.ndarray,
     fps: float,
     *,
-    n_frames: int | None = None,
     crf: int = 20,
     preset: str = "ultrafast",
     threads: int = 1,
     x264_params: str = X264_PARAMS,
-    progress_label: str | None = None,
 ) -> None:
     """Write RGB uint8 ``frames`` as an H.264 (yuv420p) MP4 at ``path``, atomically.
 
@@ -59,49 +57,35 @@ def encode_video(
     if len(pts) and np.any(np.diff(pts) <= 0):
         raise LiquidTouchError("frame timestamps must be strictly increasing")
     time_base = Fraction(1, PTS_RATE_HZ)
-    n_frames = len(pts) if n_frames is None else n_frames
-    progress = None
-    if progress_label:
-        from rich.progress import Progress
-
-        progress = Progress(transient=True)
-        progress.start()
-        task = progress.add_task(progress_label, total=n_frames)
-    try:
-        with atomic_path(path) as tmp:
-            container = av.open(str(tmp), mode="w")
-            try:
-                stream = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1000))
-                stream.pix_fmt = "yuv420p"
-                stream.time_base = time_base
-                stream.codec_context.time_base = time_base
-                stream.codec_context.thread_count = threads
-                options = {"preset": preset, "crf": str(crf)}
-                if x264_params:
-                    options["x264-params"] = x264_params
-                stream.options = options
-                count = 0
-                for i, rgb in enumerate(frames):
-                    if i >= len(pts):
-                        raise LiquidTouchError("more frames than timestamps")
-                    if i == 0:
-                        stream.height, stream.width = rgb.shape[:2]
-                    yuv = cv2.cvtColor(rgb, cv2.COLOR_RGB2YUV_I420)
-                    # wraps the fresh I420 array without a copy (a new array every frame)
-                    frame = av.VideoFrame.from_numpy_buffer(yuv, format="yuv420p")
-                    frame.pts = int(pts[i])
-                    frame.time_base = time_base
-                    for packet in stream.encode(frame):
-                        container.mux(packet)
-                    count += 1
-                    if progress is not None:
-                        progress.advance(task)
-                for packet in stream.encode():
+    with atomic_path(path) as tmp:
+        container = av.open(str(tmp), mode="w")
+        try:
+            stream = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1000))
+            stream.pix_fmt = "yuv420p"
+            stream.time_base = time_base
+            stream.codec_context.time_base = time_base
+            stream.codec_context.thread_count = threads
+            options = {"preset": preset, "crf": str(crf)}
+            if x264_params:
+                options["x264-params"] = x264_params
+            stream.options = options
+            count = 0
+            for i, rgb in enumerate(frames):
+                if i >= len(pts):
+                    raise LiquidTouchError("more frames than timestamps")
+                if i == 0:
+                    stream.height, stream.width = rgb.shape[:2]
+                yuv = cv2.cvtColor(rgb, cv2.COLOR_RGB2YUV_I420)
+                # wraps the fresh I420 array without a copy (a new array every frame)
+                frame = av.VideoFrame.from_numpy_buffer(yuv, format="yuv420p")
+                frame.pts = int(pts[i])
+                frame.time_base = time_base
+                for packet in stream.encode(frame):
                     container.mux(packet)
-            finally:
-                container.close()
-            if count != len(pts):
-                raise LiquidTouchError(f"got {count} frames for {len(pts)} timestamps")
-    finally:
-        if progress is not None:
-            progress.stop()
+                count += 1
+            for packet in stream.encode():
+                container.mux(packet)
+        finally:
+            container.close()
+        if count != len(pts):
+            raise LiquidTouchError(f"got {count} frames for {len(pts)} timestamps")

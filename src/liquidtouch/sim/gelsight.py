@@ -186,19 +186,17 @@ def marker_positions(
         raise LiquidTouchError("t_frames must be a 1-D array of finite times in seconds")
     rest = marker_rest_positions(profile) if rest_px is None else np.asarray(rest_px, float)
     shear, twist = _loads_at(loads, profile, t_frames)
+    shear_px = _shear_px(profile, shear)  # (2, T, 2)
     geom = contact_geometry(loads, profile)
     out = np.empty((2, len(t_frames), len(rest), 2))
     for s in range(2):
         rel = rest - geom.center_px[s]  # (N, 2)
         weight = np.exp(-np.sum(rel**2, axis=1) / (2 * geom.field_sigma_px[s] ** 2))
-        shear_img = profile.shear_compliance_px_per_n * np.stack(
-            [IMAGE_X_SIGN[s] * shear[:, s, 0], -shear[:, s, 1]], axis=1
-        )  # (T, 2)
         angle = profile.twist_compliance_rad_per_nmm * twist[:, s]  # (T,), clockwise on screen
         cos_m1, sin = np.cos(angle) - 1.0, np.sin(angle)
         twist_dx = cos_m1[:, None] * rel[None, :, 0] - sin[:, None] * rel[None, :, 1]
         twist_dy = sin[:, None] * rel[None, :, 0] + cos_m1[:, None] * rel[None, :, 1]
-        disp = shear_img[:, None, :] + np.stack([twist_dx, twist_dy], axis=2)
+        disp = shear_px[s][:, None, :] + np.stack([twist_dx, twist_dy], axis=2)
         out[s] = rest[None] + weight[None, :, None] * disp
     return out
 
@@ -209,13 +207,14 @@ def contact_offsets(
     """Displacement of each contact centre (where the imprint moves), (2, T, 2) [px]."""
     profile = get_sensor_profile(profile)
     shear, _ = _loads_at(loads, profile, np.asarray(t_frames, dtype=float))  # as the markers
-    return np.stack(
-        [
-            profile.shear_compliance_px_per_n
-            * np.stack([IMAGE_X_SIGN[s] * shear[:, s, 0], -shear[:, s, 1]], axis=1)
-            for s in range(2)
-        ]
-    )
+    return _shear_px(profile, shear)
+
+
+def _shear_px(profile: SensorProfile, shear_n: np.ndarray) -> np.ndarray:
+    """Image displacement (2, T, 2) [px] of each sensor's gel under shear (T, 2, 2) [N]."""
+    image_x = IMAGE_X_SIGN[None, :] * shear_n[:, :, 0]  # the two cameras are mirrored
+    image_y = -shear_n[:, :, 1]  # world up is image −y
+    return profile.shear_compliance_px_per_n * np.stack([image_x, image_y], axis=2).swapaxes(0, 1)
 
 
 def frame_timestamps(
@@ -263,7 +262,6 @@ def write_sensor_videos(
     seed: int = 0,
     jitter: bool = True,
     noise: bool = True,
-    progress: bool = False,
     x264_params: str = X264_PARAMS,
 ) -> SensorRecording:
     """Render both sensors' videos for ``loads`` into ``out_dir``.
@@ -322,9 +320,7 @@ def write_sensor_videos(
             frames,
             timestamps,
             profile.fps,
-            n_frames=len(timestamps),
             x264_params=x264_params,
-            progress_label=f"rendering {name}" if progress else None,
         )
     with atomic_path(out_dir / TRUTH_TRACKS_NAME) as tmp, open(tmp, "wb") as fh:
         np.savez(

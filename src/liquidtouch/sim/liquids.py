@@ -78,13 +78,18 @@ class LiquidProperties:
         """Kinematic viscosity [m²/s]."""
         return self.viscosity_cst * 1e-6
 
-    def effective_viscosity_m2_s(self, shear_rate_1_s: float) -> float:
-        """Kinematic viscosity [m²/s] at the given shear rate (constant if Newtonian)."""
-        nu0 = self.viscosity_cst * 1e-6
+    def effective_viscosity_m2_s(self, shear_rate_1_s: float | np.ndarray) -> float | np.ndarray:
+        """Kinematic viscosity [m²/s] at the shear rate ``shear_rate_1_s`` [1/s].
+
+        The zero-shear value if Newtonian; for a shear-thinning liquid the Cross
+        model ``ν∞ + (ν0 − ν∞) / (1 + (|γ̇|/γ̇c)^m)`` with ``ν∞ = ν0/3``,
+        ``γ̇c = 20 1/s``, ``m = 0.6`` (module docstring). Works on floats and arrays.
+        """
+        nu0 = self.viscosity_m2_s
         if not self.shear_thinning:
             return nu0
-        nu_inf = nu0 / 3.0
-        return nu_inf + (nu0 - nu_inf) / (1.0 + (abs(shear_rate_1_s) / 20.0) ** 0.6)
+        # ν∞ = ν0/3 and ν0 − ν∞ = 2ν0/3
+        return nu0 / 3.0 + (2.0 * nu0 / 3.0) / (1.0 + (abs(shear_rate_1_s) / 20.0) ** 0.6)
 
 
 LIQUIDS: dict[str, LiquidSpec] = {
@@ -97,11 +102,6 @@ LIQUIDS: dict[str, LiquidSpec] = {
     ),
     "sugar-water": LiquidSpec("sugar-water", 998.2, 1.00, -0.024, note="CRC sucrose table"),
 }
-
-
-def liquid_names() -> list[str]:
-    """Names of the catalogued liquids."""
-    return list(LIQUIDS)
 
 
 def sugar_mass_fraction(sugar_concentration: float) -> float:

@@ -202,7 +202,7 @@ def simulate_dataset(
     failures: list[tuple[str, str]] = []
 
     with (
-        open_executor(jobs) as pool,
+        open_executor(jobs, n_tasks=len(specs)) as pool,
         progress_bar("simulating trials", len(specs), enabled=progress) as advance,
     ):
         tasks = {spec.name: (spec, str(root), video, sensor) for spec in specs}

@@ -84,11 +84,6 @@ class SensorProfile:
     its exposure (motion blur), so arm vibration near a multiple of the frame rate
     is attenuated before it aliases into the slosh band, as in a real camera."""
 
-    @property
-    def shape(self) -> tuple[int, int, int]:
-        """(height, width, 3) of one RGB frame."""
-        return (self.height_px, self.width_px, 3)
-
 
 # LED lobes fitted (non-negative least squares, vignetting included) to the
 # marker-free background of the real GelSight Mini recording in

@@ -70,7 +70,13 @@ class SloshMode:
     steepness_per_m: float  # wave steepness per metre of slosh-mass displacement
 
     def linear_decay_rate(self, viscosity_m2_s: float, contact_line: float) -> float:
-        """Small-amplitude amplitude decay rate λ [1/s] of the uncoupled mode."""
+        """Small-amplitude amplitude decay rate λ [1/s] of the uncoupled mode.
+
+        ``wall term · sqrt(νω/2) + 2k²·ν + contact_line``: the Stokes boundary
+        layer (wall factor × bracket, see :func:`slosh_system`), bulk dissipation
+        and the contact-line term [1/s]; ``viscosity_m2_s`` is ν [m²/s]. The one
+        implementation of the linear rate (floats or arrays).
+        """
         w = self.natural_frequency
         return (
             self.wall_term_1_m * (viscosity_m2_s * w / 2.0) ** 0.5
@@ -163,6 +169,7 @@ def slosh_system(
         order = 2 * j - 1
         k = order * math.pi / length
         th = math.tanh(k * h)
+        # Stokes boundary-layer bracket [1/m]: side walls, end walls, bottom
         bracket = 1.0 / b + 1.0 / length + k * (1.0 - 2.0 * h / length) / math.sinh(2.0 * k * h)
         modes.append(
             SloshMode(
@@ -196,28 +203,35 @@ def slosh_system(
     )
 
 
-def _decay_rates(system: SloshSystem, x: list, v: list) -> list:
-    """Amplitude-dependent decay rate of each mode; works on floats and on numpy arrays."""
-    rates = []
-    liquid = system.liquid
-    for mode, xi, vi in zip(system.modes, x, v, strict=True):
-        w = mode.natural_frequency
-        amp = (xi * xi + (vi / w) * (vi / w)) ** 0.5
-        s = mode.steepness_per_m * amp
-        if liquid.shear_thinning:
-            nu0 = liquid.viscosity_m2_s
-            shear = w * amp / (2.0 * nu0 / w) ** 0.5
-            nu_inf = nu0 / 3.0
-            nu = nu_inf + (nu0 - nu_inf) / (1.0 + (shear / 20.0) ** 0.6)
-        else:
-            nu = liquid.viscosity_m2_s
-        lam = (
-            mode.wall_term_1_m * (nu * w / 2.0) ** 0.5
-            + mode.bulk_term_1_m2 * nu
-            + system.contact_line_damping
-        )
-        rates.append(lam * (1.0 + NONLINEAR_GAIN * s * s) + BREAKING_GAIN * w * s * s)
-    return rates
+def decay_rate_function(system: SloshSystem, mode: SloshMode) -> Callable:
+    """The amplitude-dependent decay rate ``λ(s)`` [1/s] of ``mode`` as a function ``(x, v)``.
+
+    ``x`` [m] and ``v`` [m/s] are the slosh mass's displacement and velocity
+    (floats, or arrays over time); ``λ(s) = λ_lin·(1 + κ1·s²) + κ2·ω·s²`` with
+    ``s`` the wave steepness (module docstring). A shear-thinning liquid's
+    viscosity follows the boundary-layer shear rate ``γ̇ = ω·a/δ``,
+    ``δ = sqrt(2ν0/ω)``. A closure over plain floats: it is the hot path of a trial.
+    """
+    liquid, cl = system.liquid, system.contact_line_damping
+    w = mode.natural_frequency
+    inv_w = 1.0 / w
+    steep2 = mode.steepness_per_m * mode.steepness_per_m
+    thinning = liquid.shear_thinning
+    linear = mode.linear_decay_rate(liquid.viscosity_m2_s, cl)
+    delta = (2.0 * liquid.viscosity_m2_s * inv_w) ** 0.5  # boundary-layer thickness [m]
+    k1, k2w = NONLINEAR_GAIN, BREAKING_GAIN * w
+
+    def rate(x, v):
+        vw = v * inv_w
+        amp2 = x * x + vw * vw  # squared oscillation amplitude a² [m²]
+        s2 = steep2 * amp2
+        lam = linear
+        if thinning:
+            nu = liquid.effective_viscosity_m2_s(w * amp2**0.5 / delta)
+            lam = mode.linear_decay_rate(nu, cl)
+        return lam * (1.0 + k1 * s2) + k2w * s2
+
+    return rate
 
 
 def accelerations(system: SloshSystem, state):
@@ -228,7 +242,8 @@ def accelerations(system: SloshSystem, state):
     z, zd = state[0], state[1]
     x = [state[2 + 2 * i] for i in range(len(system.modes))]
     v = [state[3 + 2 * i] for i in range(len(system.modes))]
-    lam = _decay_rates(system, x, v)
+    rates = [decay_rate_function(system, m) for m in system.modes]
+    lam = [rate(xi, vi) for rate, xi, vi in zip(rates, x, v, strict=True)]
     reaction = [
         m.mass_kg * (m.natural_frequency**2 * xi + 2.0 * li * vi)
         for m, xi, vi, li in zip(system.modes, x, v, lam, strict=True)
@@ -277,40 +292,23 @@ def _make_rhs(
 ) -> Callable[[float, np.ndarray], list[float]]:
     """The ODE right-hand side as a closure over plain floats (the hot path of a trial).
 
-    Same equations as :func:`accelerations`, unrolled so one call costs a few µs.
+    Same equations as :func:`accelerations`, on floats so that one call costs a few µs.
     """
-    liquid = system.liquid
-    nu0 = liquid.viscosity_m2_s
-    thinning = liquid.shear_thinning
-    cl = system.contact_line_damping
     k_s, c_s = system.support_stiffness_n_m, system.support_damping_n_s_m
     inv_mr = 1.0 / system.rigid_mass_kg
-    consts = [
-        (m.natural_frequency, m.natural_frequency**2, 1.0 / m.natural_frequency, m.mass_kg,
-         m.steepness_per_m, m.wall_term_1_m, m.bulk_term_1_m2)
-        for m in system.modes
-    ]  # fmt: skip
-    lin = [wt * (nu0 * w / 2.0) ** 0.5 + bk * nu0 + cl for w, _, _, _, _, wt, bk in consts]
-    idx = range(len(consts))
+    modes = [
+        (decay_rate_function(system, m), m.natural_frequency**2, m.mass_kg) for m in system.modes
+    ]
+    idx = range(len(modes))
 
     def rhs(t: float, y: np.ndarray) -> list[float]:
         state = y.tolist()
         total = -k_s * state[0] - c_s * state[1]
         reactions = []
         for i in idx:
-            w, w2, inv_w, mass, steep, wall, bulk = consts[i]
+            rate, w2, mass = modes[i]
             x, v = state[2 + 2 * i], state[3 + 2 * i]
-            vw = v * inv_w
-            amp2 = x * x + vw * vw
-            s2 = steep * steep * amp2
-            if thinning:
-                shear = w * amp2**0.5 / (2.0 * nu0 * inv_w) ** 0.5
-                nu = nu0 / 3.0 + (2.0 * nu0 / 3.0) / (1.0 + (shear / 20.0) ** 0.6)
-                lam = wall * (nu * w / 2.0) ** 0.5 + bulk * nu + cl
-            else:
-                lam = lin[i]
-            lam = lam * (1.0 + NONLINEAR_GAIN * s2) + BREAKING_GAIN * w * s2
-            r = mass * (w2 * x + 2.0 * lam * v)
+            r = mass * (w2 * x + 2.0 * rate(x, v) * v)
             reactions.append(r / mass)
             total += r
         acc = total * inv_mr

@@ -1,4 +1,4 @@
-"""Writing a simulated trial to a trial directory (DESIGN.md, "Formats").
+"""Writing a simulated trial to a trial directory (formats: ``docs/formats.md``), and plotting it.
 
 Files: ``force.csv`` (time, per-finger shear force and twist), ``wrench.csv``
 (the wrist force-torque signal), one video per sensor (when rendered) and,
@@ -7,8 +7,10 @@ written last so that its presence means the trial is complete, ``meta.json``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -23,6 +25,10 @@ from liquidtouch.io.dataset import (
 )
 from liquidtouch.sim.encode import X264_PARAMS
 from liquidtouch.sim.trial import CAMERA_FPS, SimulatedTrial
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 
 def _write_csv(path: Path, header: tuple[str, ...], table: np.ndarray) -> None:
@@ -93,15 +99,29 @@ def write_trial(
     return out
 
 
-def plot_trial(trial: SimulatedTrial, path: str | Path) -> Path:
-    """Save a figure of the trial's loads and wrist force to ``path`` (PNG/PDF/SVG)."""
-    import matplotlib
+def plot_trial(
+    trial: SimulatedTrial, path: str | Path | None = None, *, axes: Sequence[Axes] | None = None
+) -> Figure:
+    """Plot the trial's gel shear force, gel twist and wrist force over time; return the figure.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    Draws three panels into ``axes`` (a sequence of three Axes) when given, else
+    into a new :class:`matplotlib.figure.Figure` (not registered with pyplot, so
+    it neither changes the backend nor stays open; Jupyter shows the returned
+    figure inline). With ``path`` the figure is also saved there atomically, in
+    the format of its suffix (``.png``, ``.pdf``, ``.svg``; PNG if none).
+    """
+    if axes is None:
+        from matplotlib.figure import Figure
 
+        fig = Figure(figsize=(8, 7))
+        axes = fig.subplots(3, 1, sharex=True)
+        own_figure = True
+    else:
+        if len(axes) != 3:
+            raise ValueError(f"plot_trial draws 3 panels; got {len(axes)} axes")
+        fig = axes[0].figure
+        own_figure = False
     t = trial.t_s
-    fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
     for finger, name in enumerate(("left", "right")):
         axes[0].plot(t, trial.loads.shear_force_n[:, finger, 0], lw=0.8, label=name)
         axes[1].plot(t, trial.loads.twist_moment_nmm[:, finger], lw=0.8, label=name)
@@ -122,8 +142,11 @@ def plot_trial(trial: SimulatedTrial, path: str | Path) -> Path:
         f"{trial.liquid}{conc}, h={trial.height_mm:g} mm, {trial.container}: "
         f"λ={trial.true_decay_rate:.3f} 1/s, ω={trial.true_angular_frequency:.2f} rad/s"
     )
-    fig.tight_layout()
-    with atomic.atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    return Path(path)
+    if own_figure:
+        fig.tight_layout()
+    if path is not None:
+        # the temporary file's name ends in ".tmp<suffix>": name the format explicitly
+        fmt = Path(path).suffix.lstrip(".").lower() or "png"
+        with atomic.atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110, format=fmt)
+    return fig

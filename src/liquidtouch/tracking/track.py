@@ -2,13 +2,32 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 import numpy as np
 
 from liquidtouch.errors import MarkerError
 from liquidtouch.tracking.centroid import THRESHOLD_FRACTION, refine_centroids
-from liquidtouch.tracking.detect import as_grey, detect_markers, window_half_size
+from liquidtouch.tracking.detect import (
+    as_grey,
+    as_number,
+    check_diameter,
+    detect_markers,
+    window_half_size,
+)
 
+#: fewest markers the first frame must show
 MIN_MARKERS = 4
+#: default frames between re-detections while markers are lost
+REACQUIRE_EVERY = 5
+#: search radius around the predicted position, as a fraction of the marker spacing
+#: (also the closest two tracked markers may come: two windows on one blob)
+SEARCH_FRACTION = 0.5
+#: a marker is lost when its blob area leaves this range, in units of its first-frame area
+AREA_CHANGE = (0.3, 3.0)
+#: neighbours whose motion predicts a marker's second search
+N_NEIGHBOURS = 8
 
 
 def marker_spacing(positions: np.ndarray) -> float:
@@ -37,16 +56,49 @@ def match_one_to_one(
 class MarkerTracker:
     """Frame-to-frame tracker: ``start(image)`` on the first frame, then ``step(image)``."""
 
-    def __init__(self, diameter_px: float | None = None, reacquire_every: int = 5) -> None:
+    def __init__(
+        self,
+        diameter_px: float | None = None,
+        reacquire_every: int = REACQUIRE_EVERY,
+        *,
+        search_fraction: float = SEARCH_FRACTION,
+        area_change: tuple[float, float] = AREA_CHANGE,
+        detect_kwargs: Mapping[str, Any] | None = None,
+    ) -> None:
+        check_diameter(diameter_px)
+        whole = isinstance(reacquire_every, int | np.integer) and not isinstance(
+            reacquire_every, bool
+        )
+        if not whole or reacquire_every < 1:
+            raise MarkerError(
+                f"reacquire_every must be a whole number of frames >= 1, got {reacquire_every!r}"
+            )
+        if not 0 < as_number(search_fraction) <= 1:
+            raise MarkerError(
+                f"search_fraction must lie in (0, 1] (a fraction of the marker spacing), "
+                f"got {search_fraction!r}; the default is {SEARCH_FRACTION}"
+            )
+        try:
+            low, high = (as_number(v) for v in area_change)
+        except (TypeError, ValueError):
+            low = high = float("nan")
+        if not 0 <= low < 1 < high < np.inf:
+            raise MarkerError(
+                f"area_change must be a pair (low, high) with 0 <= low < 1 < high (multiples "
+                f"of the first-frame blob area), got {area_change!r}; the default is {AREA_CHANGE}"
+            )
         self.diameter_px = diameter_px
-        self.reacquire_every = max(1, int(reacquire_every))
+        self.reacquire_every = int(reacquire_every)
+        self.search_fraction = float(search_fraction)
+        self.area_change = (low, high)
+        self.detect_kwargs = dict(detect_kwargs or {})
 
     def start(self, image: np.ndarray) -> np.ndarray:
         """Detect the markers of the first frame; return their positions (N, 2)."""
         from scipy.spatial import cKDTree
 
         image = as_grey(image)
-        found = detect_markers(image, self.diameter_px)
+        found = detect_markers(image, self.diameter_px, **self.detect_kwargs)
         if len(found.positions) == 0:
             raise MarkerError(
                 "no markers found in the first frame; is this a GelSight marker video "
@@ -60,7 +112,7 @@ class MarkerTracker:
         self.diameter_px = found.diameter_px
         self.half = window_half_size(found.diameter_px)
         self.spacing_px = marker_spacing(found.positions)
-        self.gate_px = 0.5 * self.spacing_px
+        self.gate_px = self.search_fraction * self.spacing_px
         self.threshold = THRESHOLD_FRACTION * found.peak_darkness
         self.area_ref = found.areas
         self.reference = found.positions
@@ -69,7 +121,7 @@ class MarkerTracker:
         self.current = found.positions.copy()
         self.since_reacquire = 0
         self.closest_bound = 0.0  # lower bound on the closest pair's distance [px]
-        k = min(len(self.reference), 9)
+        k = min(len(self.reference), N_NEIGHBOURS + 1)
         self.neighbours = cKDTree(self.reference).query(self.reference, k=k)[1][:, 1:]
         return self.current
 
@@ -105,8 +157,8 @@ class MarkerTracker:
         area = self.area_ref[index]
         ok = (
             refined.ok
-            & (refined.areas >= 0.3 * area)
-            & (refined.areas <= 3.0 * area)
+            & (refined.areas >= self.area_change[0] * area)
+            & (refined.areas <= self.area_change[1] * area)
             & (residual <= self.gate_px)
         )
         positions = refined.positions
@@ -123,7 +175,7 @@ class MarkerTracker:
         return out
 
     def _drop_crowded(self, positions: np.ndarray, residual: np.ndarray) -> None:
-        """Of two markers within half a spacing (two windows on one blob), drop the one that jumped.
+        """Of two markers closer than the search radius (one blob), drop the one that jumped.
 
         The exact check runs only when a lower bound on the closest pair's distance
         (last exact value minus twice the largest motion since) falls to the gate.
@@ -150,7 +202,7 @@ class MarkerTracker:
         self.closest_bound = float(tree.query(positions[index], k=2)[0][:, 1].min())
 
     def _reacquire(self, image: np.ndarray, positions: np.ndarray, lost: np.ndarray) -> np.ndarray:
-        found = detect_markers(image, self.diameter_px).positions
+        found = detect_markers(image, self.diameter_px, **self.detect_kwargs).positions
         valid = ~lost
         if len(found) and valid.any():
             from scipy.spatial import cKDTree

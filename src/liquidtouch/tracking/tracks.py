@@ -11,10 +11,11 @@ the :func:`track_markers` loop and the ``.npz`` format, and re-exports the rest.
 numpy (one strided window gather, three small matrix products; a window is
 re-centred only for the markers that ended more than a pixel off). A marker is
 flagged lost (``valid = False``, position NaN) when its centre leaves the
-image, its blob (pixels above the weight threshold) shrinks or grows beyond 3×
-its first-frame area, it lands more than half a spacing from its
-prediction, or it comes within half a marker spacing of another marker (two
-windows on one blob; the one that jumped is dropped). A marker that fails gets
+image, its blob (pixels above the weight threshold) shrinks below 0.3× or grows
+beyond 3× its first-frame area (``area_change``), it lands more than half a
+spacing from its prediction (``search_fraction``), or it comes within that
+distance of another marker (two windows on one blob; the one that jumped is
+dropped). A marker that fails gets
 a second search at once, predicted from its neighbours' motion in this frame
 (fast presses and releases). Lost markers are re-acquired by a full detection
 (at most every few frames while any are lost), matched one-to-one to their
@@ -22,7 +23,9 @@ last positions with a KD-tree, gated at half the spacing measured in the first
 frame.
 
 Coordinates are pixels, ``x`` to the right and ``y`` down, pixel centres at
-integers.
+integers. The thresholds are named constants of the three modules, and the
+ones worth tuning are keyword arguments of :func:`detect_markers` and
+:func:`track_markers` (which passes detection knobs on).
 """
 
 from __future__ import annotations
@@ -30,10 +33,11 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from liquidtouch.errors import MarkerError
+from liquidtouch.errors import MarkerError, VideoError
 from liquidtouch.tracking.centroid import THRESHOLD_FRACTION, Refined, refine_centroids
 from liquidtouch.tracking.detect import (
     Detections,
@@ -43,14 +47,24 @@ from liquidtouch.tracking.detect import (
     window_half_size,
 )
 from liquidtouch.tracking.track import (
+    AREA_CHANGE,
     MIN_MARKERS,
+    REACQUIRE_EVERY,
+    SEARCH_FRACTION,
     MarkerTracker,
     marker_spacing,
     match_one_to_one,
 )
 
+#: track_markers fails when all markers are lost in more than this fraction of the frames
+MAX_ALL_LOST_FRACTION = 0.1
+
 __all__ = [
+    "AREA_CHANGE",
+    "MAX_ALL_LOST_FRACTION",
     "MIN_MARKERS",
+    "REACQUIRE_EVERY",
+    "SEARCH_FRACTION",
     "THRESHOLD_FRACTION",
     "Detections",
     "MarkerTracker",
@@ -107,33 +121,80 @@ def track_markers(
     sensor: str = "sensor",
     *,
     diameter_px: float | None = None,
-    reacquire_every: int = 5,
+    reacquire_every: int = REACQUIRE_EVERY,
+    search_fraction: float = SEARCH_FRACTION,
+    area_change: tuple[float, float] = AREA_CHANGE,
     on_frame: Callable[[int], None] | None = None,
+    **detect_kwargs: Any,
 ) -> MarkerTracks:
     """Detect markers in the first frame and track them through ``frames`` of ``(t_s, image)``.
 
-    Raises :class:`MarkerError` when the first frame has no or too few markers,
-    or all markers are lost in more than a tenth of the frames.
+    Parameters
+    ----------
+    frames : iterable of (t_s, image)
+        Timestamps [s] (finite, strictly increasing) and grey or colour images
+        of one size, e.g. :func:`liquidtouch.io.frames.iter_frames`.
+    sensor : str
+        Name of the sensor (keys of the ``.npz`` file, marker labels).
+    diameter_px : float, optional
+        Marker diameter [px]; measured in the first frame when not given.
+    reacquire_every : int
+        Frames between re-detections of lost markers [frames, ≥ 1].
+    search_fraction : float
+        Search radius around each predicted position, as a fraction of the
+        marker spacing [unitless, (0, 1]]; a marker found further away is lost.
+    area_change : (low, high)
+        A marker is lost when its blob area leaves ``low``–``high`` × its
+        first-frame area [unitless].
+    on_frame : callable, optional
+        Called with the index of each frame once it is tracked (progress bars).
+    **detect_kwargs
+        Passed on to :func:`detect_markers` (``threshold_range``,
+        ``min_area_px``, ``area_ratio``, ``min_fill``, ``max_aspect``).
+
+    Raises
+    ------
+    MarkerError
+        The first frame has no or too few markers, all markers are lost in more
+        than a tenth of the frames, or a knob is out of range.
+    VideoError
+        No frames, timestamps not finite and increasing, or frames of different sizes.
     """
-    tracker = MarkerTracker(diameter_px=diameter_px, reacquire_every=reacquire_every)
+    if not isinstance(sensor, str) or not sensor:
+        raise MarkerError(f"sensor must be a non-empty name such as 'left', got {sensor!r}")
+    if on_frame is not None and not callable(on_frame):
+        raise MarkerError(f"on_frame must be a function of the frame index, got {on_frame!r}")
+    tracker = MarkerTracker(
+        diameter_px=diameter_px,
+        reacquire_every=reacquire_every,
+        search_fraction=search_fraction,
+        area_change=area_change,
+        detect_kwargs=detect_kwargs,
+    )
     times: list[float] = []
     rows: list[np.ndarray] = []
     first = None
-    for k, (t_s, image) in enumerate(frames):
+    for k, item in enumerate(frames):
+        t_s, image = _frame(item, k, sensor, times[-1] if times else None)
         if k == 0:
             first = as_grey(image)
             rows.append(tracker.start(first).copy())
         else:
+            if np.shape(image)[:2] != first.shape:
+                raise VideoError(
+                    f"{sensor}: frame {k} is {np.shape(image)[:2]} but the first frame is "
+                    f"{first.shape} (height, width); give the frames of one video"
+                )
             rows.append(tracker.step(image))
-        times.append(float(t_s))
+        times.append(t_s)
         if on_frame is not None:
             on_frame(k)
     if not rows:
-        raise MarkerError(f"{sensor}: no frames to track")
+        raise VideoError(f"{sensor}: no frames to track")
     positions = np.stack(rows)
     valid = np.isfinite(positions).all(axis=2)
     none_valid = ~valid.any(axis=1)
-    if none_valid.mean() > 0.1:
+    if none_valid.mean() > MAX_ALL_LOST_FRACTION:
         raise MarkerError(
             f"{sensor}: all markers lost in {int(none_valid.sum())} of {len(rows)} frames; "
             "the gel may be out of view or the video too blurred"
@@ -148,6 +209,25 @@ def track_markers(
         diameter_px=float(tracker.diameter_px),
         first_frame=first,
     )
+
+
+def _frame(item: object, k: int, sensor: str, previous: float | None) -> tuple[float, Any]:
+    """``(t_s, image)`` of frame ``k``, its timestamp checked against the previous one."""
+    try:
+        t_s, image = item  # type: ignore[misc]
+        t_s = float(t_s)
+    except (TypeError, ValueError):
+        raise VideoError(
+            f"{sensor}: frame {k} is not a (timestamp [s], image) pair; "
+            "iterate liquidtouch.io.frames.iter_frames(source)"
+        ) from None
+    if not np.isfinite(t_s) or (previous is not None and t_s <= previous):
+        after = "" if previous is None else f" after {previous:.6g} s"
+        raise VideoError(
+            f"{sensor}: frame {k} has timestamp {t_s:.6g} s{after}; timestamps must be finite "
+            "and increase strictly (drop duplicate or out-of-order frames)"
+        )
+    return t_s, image
 
 
 def save_tracks(path: str | Path, tracks: list[MarkerTracks]) -> None:

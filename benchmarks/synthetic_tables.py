@@ -1,7 +1,10 @@
 """Synthetic feature tables shaped like the paper's sugar-water experiment (tests, benchmarks).
 
-Physics (DESIGN.md, "Sloshing"): first mode of a rectangular container of inner
-length L along the slosh and width b, fill height h:
+Imported as ``benchmarks.synthetic_tables`` by the tests (the repository root is on
+pytest's ``pythonpath``) and as ``synthetic_tables`` by the scripts beside it.
+
+Physics: first sloshing mode (linear potential theory) of a rectangular container
+of inner length L along the slosh and width b, fill height h:
 
 - ω0² = g k tanh(k h), k = π / L; observed ω = sqrt(ω0² − λ²);
 - λ = wall · sqrt(ν ω0 / 2) · [1/b + 1/L + k (1 − 2h/L) / sinh(2kh)] + 2 ν k²
@@ -12,13 +15,15 @@ fill is then 13-33 % of a 120 mm-tall box, ω ≈ 10-14 rad/s, λ ≈ 0.15-1.3 1
 water to 160 g sugar / 100 g water. Measurement noise: 4 % (log-normal) on λ,
 0.3 % on ω — the oscillation fit pins the frequency far better than the decay.
 Sugar-water viscosity comes from :func:`liquidtouch.sim.liquids.get_liquid`
-(the CRC sucrose table; a copy below is used only if the simulator is absent).
+(the CRC sucrose table).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+
+from liquidtouch.sim.liquids import get_liquid
 
 GRAVITY = 9.81
 CONTAINER_A = {"length_m": 0.12, "width_m": 0.06, "wall": 1.5}
@@ -32,13 +37,6 @@ PAPER_CONCENTRATIONS = np.linspace(0.0, 160.0, 12)
 
 def sugar_viscosity_cst(c: float) -> float:
     """Kinematic viscosity [cSt] of sugar water, c g sugar per 100 g water, 20 °C."""
-    try:
-        from liquidtouch.sim.liquids import get_liquid
-    except ImportError:  # pragma: no cover - the simulator's catalogue not present
-        w = 100.0 * c / (100.0 + c)
-        table_w = [0, 10, 20, 30, 40, 50, 56, 60, 62]
-        table_nu = [1.00, 1.29, 1.80, 2.83, 5.24, 12.6, 25.4, 45.5, 63.5]
-        return float(np.exp(np.interp(w, table_w, np.log(table_nu))))
     return get_liquid("sugar-water", sugar_concentration=float(c)).viscosity_cst
 
 

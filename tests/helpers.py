@@ -1,0 +1,34 @@
+"""Shared test helpers: synthetic GelSight marker images with known marker positions.
+
+Test modules import these (``from helpers import grid, render_blobs``; ``tests/`` is on
+pytest's ``pythonpath``) instead of importing each other. The synthetic feature
+tables live in ``benchmarks/synthetic_tables.py`` (shared with the benchmarks).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.special import erf
+
+
+def render_blobs(positions: np.ndarray, shape=(160, 200), radius=4.5, gain=1.0, noise=0.0, seed=0):
+    """Soft dark discs (anti-aliased edge) on a lit gradient background, uint8."""
+    height, width = shape
+    yy, xx = np.mgrid[0:height, 0:width].astype(float)
+    light = gain * (150 + 60 * xx / width + 20 * np.sin(yy / 40))
+    ink = np.zeros(shape)
+    for x, y in positions:
+        r = np.hypot(xx - x, yy - y)
+        ink = np.maximum(ink, 0.5 * (1 - erf((r - radius) / 0.9)))
+    image = light * (1 - 0.75 * ink)
+    if noise:
+        image = image + np.random.default_rng(seed).normal(0, noise, shape)
+    return np.clip(np.rint(image), 0, 255).astype(np.uint8)
+
+
+def grid(shape=(160, 200), pitch=24.0, jitter=0.3, seed=0):
+    """Marker centres (x, y) [px] on a square grid of ``pitch`` px, jittered by ±``jitter``."""
+    rng = np.random.default_rng(seed)
+    ys, xs = np.mgrid[20 : shape[0] - 15 : pitch, 20 : shape[1] - 15 : pitch]
+    pts = np.stack([xs.ravel(), ys.ravel()], axis=1).astype(float)
+    return pts + rng.uniform(-jitter, jitter, pts.shape)
