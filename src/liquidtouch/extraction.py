@@ -165,7 +165,8 @@ def plot_extraction(
     pyplot: no backend is selected). ``path``: also save the figure there,
     atomically (format from the suffix, PNG without one). Returns the figure.
     """
-    from liquidtouch.fit.plot import as_axes_list, save_figure
+    from liquidtouch.fit.plot import as_axes_list
+    from liquidtouch.io.figures import save_figure
 
     tracks, signal = extraction.tracks, extraction.signal
     columns = max(2, len(tracks))

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from liquidtouch.io import atomic
+from liquidtouch.io.figures import save_figure as io_save_figure
 from liquidtouch.io.tables import FEATURE_COLUMNS
 
 #: The regression targets of the paper and their short names in tables.
@@ -41,13 +41,8 @@ def mae(predicted: np.ndarray, truth: np.ndarray) -> float:
 
 
 def save_figure(fig, path: Path) -> Path:
-    """Save a matplotlib figure atomically as PNG and close it."""
-    import matplotlib.pyplot as plt
-
-    with atomic.atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png")
-    plt.close(fig)
-    return path
+    """Save an experiment's figure atomically as PNG, margins trimmed."""
+    return io_save_figure(fig, path, tight=True)
 
 
 def pyplot():

@@ -11,39 +11,17 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from liquidtouch.errors import LiquidTouchError, OutputError
+from liquidtouch.errors import LiquidTouchError
 from liquidtouch.fit.oscillation import OscillationFit
-from liquidtouch.io import atomic
+from liquidtouch.io.figures import save_figure
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
-
-DEFAULT_FORMAT = "png"  # for a path without a suffix
-
-
-def save_figure(fig: Figure, path: str | os.PathLike[str], *, dpi: float = 110) -> Path:
-    """Save ``fig`` atomically; the format is the path's suffix (``.png``, ``.pdf``, ``.svg``...).
-
-    A sub-figure saves its whole (root) figure.
-    """
-    path = Path(path)
-    fig = fig.figure  # the root figure (itself for a Figure)
-    fmt = path.suffix[1:].lower() or DEFAULT_FORMAT
-    supported = fig.canvas.get_supported_filetypes()
-    if fmt not in supported:
-        raise OutputError(
-            f"cannot write {path}: unknown figure format '.{fmt}'; use one of "
-            + ", ".join(f".{name}" for name in sorted(supported))
-        )
-    with atomic.atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format=fmt)
-    return path
 
 
 def as_axes_list(axes: Axes | Sequence[Axes], allowed: tuple[int, ...], what: str) -> list[Axes]:

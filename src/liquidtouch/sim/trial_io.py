@@ -23,6 +23,7 @@ from liquidtouch.io.dataset import (
     TrialMeta,
     write_trial_meta,
 )
+from liquidtouch.io.figures import save_figure
 from liquidtouch.sim.encode import X264_PARAMS
 from liquidtouch.sim.trial import CAMERA_FPS, SimulatedTrial
 
@@ -145,8 +146,5 @@ def plot_trial(
     if own_figure:
         fig.tight_layout()
     if path is not None:
-        # the temporary file's name ends in ".tmp<suffix>": name the format explicitly
-        fmt = Path(path).suffix.lstrip(".").lower() or "png"
-        with atomic.atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=110, format=fmt)
+        save_figure(fig, path)
     return fig
