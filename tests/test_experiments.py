@@ -1,12 +1,14 @@
 """The seven experiments and the report, on synthetic feature tables with known physics.
 
-The tables come from the sloshing formulas of ``benchmarks.synthetic_tables`` (no
-video), so the test checks the experiments' numbers against what such data
-allow, and that the report is complete and self-contained.
+The tables (``benchmarks.experiment_tables``) come from the sloshing formulas of
+``benchmarks.synthetic_tables`` (no video), so the test checks the experiments'
+numbers against what such data allow, and that the report is complete and
+self-contained.
 """
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -14,81 +16,34 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from benchmarks.synthetic_tables import (
-    CONTAINER_A,
-    CONTAINER_B,
-    PAPER_HEIGHTS_MM,
-    liquid_table,
-    paper_split,
-    sugar_table,
-)
+from benchmarks.experiment_tables import FAILED, NO_OSCILLATION, experiment_features
 from liquidtouch.experiments.report import write_report
 from liquidtouch.experiments.reproduce import failure_note, run_experiments
-
-FAILED = "the free decay after the push lasts only 1.2 s"
-
-
-def _with_split(train: pd.DataFrame, test: pd.DataFrame) -> pd.DataFrame:
-    table = pd.concat([train.assign(split="train"), test.assign(split="test")], ignore_index=True)
-    return table.assign(error="")
-
-
-def _classification() -> pd.DataFrame:
-    liquids = ["water", "olive-oil", "detergent"]
-    train = liquid_table(liquids, np.linspace(20, 40, 8), repeats=1, seed=1)
-    test = liquid_table(liquids, np.random.default_rng(2).uniform(20, 40, 10), repeats=1, seed=3)
-    table = _with_split(train, test)
-    # one test trial gave no features: it must count as wrong, not vanish
-    table.loc[len(table) - 1, ["decay_rate", "angular_frequency", "error"]] = [
-        np.nan,
-        np.nan,
-        FAILED,
-    ]
-    return table
-
-
-def _containers() -> pd.DataFrame:
-    heights = np.linspace(15, 38, 6)  # 54 train trials per container keeps the test quick
-    parts = []
-    for name, geometry in (("cylinder", CONTAINER_B), ("cuboid", CONTAINER_B), ("glass", None)):
-        geometry = geometry or {**CONTAINER_A, "wall": 1.3}
-        train = sugar_table(heights, np.linspace(0, 160, 9), seed=5, container=geometry, name=name)
-        test = sugar_table(heights, np.linspace(10, 150, 8), seed=6, container=geometry, name=name)
-        parts.append(_with_split(train, test))
-    return pd.concat(parts, ignore_index=True)
 
 
 @pytest.fixture(scope="module")
 def features() -> dict[str, dict[str, pd.DataFrame]]:
-    classes = _classification()
-    wrench = classes.assign(decay_rate=np.nan, angular_frequency=np.nan, error="no oscillation")
-    sugar = _with_split(*paper_split(seed=4)).assign(
-        liquid="sugar-water", container="grooved-cuboid"
-    )
-    others = liquid_table(["olive-oil", "corn-oil", "mirin"], PAPER_HEIGHTS_MM, 2, seed=7)
-    viscosity = {"olive-oil": 64.0, "corn-oil": 52.0, "mirin": 22.0}
-    others["log10_viscosity_cst"] = np.log10(others["liquid"].map(viscosity))
-    return {
-        "classification": {"gelsight": classes, "wrench": wrench},
-        "sugar": {"gelsight": sugar},
-        "other-liquids": {"gelsight": others.assign(split="test", error="")},
-        "containers": {"gelsight": _containers()},
-    }
+    return experiment_features()
 
 
 @pytest.fixture(scope="module")
 def report(features, tmp_path_factory) -> tuple[Path, pd.DataFrame]:
     out = tmp_path_factory.mktemp("report")
     results = run_experiments(features, out)
-    write_report(results, out, title="test", preamble=failure_note(features))
-    summary = pd.read_csv(out / "summary.csv")
+    provenance = {"liquidtouch": "test", "git commit": "none (test)"}
+    write_report(results, out, title="test", preamble=failure_note(features), provenance=provenance)
+    summary = pd.read_csv(out / "summary.csv", keep_default_na=False, na_values=[""])
     return out, summary
 
 
-def _headline(summary: pd.DataFrame, experiment: str, metric: str) -> float:
+def _row(summary: pd.DataFrame, experiment: str, metric: str) -> pd.Series:
     row = summary[(summary["experiment"] == experiment) & (summary["metric"] == metric)]
     assert len(row) == 1, f"no headline {experiment!r} / {metric!r}"
-    return float(row["ours"].iloc[0])
+    return row.iloc[0]
+
+
+def _headline(summary: pd.DataFrame, experiment: str, metric: str) -> float:
+    return float(_row(summary, experiment, metric)["ours"])
 
 
 def test_classification_counts_the_failed_trial_as_wrong(report) -> None:
@@ -96,21 +51,60 @@ def test_classification_counts_the_failed_trial_as_wrong(report) -> None:
     accuracy = _headline(summary, "classification", "test accuracy")
     # 30 test trials, one without features: at best 29/30
     assert 90.0 <= accuracy <= 100 * 29 / 30 + 1e-9
-    assert _headline(summary, "force-torque", "wrist F/T accuracy") == 0.0
+    assert (
+        "1 without features (counted wrong)"
+        in _row(summary, "classification", "test accuracy")["note"]
+    )
+
+
+def test_wrist_ft_zero_is_explained_not_bare(report) -> None:
+    """0 % with three classes reads as a bug unless the row says what happened."""
+    out, summary = report
+    row = _row(summary, "force-torque", "wrist F/T accuracy")
+    from liquidtouch.experiments.paper import FORCE_TORQUE_ACCURACY
+
+    assert row["ours"] == 0.0
+    assert row["paper"] == pytest.approx(FORCE_TORQUE_ACCURACY["wrist F/T"].value)
+    assert "30/30 test" in row["note"] and "no classifier could be trained" in row["note"]
+    assert NO_OSCILLATION in row["note"] and "chance is 33 %" in row["note"]
+    assert (out / "force_torque.png").is_file()  # a figure even with no wrist classifier
+
+
+def test_every_summary_row_has_a_unit_and_paper_numbers_their_source(report) -> None:
+    _, summary = report
+    assert len(summary) >= 29
+    assert (summary["unit"].astype(str).str.strip() != "").all(), summary[["metric", "unit"]]
+    with_paper = summary[summary["paper"].notna()]
+    assert len(with_paper) >= 20
+    assert (with_paper["paper source"].astype(str).str.strip() != "").all()
+    units = dict(zip(summary["metric"], summary["unit"], strict=True))
+    assert units["gpr test MAE c"] == "g/100 g water"
+    assert units["gpr test MAE μ"] == "log10 cSt"
+    assert units["gpr test MAE h"] == "mm"
 
 
 def test_regression_errors_match_what_the_data_allow(report) -> None:
     _, summary = report
-    # features carry 4 % noise on λ and 0.3 % on ω (synthetic_tables); the paper's
-    # GPR reached 0.56 mm / 15.3 / 0.16 on real data, a guess of the mean 6 mm / 45 / 0.45
-    assert _headline(summary, "sugar", "gpr test MAE h [mm]") < 0.4
-    assert _headline(summary, "sugar", "gpr test MAE c [wt%]") < 6.0
+    # features carry 4 % noise on λ and 0.3 % on ω (synthetic_tables); a guess of the
+    # mean would give about 6 mm / 45 g/100 g water / 0.45
+    assert _headline(summary, "sugar", "gpr test MAE h") < 0.4
+    assert _headline(summary, "sugar", "gpr test MAE c") < 6.0
     assert _headline(summary, "sugar", "gpr test MAE μ") < 0.06
-    assert _headline(summary, "sugar", "quadratic test MAE h [mm]") < 0.6
+    assert _headline(summary, "sugar", "quadratic test MAE h") < 0.6
     for container in ("cylinder", "cuboid", "glass"):
-        assert _headline(summary, "containers", f"{container} MAE h [mm]") < 0.5
+        assert _headline(summary, "containers", f"{container} MAE h") < 0.5
     # oils beyond the sugar range (ν up to 59 cSt): height still within a millimetre
     assert _headline(summary, "other liquids", "mirin h MAE") < 1.0
+
+
+def test_data_efficiency_curves_have_several_points(report) -> None:
+    out, _ = report
+    table = pd.read_csv(out / "data_efficiency.csv")
+    points = table.groupby(["container", "model"])["n train"].agg(["count", "max"])
+    assert len(points) == 8  # 4 containers x 2 models
+    assert (points["count"] >= 4).all(), points
+    # the last point of each curve is the whole training set
+    assert points.loc[("glass", "gpr"), "max"] == 54
 
 
 def test_transfer_beats_the_untuned_model(report) -> None:
@@ -129,13 +123,31 @@ def test_report_is_complete_and_self_contained(report) -> None:
     for number in range(1, 8):
         assert f"<h2>{number}. " in page
     images = re.findall(r"<img[^>]*src='([^']*)'", page)
-    assert len(images) >= 6  # the wrist F/T, with no trainable classifier, has no figure
+    assert len(images) == 7  # one figure per experiment, the wrist F/T included
     assert all(src.startswith("data:image/png;base64,") for src in images)
     assert not re.search(r"(src|href)=['\"]https?:", page)
     assert "1 without features" in page  # the failed classification trial is reported
+    assert "<h2>Provenance</h2>" in page and "none (test)" in page
     markdown = (out / "report.md").read_text()
+    assert "## Provenance" in markdown
     for figure in re.findall(r"!\[[^]]*\]\(([^)]+)\)", markdown):
         assert (out / figure).is_file()
+    for text in (page, markdown, (out / "summary.csv").read_text()):
+        assert "wt%" not in text and "wt %" not in text
+
+
+def test_text_columns_left_numbers_right(report) -> None:
+    out, _ = report
+    page = (out / "report.html").read_text()
+    summary = re.search(r"<table class='summary'>.*?</table>", page, re.S).group(0)
+    header = re.findall(r"<th([^>]*)>([^<]*)</th>", summary)
+    aligned = {name: "num" in attrs for attrs, name in header}
+    assert aligned == {
+        "experiment": False, "metric": False, "ours": True, "paper": True, "unit": False,
+        "note": False, "paper source": False,
+    }  # fmt: skip
+    markdown = (out / "report.md").read_text()
+    assert "|:---|:---|---:|---:|:---|:---|:---|" in markdown
 
 
 def test_an_experiment_the_data_cannot_support_is_reported_not_fatal(features, tmp_path) -> None:
@@ -160,10 +172,35 @@ def test_failure_note_counts_per_dataset() -> None:
     assert note.startswith("Trials: sugar 2 trials; containers 3 trials (2 without features")
 
 
+def test_provenance_names_versions_commit_and_machine() -> None:
+    from liquidtouch.experiments.provenance import git_commit, provenance
+
+    info = provenance(**{"base seed": 7})
+    for key in ("liquidtouch", "git commit", "date", "base seed", "Python", "numpy",
+                "scikit-learn", "OpenCV", "PyAV", "machine"):  # fmt: skip
+        assert info[key], key
+    assert info["base seed"] == "7" and "cores" in info["machine"]
+    assert git_commit("/").startswith("none (")  # no checkout there: said, not raised
+
+
+def test_seeded_specs_change_trial_seeds_only() -> None:
+    from liquidtouch.experiments.reproduce import seeded_specs
+
+    base = seeded_specs("sugar", quick=True, seed=0)
+    other = seeded_specs("sugar", quick=True, seed=3)
+    assert [s.name for s in base] == [s.name for s in other]
+    assert [s.kwargs for s in base] == [s.kwargs for s in other]
+    assert all(a.seed != b.seed for a, b in zip(base, other, strict=True))
+    assert [s.seed for s in seeded_specs("sugar", quick=True, seed=3)] == [s.seed for s in other]
+
+
 @pytest.mark.slow
 def test_reproduce_end_to_end_through_videos(tmp_path, monkeypatch) -> None:
     """The quick reproduction at a few trials per group: videos → … → report, then reused."""
+    from typer.testing import CliRunner
+
     import liquidtouch.sim.presets as presets
+    from liquidtouch.cli import app
     from liquidtouch.experiments.reproduce import reproduce
 
     sizes = {
@@ -173,7 +210,8 @@ def test_reproduce_end_to_end_through_videos(tmp_path, monkeypatch) -> None:
         "containers": (6, 1),
     }
     monkeypatch.setattr(presets, "QUICK_SIZES", {**presets.QUICK_SIZES, **sizes})
-    first = reproduce(tmp_path, quick=True, jobs=2, progress=False)
+    out = tmp_path / "report"
+    first = reproduce(out, quick=True, jobs=2, progress=False)
     page = first.report_html.read_text()
     assert (
         "Trials: classification 12 trials; sugar 10 trials; other-liquids 3 trials; containers"
@@ -182,12 +220,29 @@ def test_reproduce_end_to_end_through_videos(tmp_path, monkeypatch) -> None:
     assert "without features, e.g." not in page and "(not run)" not in page
     summary = first.summary.set_index("metric")["ours"]
     assert summary["test accuracy"] == pytest.approx(100.0)  # water / olive oil / detergent
-    assert summary["gpr test MAE h [mm]"] < 3.0  # 8 training trials spanning 16-40 mm
-    features = pd.read_csv(tmp_path / "data/quick/sugar/features.csv")
+    assert summary["gpr test MAE h"] < 3.0  # 8 training trials spanning 16-40 mm
+    # the data live beside the report, not in it: the report directory can be shared
+    assert first.data_dir == tmp_path / "report-data" / "quick-seed0"
+    assert not any(p.suffix in (".mp4", ".avi", ".npz") for p in out.rglob("*"))
+    assert sum(p.stat().st_size for p in out.rglob("*") if p.is_file()) < 20e6
+    features = pd.read_csv(first.data_dir / "sugar/features.csv")
     np.testing.assert_allclose(
         features["angular_frequency"], features["true_angular_frequency"], rtol=0.01
     )
-    # a second run reuses the simulated data and the cached features
-    again = reproduce(tmp_path, quick=True, jobs=1, progress=False)
-    assert "simulated in an earlier run" in again.report_md.read_text()
-    pd.testing.assert_frame_equal(again.summary, first.summary)
+    # the F/T figure shows a trial's signals: it is wider than the accuracy bars alone
+    from PIL import Image
+
+    assert Image.open(out / "force_torque.png").size[0] > 1000
+    # a second run (through the command line, --json) reuses the simulated data and features
+    result = CliRunner().invoke(
+        app, ["reproduce", "--quick", "--out", str(out), "--json", "-j", "1"]
+    )
+    assert result.exit_code == 0, result.output
+    again = json.loads(result.stdout)
+    assert "simulated in an earlier run" in Path(again["report_md"]).read_text()
+    assert again["data_dir"] == str(first.data_dir.resolve())
+    assert Path(again["summary_csv"]).is_file()
+    ours = {row["metric"]: row["ours"] for row in again["summary"]}
+    pd.testing.assert_series_equal(
+        pd.Series(ours, name="ours").loc[summary.index], summary, check_names=False
+    )

@@ -131,9 +131,14 @@ def test_predict_from_dataset_and_trial_directories(dataset: Path, tmp_path: Pat
     model = tmp_path / "model.json"
     assert main(["train", str(train_csv), "--target", "height_mm", "--out", str(model)]) == 0
     out = tmp_path / "pred.csv"
+    before = (root / "features.csv").read_bytes()
     assert main(["predict", str(model), str(root), "--out", str(out)]) == 0
-    predicted = pd.read_csv(out)
-    assert len(predicted) == 3 and predicted["predicted_height_mm"].notna().all()
+    assert (root / "features.csv").read_bytes() == before  # predict never writes the dataset
+    predicted = pd.read_csv(out, keep_default_na=False, na_values=[""])
+    good = predicted["trial"] != "b/corrupt"  # the corrupt trial is kept, with its error
+    assert len(predicted) == 4 and predicted.loc[good, "predicted_height_mm"].notna().all()
+    assert predicted.loc[~good, "predicted_height_mm"].isna().all()
+    assert "left.mp4" in predicted.loc[~good, "error"].iloc[0]
     assert main(["predict", str(model), str(root / TRIALS[0][0]), "--out", str(out)]) == 0
     single = pd.read_csv(out)
     assert len(single) == 1

@@ -15,7 +15,7 @@ from benchmarks.synthetic_tables import (
 )
 from liquidtouch.errors import ModelFileError
 from liquidtouch.io.tables import FEATURE_COLUMNS
-from liquidtouch.models.modelfile import load_model, model_to_dict, save_model
+from liquidtouch.models.modelfile import document_sha256, load_model, model_to_dict, save_model
 from liquidtouch.models.property_model import (
     FeatureMap,
     PropertyModel,
@@ -48,7 +48,15 @@ def test_regression_round_trip_is_exact(tmp_path, tables, kind: str) -> None:
         assert np.array_equal(before[target][1], after[target][1])
     assert again.feature_map == model.feature_map and again.targets == model.targets
     doc = json.loads(path.read_text())
-    assert doc["format"] == "liquidtouch-model" and doc["format_version"] == 1
+    assert doc["format"] == "liquidtouch-model" and doc["format_version"] == 2
+    assert set(doc["provenance"]) == {
+        "liquidtouch",
+        "scikit_learn",
+        "numpy",
+        "python",
+        "training_sha256",
+    }
+    assert len(doc["sha256"]) == 64 and doc["domain"]["margin"] == 0.1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["model.json"]  # atomic: no temp left
 
 
@@ -119,6 +127,9 @@ def test_nan_and_edited_quadratic_are_refused(tmp_path, saved_doc, tables) -> No
         train_regression(train[FEATURES].to_numpy(), {"height_mm": train["height_mm"]}, "quadratic")
     )
     quad["regressors"]["height_mm"]["coef"][0] += 1.0
+    with pytest.raises(ModelFileError, match="does not match its sha256 checksum"):
+        load_model(_write(tmp_path, quad))
+    quad["sha256"] = document_sha256(quad)  # an editor who also fixes the checksum
     with pytest.raises(ModelFileError, match="do not match its training data"):
         load_model(_write(tmp_path, quad))
 

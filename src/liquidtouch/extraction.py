@@ -2,12 +2,15 @@
 
 ``extract_signal(paths)`` gives the :class:`~liquidtouch.signal.TactileSignal`;
 ``extract(paths)`` also keeps the tracks and runs
-:func:`~liquidtouch.fit.oscillation.fit_oscillation`; ``extract_trial(trial_dir)``
-gives the feature row used by dataset feature tables.
+:func:`~liquidtouch.fit.oscillation.fit_oscillation` on the free decay
+(:class:`FitSettings`: the fit's options and where the fitted window starts, shared
+with the ``fit`` command); ``extract_trial(trial_dir)`` gives the feature row used by
+dataset feature tables.
 """
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -19,6 +22,7 @@ import numpy as np
 from liquidtouch.errors import VideoError
 from liquidtouch.progress import progress_bar
 from liquidtouch.signal import TactileSignal, check_signal_options, tactile_signal
+from liquidtouch.tracking.detect import as_number
 from liquidtouch.tracking.tracks import MarkerTracks, track_markers
 
 if TYPE_CHECKING:
@@ -27,6 +31,117 @@ if TYPE_CHECKING:
 
 PathLike = str | os.PathLike[str]
 RATE_TOLERANCE = 0.01  # relative frame-rate difference allowed between the videos of a trial
+AUTO = "auto"
+"""``FitSettings.start`` value: fit from the start of the free decay (:func:`free_decay`)."""
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    """How a signal is fitted: the options of ``fit_oscillation`` and where the fit starts.
+
+    ``loss``, ``model``, ``band_hz`` [Hz] and ``noise`` are passed to
+    :func:`~liquidtouch.fit.oscillation.fit_oscillation`. ``start`` is ``"auto"``
+    (the free decay after the push: :func:`~liquidtouch.segment.free_decay`) or a
+    time [s] on the signal's clock: the samples from then on are fitted. The
+    defaults are what ``extract``, ``features`` and ``fit`` use. Raises
+    :class:`~liquidtouch.errors.SignalError` for a bad option.
+    """
+
+    loss: str = "paper"
+    model: str = "two-mode"
+    band_hz: tuple[float, float] = (0.3, 5.0)
+    noise: str = "white"
+    start: float | str = AUTO
+
+    def __post_init__(self) -> None:
+        from liquidtouch.errors import SignalError
+        from liquidtouch.fit.oscillation import LOSSES, MODELS, NOISE_MODELS
+
+        for name, value, choices in (
+            ("loss", self.loss, LOSSES),
+            ("model", self.model, MODELS),
+            ("noise", self.noise, NOISE_MODELS),
+        ):
+            if value not in choices:
+                raise SignalError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
+        try:
+            low, high = (as_number(v) for v in self.band_hz)
+        except (TypeError, ValueError):
+            raise SignalError(
+                f"band_hz must be a pair (low, high) in Hz, got {self.band_hz!r}"
+            ) from None
+        if not 0 < low < high < math.inf:
+            raise SignalError(
+                f"the frequency band must satisfy 0 < low < high in Hz, got {low:g}–{high:g} Hz"
+            )
+        object.__setattr__(self, "band_hz", (float(low), float(high)))
+        if self.start != AUTO:
+            start = as_number(self.start)
+            if not -math.inf < start < math.inf:
+                raise SignalError(
+                    f"the fit start must be 'auto' or a time in seconds, got {self.start!r}"
+                )
+            object.__setattr__(self, "start", float(start))
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready: ``loss``, ``model``, ``band_hz`` [low, high], ``noise``, ``start``."""
+        return {
+            "loss": self.loss,
+            "model": self.model,
+            "band_hz": list(self.band_hz),
+            "noise": self.noise,
+            "start": self.start,
+        }
+
+    def window(self, t: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The samples to fit: from ``start`` on (see :func:`fit_window`)."""
+        return fit_window(t, u, self.start)
+
+    def fit_options(self) -> dict[str, object]:
+        """Keyword arguments of ``fit_oscillation``: ``loss``, ``model``, ``band_hz``, ``noise``."""
+        return {
+            "loss": self.loss,
+            "model": self.model,
+            "band_hz": self.band_hz,
+            "noise": self.noise,
+        }
+
+    def fit(self, t: np.ndarray, u: np.ndarray) -> object:
+        """:func:`~liquidtouch.fit.oscillation.fit_oscillation` of :meth:`window` of ``(t, u)``."""
+        from liquidtouch.fit.oscillation import fit_oscillation
+
+        return fit_oscillation(*self.window(t, u), **self.fit_options())
+
+
+def fit_window(
+    t: np.ndarray, u: np.ndarray, start: float | str = AUTO
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(t, u)`` from ``start`` on; time stays absolute [s].
+
+    The whole signal is first checked as a fit input (finite, strictly increasing
+    time, long enough, not flat, at most ``MAX_SAMPLES``), so a bad signal is named
+    for what it is. ``start="auto"``: the free decay
+    (:func:`~liquidtouch.segment.free_decay`, what ``extract`` fits); a number: the
+    samples at ``t >= start`` (before the first sample: all of them), at least
+    ``MIN_DURATION_S`` of them.
+    """
+    from liquidtouch.errors import SignalError
+    from liquidtouch.fit.oscillation import MIN_DURATION_S, _validate
+    from liquidtouch.segment import free_decay
+
+    t, u = _validate(t, u)
+    if start == AUTO:
+        return free_decay(t, u)
+    start = as_number(start)
+    if not -math.inf < start < math.inf:
+        raise SignalError(f"the fit start must be 'auto' or a time in seconds, got {start!r}")
+    if t[-1] - max(start, t[0]) < MIN_DURATION_S:
+        raise SignalError(
+            f"the fit start {start:g} s leaves {max(t[-1] - start, 0.0):.3g} s of the signal "
+            f"({t[0]:.3g}–{t[-1]:.3g} s); the fit needs at least {MIN_DURATION_S:g} s"
+        )
+    keep = t >= start
+    return t[keep], u[keep]
 
 
 @dataclass
@@ -49,37 +164,99 @@ class Extraction:
         return out
 
 
-def resolve_sources(paths: PathLike | Sequence[PathLike]) -> list[tuple[str, Path]]:
-    """``(sensor name, source)`` pairs from video files, image folders or one trial directory."""
+def resolve_sources(
+    paths: PathLike | Sequence[PathLike], *, fps: float | None = None
+) -> list[tuple[str, Path, float | None]]:
+    """``(sensor name, source, frame rate)`` of video files, image folders or one trial directory.
+
+    The frame rate times image folders without a ``timestamps.csv`` (video files
+    carry their own timestamps): a trial's ``meta.json`` ``fps``, else ``fps``.
+    For a trial, an ``fps`` that differs from its ``meta.json`` is refused. The
+    same file given twice (two names, a link) is refused: it is one sensor, not two.
+    """
     from liquidtouch.io.dataset import META_NAME, read_trial_meta
+    from liquidtouch.io.frames import TIMESTAMPS_NAME
 
     items = [paths] if isinstance(paths, str | os.PathLike) else list(paths)
     if not items:
         raise VideoError("no video given; pass video files, image folders or a trial directory")
     items = [Path(p) for p in items]
+    if fps is not None and not 0 < as_number(fps) < math.inf:
+        raise VideoError(f"the frame rate (--fps) must be a positive number in Hz, got {fps!r}")
     if len(items) == 1 and items[0].is_dir() and (items[0] / META_NAME).is_file():
         trial = items[0]
         meta = read_trial_meta(trial)
         if not meta.sensors:
             raise VideoError(f"{trial / META_NAME} lists no sensor videos ('sensors')")
-        return [(Path(name).stem, trial / name) for name in meta.sensors]
-    names = [p.stem or p.name for p in items]
+        if fps is not None and not math.isclose(float(fps), meta.fps, rel_tol=1e-9):
+            raise VideoError(
+                f"--fps {float(fps):g} disagrees with the frame rate {meta.fps:g} of "
+                f"{trial / META_NAME}; a trial's image folders are timed by its meta.json "
+                "(or their timestamps.csv)"
+            )
+        sources = [trial / name for name in meta.sensors]
+        rate: float | None = meta.fps
+    else:
+        for path in items:
+            if not path.exists():
+                raise VideoError(f"{path} does not exist; give a video file, image folder or trial")
+        sources, rate = items, fps
+    _refuse_duplicates(sources)
+    for path in sources:
+        if rate is None and path.is_dir() and not (path / TIMESTAMPS_NAME).exists():
+            raise VideoError(
+                f"image folder {path} has no frame rate: pass --fps (the camera's frame rate) "
+                f"or add {path / TIMESTAMPS_NAME} with a t_s column, one row per image"
+            )
+    names = [p.stem or p.name for p in sources]
     if len(set(names)) < len(names):  # two sensors called e.g. "video": number them
         names = [f"{name}{k}" for k, name in enumerate(names)]
-    for path in items:
-        if not path.exists():
-            raise VideoError(f"{path} does not exist; give a video file, image folder or trial")
-    return list(zip(names, items, strict=True))
+    return [(name, path, rate) for name, path in zip(names, sources, strict=True)]
+
+
+def _refuse_duplicates(sources: Sequence[Path]) -> None:
+    """Raise :class:`VideoError` if two sources are the same file or folder."""
+    seen: dict[object, Path] = {}
+    for path in sources:
+        try:
+            stat = path.stat()
+            key: object = (stat.st_dev, stat.st_ino)
+        except OSError:  # missing: reported when it is read
+            key = path.resolve()
+        if key in seen:
+            raise VideoError(
+                f"{seen[key]} and {path} are the same file; each sensor's video must be given "
+                "once (the same video twice is one sensor, not two)"
+            )
+        seen[key] = path
+
+
+def select_sensors(
+    sources: list[tuple[str, Path, float | None]], sensors: Sequence[str] | None
+) -> list[tuple[str, Path, float | None]]:
+    """The ``sources`` of the named ``sensors`` (all for ``None``); VideoError for unknown names."""
+    if sensors is None:
+        return sources
+    if isinstance(sensors, str):
+        sensors = [sensors]
+    names = [name for name, _, _ in sources]
+    unknown = [s for s in sensors if s not in names]
+    if unknown or not sensors:
+        raise VideoError(
+            f"no sensor {', '.join(map(repr, unknown)) or '(none given)'}; "
+            f"the sensors are {', '.join(names)}"
+        )
+    return [item for item in sources if item[0] in set(sensors)]
 
 
 def track_sources(
-    sources: Sequence[tuple[str, Path]], *, fps: float = 30.0, progress: bool = False
+    sources: Sequence[tuple[str, Path, float | None]], *, progress: bool = False
 ) -> list[MarkerTracks]:
-    """Track the markers of every source; a rich progress bar (on stderr) when ``progress``."""
+    """Track the markers of every ``(sensor, source, fps)``; a progress bar (stderr) if asked."""
     from liquidtouch.io.frames import iter_frames, video_info
 
     tracks = []
-    for sensor, source in sources:
+    for sensor, source, fps in sources:
         total = None
         if source.is_file():
             total = video_info(source).frames or None
@@ -114,24 +291,29 @@ def extract(
     *,
     lowpass_hz: float | None = 3.0,
     n_markers: int = 16,
-    fps: float = 30.0,
+    fps: float | None = None,
     progress: bool = False,
     fit: bool = True,
+    fit_settings: FitSettings | None = None,
+    sensors: Sequence[str] | None = None,
 ) -> Extraction:
     """Tracks, tactile signal and (when ``fit``) the oscillation fit of one trial's videos.
 
-    ``fps`` is the frame rate of image folders (video files carry their own timestamps).
-    The options are checked before any video is read.
+    ``fps`` is the frame rate of image folders given directly (video files carry
+    their own timestamps; a trial's folders use its ``meta.json`` ``fps``; a
+    folder's ``timestamps.csv`` wins over both). ``fit_settings``: how the signal
+    is fitted (default :class:`FitSettings`: the free decay, the paper's loss,
+    two modes). ``sensors``: names of the sensors to use (video stems, e.g.
+    ``["left"]``; default all). The options are checked before any video is read.
     """
     check_signal_options(lowpass_hz, n_markers)
-    tracks = track_sources(resolve_sources(paths), fps=fps, progress=progress)
+    settings = FitSettings() if fit_settings is None else fit_settings
+    if not isinstance(settings, FitSettings):
+        raise TypeError(f"fit_settings must be a FitSettings, got {type(settings).__name__}")
+    sources = select_sensors(resolve_sources(paths, fps=fps), sensors)
+    tracks = track_sources(sources, progress=progress)
     signal = tactile_signal(tracks, lowpass_hz=lowpass_hz, n_markers=n_markers)
-    result = None
-    if fit:
-        from liquidtouch.fit.oscillation import fit_oscillation
-        from liquidtouch.segment import free_decay
-
-        result = fit_oscillation(*free_decay(signal.t, signal.u))
+    result = settings.fit(signal.t, signal.u) if fit else None
     return Extraction(tracks=tracks, signal=signal, fit=result)
 
 
@@ -140,7 +322,7 @@ def extract_signal(
     *,
     lowpass_hz: float | None = 3.0,
     n_markers: int = 16,
-    fps: float = 30.0,
+    fps: float | None = None,
     progress: bool = False,
 ) -> TactileSignal:
     """The tactile signal ``u(t)`` of video files, image folders, or a trial directory."""
@@ -149,9 +331,22 @@ def extract_signal(
     ).signal
 
 
-def extract_trial(trial_dir: PathLike) -> dict[str, object]:
+def extract_trial(
+    trial_dir: PathLike,
+    *,
+    lowpass_hz: float | None = 3.0,
+    n_markers: int = 16,
+    fit_settings: FitSettings | None = None,
+    sensors: Sequence[str] | None = None,
+) -> dict[str, object]:
     """Feature row of a trial directory: the fit's keys plus signal facts (see ``Extraction``)."""
-    return extract(trial_dir).to_dict()
+    return extract(
+        trial_dir,
+        lowpass_hz=lowpass_hz,
+        n_markers=n_markers,
+        fit_settings=fit_settings,
+        sensors=sensors,
+    ).to_dict()
 
 
 def plot_extraction(
@@ -209,11 +404,15 @@ def _draw_motion(ax: Axes, signal: TactileSignal) -> None:
 
 
 def _draw_signal(ax: Axes, extraction: Extraction) -> None:
+    """u(t); the fit drawn only over the window it was fitted to (shaded), not through the push."""
     signal = extraction.signal
     ax.plot(signal.t, signal.u, color="k", lw=1, label="u(t)")
     if extraction.fit is not None:
         fit = extraction.fit
-        ax.plot(signal.t, fit.curve(signal.t), color="tab:red", lw=1, label="fit")
+        start, end = fit.t0, fit.t0 + fit.duration_s
+        ax.axvspan(start, end, color="tab:red", alpha=0.08, lw=0, label="fitted window")
+        inside = (signal.t >= start) & (signal.t <= end)
+        ax.plot(signal.t[inside], fit.curve(signal.t[inside]), color="tab:red", lw=1, label="fit")
         ax.set_title(
             f"λ = {fit.decay_rate:.3g} 1/s, ω = {fit.angular_frequency:.3g} rad/s, "
             f"EV = {signal.explained_variance:.1%}"

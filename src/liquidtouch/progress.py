@@ -1,9 +1,22 @@
-"""One progress bar for all long work: a rich bar on stderr, or nothing."""
+"""One progress bar for all long work: a rich bar on stderr, or nothing.
+
+The commands show bars only when stderr is a terminal (:func:`on_terminal`), so
+a redirected or captured run (``--json``, scripts, tests) gets no bar output.
+"""
 
 from __future__ import annotations
 
 import contextlib
+import sys
 from collections.abc import Callable, Iterator
+
+
+def on_terminal() -> bool:
+    """Whether stderr is an interactive terminal: where the commands show progress bars."""
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):  # no stderr, or a closed one
+        return False
 
 
 @contextlib.contextmanager

@@ -9,6 +9,19 @@ than the push went (a viscous liquid rings down in a second), so the
 excursion is measured on the signal with its slow part removed: a zero-phase
 high-pass well below any hand-held slosh (≥ ~1 Hz for containers up to ~30 cm
 long), above the drift.
+
+When the free decay after that peak is too short to fit, the peak is first
+checked against the noise: a push stands out of the signal before it
+(:func:`push_snr`: the peak's distance from the median of the high-passed
+signal up to ``PUSH_GAP_S`` before it, over that signal's robust noise level,
+1.4826 × MAD). Below :data:`MIN_PUSH_SNR` the largest excursion is just the
+noise of a still recording, and the error says "no push found" instead of
+asking for a longer recording. Measured: on 32 simulated trials (water, sugar
+water, mirin, olive and corn oil, detergent; both sensor profiles; ~1 s of
+signal before the push) a push stands 26–64× above the noise before it; on
+low-passed (3 Hz) white noise (400 draws each at 25–100 fps, 4–60 s) the
+largest excursion reaches at most 10.5× (filter edge effects), a still
+simulated GelSight video 4.8×.
 """
 
 from __future__ import annotations
@@ -23,6 +36,10 @@ from liquidtouch.tracking.detect import as_number
 
 MIN_FREE_DECAY_S = 2.0
 DRIFT_CUTOFF_HZ = 0.3  # slower than this is slip drift, not slosh
+#: a push's excursion stands at least this many noise levels above the signal before it
+MIN_PUSH_SNR = 15.0
+PUSH_GAP_S = 0.5  # the push itself: left out of the noise level before the peak
+MIN_NOISE_S = 2.0  # less signal before the peak: its noise level is not judged
 
 
 def free_decay_start(
@@ -34,9 +51,19 @@ def free_decay_start(
     ``baseline_s`` [s] of the start of the recording set the resting level;
     motion slower than ``drift_cutoff_hz`` [Hz] (slip drift) is ignored.
     """
+    t, u = _check_signal(t, u)
+    return _excursion(t, u, baseline_s, drift_cutoff_hz)[0]
+
+
+def _excursion(
+    t: np.ndarray,
+    u: np.ndarray,
+    baseline_s: float = 0.3,
+    drift_cutoff_hz: float = DRIFT_CUTOFF_HZ,
+) -> tuple[int, np.ndarray]:
+    """Index of the largest excursion and the high-passed signal minus its resting level."""
     from scipy.signal import butter, sosfiltfilt
 
-    t, u = _check_signal(t, u)
     if not 0 <= as_number(baseline_s) < math.inf:
         raise SignalError(f"baseline_s must be a duration >= 0 in seconds, got {baseline_s!r}")
     if not 0 < as_number(drift_cutoff_hz) < math.inf:
@@ -49,18 +76,47 @@ def free_decay_start(
         sos = butter(2, drift_cutoff_hz, btype="highpass", fs=rate_hz, output="sos")
         u = sosfiltfilt(sos, u)
     resting = float(np.median(u[t <= t[0] + baseline_s]))
-    return int(np.argmax(np.abs(u - resting)))
+    excursion = np.abs(u - resting)
+    return int(np.argmax(excursion)), u - resting
+
+
+def push_snr(t: np.ndarray, u: np.ndarray, start: int | None = None) -> float:
+    """How far the largest excursion stands above the noise before it (module docstring).
+
+    With ``b`` the high-passed signal up to ``PUSH_GAP_S`` before the peak, returns
+    ``|peak − median(b)| / (1.4826 × MAD(b))``; NaN when ``b`` spans less than
+    ``MIN_NOISE_S``, inf when its samples are all equal.
+    """
+    t, u = _check_signal(t, u)
+    peak, centred = _excursion(t, u)
+    peak = peak if start is None else int(start)
+    quiet = t < t[peak] - PUSH_GAP_S
+    if not quiet.any() or t[quiet][-1] - t[0] < MIN_NOISE_S:
+        return math.nan
+    before = centred[quiet]
+    level = float(np.median(before))
+    noise = 1.4826 * float(np.median(np.abs(before - level)))
+    return abs(float(centred[peak]) - level) / noise if noise > 0 else math.inf
 
 
 def free_decay(t: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(t, u)`` from the start of the free decay on; time is kept absolute [s].
 
     Raises :class:`SignalError` for a malformed signal (see :func:`free_decay_start`)
-    or when less than ``MIN_FREE_DECAY_S`` follows the push.
+    or when less than ``MIN_FREE_DECAY_S`` follows the largest excursion: "no push
+    found" when that excursion does not stand out of the noise before it
+    (:func:`push_snr` below ``MIN_PUSH_SNR``), else "record longer after the push".
     """
     t, u = _check_signal(t, u)
     start = free_decay_start(t, u)
     if t[-1] - t[start] < MIN_FREE_DECAY_S:
+        snr = push_snr(t, u, start)
+        if snr < MIN_PUSH_SNR:
+            raise SignalError(
+                f"no push found: the largest excursion of u (at {t[start]:.2f} s) is only "
+                f"{snr:.1f}× the noise level before it (a push stands out at least "
+                f"{MIN_PUSH_SNR:g}×); was the container pushed, and do the videos show it?"
+            )
         raise SignalError(
             f"the free decay after the push lasts only {t[-1] - t[start]:.2g} s "
             f"(peak at {t[start]:.2f} s of {t[-1]:.2f} s); record at least "

@@ -2,12 +2,20 @@
 
 Every option is a :class:`concurrent.futures.Executor`, so batch code does not
 care which one it gets.
+
+Ctrl-C with a process pool: the terminal sends SIGINT to the whole process
+group, but pool workers ignore it, so only the parent sees the
+KeyboardInterrupt. The parent then cancels the pending tasks and stops the
+workers with SIGTERM, which a worker turns into an exception inside the
+running task (so ``finally`` blocks and atomic writers clean up) before it
+exits quietly: no worker tracebacks, no half-written outputs.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import signal
 from collections.abc import Callable, Hashable, Iterator, Mapping
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
 from typing import Any
@@ -62,8 +70,60 @@ def open_executor(
     elif jobs == 1:
         yield SerialExecutor()
     else:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
+        pool = ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker)
+        try:
             yield pool
+        except BaseException:
+            _stop_pool(pool)
+            raise
+        pool.shutdown(wait=True)
+
+
+WORKER_STOP_TIMEOUT_S = 30.0
+"""How long the parent waits for stopped workers to clean up after Ctrl-C [s]."""
+
+
+class _WorkerStopped(SystemExit):
+    """Raised inside a worker's running task when the parent stops the pool (SIGTERM)."""
+
+
+_task_running = False
+
+
+def _init_worker() -> None:
+    """Pool-worker start-up: ignore Ctrl-C (the parent handles it); SIGTERM stops the task."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _on_sigterm)
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    if _task_running:
+        raise _WorkerStopped(128 + signum)
+    os._exit(128 + signum)  # idle: nothing to clean up
+
+
+def _call_in_worker(fn: Callable[..., Any], *args: Any) -> Any:
+    """Run one task in a pool worker; exit the worker at once once a stopped task has unwound."""
+    global _task_running
+    _task_running = True
+    try:
+        return fn(*args)
+    except _WorkerStopped as exc:
+        os._exit(exc.code if isinstance(exc.code, int) else 1)
+    finally:
+        _task_running = False
+
+
+def _stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel the pool's pending tasks and stop its workers (after Ctrl-C or an error)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        with contextlib.suppress(OSError, ValueError, AttributeError):
+            process.terminate()
+    for process in processes:
+        with contextlib.suppress(OSError, ValueError, AssertionError, AttributeError):
+            process.join(WORKER_STOP_TIMEOUT_S)
 
 
 def run_each(
@@ -78,6 +138,9 @@ def run_each(
         for key, args in tasks.items():
             yield key, pool.submit(fn, *args)
         return
-    futures = {pool.submit(fn, *args): key for key, args in tasks.items()}
+    if isinstance(pool, ProcessPoolExecutor):
+        futures = {pool.submit(_call_in_worker, fn, *args): key for key, args in tasks.items()}
+    else:
+        futures = {pool.submit(fn, *args): key for key, args in tasks.items()}
     for future in as_completed(futures):
         yield futures[future], future

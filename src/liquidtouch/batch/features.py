@@ -2,9 +2,11 @@
 
 Trials run in parallel through any :class:`concurrent.futures.Executor`
 (serial, process pool, Dask). Each finished trial is cached under
-``DATASET/.cache/features/`` keyed by a fingerprint of its inputs, so a trial
-whose inputs did not change is not redone and an interrupted run resumes
-where it stopped. A bad trial is recorded with its error and the run goes on.
+``DATASET/.cache/features/`` keyed by a fingerprint of its inputs and of every
+extraction and fit setting, so a trial whose inputs and settings did not change
+is not redone and an interrupted run resumes where it stopped. A bad trial is
+recorded with its error and the run goes on. Every row records the liquidtouch
+version that computed it and the settings (:data:`PROVENANCE_COLUMNS`).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from liquidtouch import __version__
 from liquidtouch.batch.executors import open_executor, run_each
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.io import atomic
@@ -48,41 +51,131 @@ FEATURE_ROW_COLUMNS = (
     "frames",
     "fps",
 )
+#: Columns after ``error``: the liquidtouch version that computed the row and the
+#: settings of the run (compact JSON, :func:`feature_settings`).
+PROVENANCE_COLUMNS = ("liquidtouch_version", "extraction_settings")
 CACHE_DIR = Path(".cache") / "features"
+WRENCH_FPS = 30.0  # the wrist signal's clock (liquidtouch.wrench.wrench_signal's default)
 
 
-def trial_features(trial_dir: str | Path, source: str = "gelsight") -> dict[str, float]:
-    """Features of one trial directory: the oscillation fit of its tactile (or wrist) signal."""
-    from liquidtouch.extraction import extract_trial
-    from liquidtouch.wrench import wrench_features
+def feature_settings(
+    source: str = "gelsight",
+    *,
+    lowpass_hz: float | None = 3.0,
+    n_markers: int = 16,
+    sensors: list[str] | tuple[str, ...] | None = None,
+    fit_settings: object = None,
+) -> dict[str, object]:
+    """Every setting the features of ``source`` depend on, JSON-ready (validated).
 
+    ``gelsight``: ``lowpass_hz``, ``n_markers``, ``sensors`` (None: all) and ``fit``
+    (:meth:`~liquidtouch.extraction.FitSettings.to_dict`); ``wrench``: ``lowpass_hz``
+    (a number: the wrist forces are always low-passed) and ``fit``.
+    """
+    from liquidtouch.extraction import FitSettings
+    from liquidtouch.signal import check_signal_options
+
+    if source not in SOURCES:
+        raise LiquidTouchError(
+            f"unknown feature source {source!r}; choose one of {', '.join(SOURCES)}"
+        )
+    check_signal_options(lowpass_hz, n_markers)
+    fit = FitSettings() if fit_settings is None else fit_settings
+    if not isinstance(fit, FitSettings):
+        raise LiquidTouchError(f"fit_settings must be a FitSettings, got {type(fit).__name__}")
     if source == "wrench":
-        return wrench_features(trial_dir)
-    return extract_trial(trial_dir)
+        if lowpass_hz is None:
+            raise LiquidTouchError("the wrench source needs a low-pass cut-off (lowpass_hz)")
+        return {"source": source, "lowpass_hz": float(lowpass_hz), "fit": fit.to_dict()}
+    if isinstance(sensors, str):
+        sensors = [sensors]
+    return {
+        "source": source,
+        "lowpass_hz": None if lowpass_hz is None else float(lowpass_hz),
+        "n_markers": int(n_markers),
+        "sensors": None if sensors is None else sorted(set(sensors)),
+        "fit": fit.to_dict(),
+    }
 
 
-def _fingerprint(trial_dir: Path, source: str) -> str:
+def _fit_settings(settings: dict[str, object]):
+    from liquidtouch.extraction import FitSettings
+
+    fit = dict(settings["fit"])
+    return FitSettings(**{**fit, "band_hz": tuple(fit["band_hz"])})
+
+
+def trial_features(
+    trial_dir: str | Path, source: str = "gelsight", **settings: object
+) -> dict[str, float]:
+    """Features of one trial directory: the oscillation fit of its tactile (or wrist) signal.
+
+    ``settings``: the keyword arguments of :func:`feature_settings` (defaults: the
+    paper's extraction and fit).
+    """
+    from liquidtouch.extraction import extract_trial
+
+    chosen = feature_settings(source, **settings)
+    fit = _fit_settings(chosen)
+    if source == "wrench":
+        from liquidtouch.io.dataset import read_wrench_csv
+        from liquidtouch.wrench import wrench_signal
+
+        # as liquidtouch.wrench.wrench_features, with the run's low-pass and fit settings
+        t_s, force_n = read_wrench_csv(Path(trial_dir) / WRENCH_NAME)
+        t, u, explained = wrench_signal(
+            t_s, force_n, lowpass_hz=chosen["lowpass_hz"], fps=WRENCH_FPS
+        )
+        row = dict(fit.fit(t, u).to_dict())
+        row.update(explained_variance=explained, n_markers=0, fps=WRENCH_FPS, frames=len(t))
+        return row
+    return extract_trial(
+        trial_dir,
+        lowpass_hz=chosen["lowpass_hz"],
+        n_markers=chosen["n_markers"],
+        sensors=chosen["sensors"],
+        fit_settings=fit,
+    )
+
+
+def _fingerprint(trial_dir: Path, source: str, settings: dict[str, object] | None = None) -> str:
     """Hash of everything the trial's features depend on (file sizes and mtimes, settings)."""
     meta = read_trial_meta(trial_dir)
     inputs = [META_NAME, *(meta.sensors if source == "gelsight" else [WRENCH_NAME])]
-    digest = hashlib.sha256(f"v{FEATURES_VERSION}:{source}".encode())
+    chosen = feature_settings(source) if settings is None else settings
+    digest = hashlib.sha256(
+        f"v{FEATURES_VERSION}:{source}:fps={meta.fps!r}:"
+        f"{json.dumps(chosen, sort_keys=True)}".encode()
+    )
     for name in inputs:
         path = trial_dir / name
         stat = path.stat() if path.exists() else None
         digest.update(
             f"|{name}:{stat.st_size if stat else -1}:{stat.st_mtime_ns if stat else -1}".encode()
         )
+        if stat is not None and path.is_dir():  # an image folder: every file in it counts
+            for entry in sorted(path.iterdir()):
+                st = entry.stat() if entry.exists() else entry.lstat()  # a dangling link
+                digest.update(f"|{name}/{entry.name}:{st.st_size}:{st.st_mtime_ns}".encode())
     return digest.hexdigest()
 
 
-def _safe_run(trial_dir: str, source: str) -> dict[str, object]:
+def _safe_run(
+    trial_dir: str, source: str, settings: dict[str, object] | None = None
+) -> dict[str, object]:
     """Worker: features of one trial, or the error that stopped it (never raises)."""
+    chosen = feature_settings(source) if settings is None else settings
+    kwargs = {k: v for k, v in chosen.items() if k not in ("source", "fit")}
+    done = {"liquidtouch_version": __version__}
     try:
-        return {"features": trial_features(trial_dir, source), "error": None, "cacheable": True}
+        kwargs["fit_settings"] = _fit_settings(chosen)
+        features = trial_features(trial_dir, source, **kwargs)
+        return {"features": features, "error": None, "cacheable": True, **done}
     except LiquidTouchError as exc:
-        return {"features": {}, "error": str(exc), "cacheable": True}
+        return {"features": {}, "error": str(exc), "cacheable": True, **done}
     except Exception as exc:  # a batch survives any one bad trial
-        return {"features": {}, "error": f"{type(exc).__name__}: {exc}", "cacheable": False}
+        error = f"{type(exc).__name__}: {exc}"
+        return {"features": {}, "error": error, "cacheable": False, **done}
 
 
 def _cache_file(root: Path, trial: str, source: str) -> Path:
@@ -104,22 +197,39 @@ def extract_features(
     dataset: str | Path,
     *,
     out: str | Path | None = None,
+    write: bool = True,
     jobs: int = 1,
     dask_address: str | None = None,
     source: str = "gelsight",
     progress: bool = True,
     on_trial: Callable[[str, dict[str, object]], None] | None = None,
+    lowpass_hz: float | None = 3.0,
+    n_markers: int = 16,
+    sensors: list[str] | tuple[str, ...] | None = None,
+    fit_settings: object = None,
 ) -> pd.DataFrame:
     """Extract features of every trial of ``dataset``; write ``out`` (default ``features.csv``).
 
     Returns the table: the manifest's columns, then :data:`FEATURE_ROW_COLUMNS`,
-    then ``error`` (empty for good trials). ``on_trial(trial, result)`` is
-    called as each trial finishes (used by tests and progress reports).
+    then ``error`` (empty for good trials), then :data:`PROVENANCE_COLUMNS`; its
+    ``attrs`` hold ``n_computed`` and ``n_cached`` (trials computed now, read from
+    the cache) and ``settings`` (:func:`feature_settings`). With
+    ``write=False`` no table is written (the per-trial cache is still read and
+    filled). ``on_trial(trial, result)`` is called as each trial is computed (not
+    for trials read from the cache; used by tests and progress reports).
+    ``lowpass_hz``, ``n_markers``, ``sensors`` and ``fit_settings``
+    (:class:`~liquidtouch.extraction.FitSettings`) are the extraction and fit
+    settings (:func:`feature_settings`); they are checked before any work, and a
+    trial cached under other settings is recomputed.
     """
-    if source not in SOURCES:
-        raise LiquidTouchError(
-            f"unknown feature source {source!r}; choose one of {', '.join(SOURCES)}"
-        )
+    settings = feature_settings(
+        source,
+        lowpass_hz=lowpass_hz,
+        n_markers=n_markers,
+        sensors=sensors,
+        fit_settings=fit_settings,
+    )
+    settings_json = json.dumps(settings, sort_keys=True, separators=(",", ":"))
     root = Path(dataset)
     manifest = read_manifest(root)
     results: dict[str, dict[str, object]] = {}
@@ -127,7 +237,7 @@ def extract_features(
     for trial in manifest["trial"]:
         tdir = trial_path(root, trial)
         try:
-            fingerprint = _fingerprint(tdir, source)
+            fingerprint = _fingerprint(tdir, source, settings)
         except LiquidTouchError as exc:
             results[trial] = {"features": {}, "error": str(exc)}
             continue
@@ -142,7 +252,7 @@ def extract_features(
             open_executor(jobs, dask_address, n_tasks=len(todo)) as pool,
             progress_bar(f"features ({source})", len(todo), enabled=progress) as advance,
         ):
-            tasks = {trial: (str(tdir), source) for trial, (tdir, _) in todo.items()}
+            tasks = {trial: (str(tdir), source, settings) for trial, (tdir, _) in todo.items()}
             for trial, future in run_each(pool, _safe_run, tasks):
                 result = future.result()
                 if result.pop("cacheable"):
@@ -160,8 +270,16 @@ def extract_features(
         row = dict(record)
         row.update({name: features.get(name, math.nan) for name in FEATURE_ROW_COLUMNS})
         row["error"] = result.get("error") or ""
+        row["liquidtouch_version"] = result.get("liquidtouch_version") or __version__
+        row["extraction_settings"] = settings_json
         rows.append(row)
     table = pd.DataFrame(rows)
-    out_path = Path(out) if out is not None else root / FEATURES_NAME
-    atomic.write_text(out_path, table.to_csv(index=False))
+    table.attrs.update(
+        n_computed=len(todo),
+        n_cached=sum(trial not in todo and "fingerprint" in results[trial] for trial in results),
+        settings=settings,
+    )
+    if write:
+        out_path = Path(out) if out is not None else root / FEATURES_NAME
+        atomic.write_text(out_path, table.to_csv(index=False))
     return table

@@ -3,7 +3,9 @@
 Each submodule registers its commands on :data:`app`; heavy imports happen
 inside the commands so that ``--help`` stays fast. Every
 :class:`~liquidtouch.errors.LiquidTouchError` becomes one line
-``error: <message>`` on stderr and exit status 2.
+``error: <message>`` on stderr and exit status 2; Ctrl-C becomes
+``error: interrupted`` and exit status 130. Output-path options are checked
+as typed (:mod:`liquidtouch.cli.paths`): ``--out model.json/`` is refused.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ from __future__ import annotations
 import sys
 
 import typer
+import typer.main
 
 try:  # typer >= 0.25 vendors click
     from typer._click import exceptions as click_exc
@@ -19,7 +22,11 @@ except ImportError:  # pragma: no cover - older typer uses click itself
 
 from liquidtouch import __version__
 from liquidtouch.cli import experiments, extract, fit, models, simulate
+from liquidtouch.cli.paths import guard_output_paths
 from liquidtouch.errors import LiquidTouchError
+
+INTERRUPTED = 130
+"""Exit status after Ctrl-C (128 + SIGINT), as shells report it."""
 
 app = typer.Typer(
     name="liquidtouch",
@@ -50,6 +57,25 @@ for _module in (fit, simulate, extract, models, experiments):
     _module.register(app)
 
 
+class _Interrupted(Exception):
+    """Ctrl-C inside a command, carried past typer (which would turn it into a silent exit)."""
+
+
+def _command():
+    """The click command of :data:`app`, with output paths checked and Ctrl-C carried out."""
+    command = guard_output_paths(typer.main.get_command(app))
+    invoke = command.invoke
+
+    def invoke_or_interrupt(ctx):
+        try:
+            return invoke(ctx)
+        except KeyboardInterrupt:
+            raise _Interrupted from None
+
+    command.invoke = invoke_or_interrupt
+    return command
+
+
 def error_exit(message: str) -> int:
     """Print ``error: message`` on stderr; return the exit status for bad input."""
     print(f"error: {message}", file=sys.stderr)
@@ -59,7 +85,9 @@ def error_exit(message: str) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line on ``argv``; return the exit status (never raises on bad input)."""
     try:
-        result = app(args=argv, prog_name="liquidtouch", standalone_mode=False)
+        result = _command().main(args=argv, prog_name="liquidtouch", standalone_mode=False)
+        if result == INTERRUPTED:  # Ctrl-C while typer parsed the command line
+            raise _Interrupted
     except LiquidTouchError as exc:
         return error_exit(str(exc))
     except click_exc.NoArgsIsHelpError as exc:
@@ -72,9 +100,9 @@ def main(argv: list[str] | None = None) -> int:
         return error_exit(exc.format_message())
     except typer.Exit as exc:
         return exc.exit_code
-    except (typer.Abort, KeyboardInterrupt):
+    except (typer.Abort, KeyboardInterrupt, _Interrupted):
         print("error: interrupted", file=sys.stderr)
-        return 130
+        return INTERRUPTED
     except FileNotFoundError as exc:
         return error_exit(f"file not found: {exc.filename or exc}")
     except OSError as exc:  # permissions, full disk, a directory where a file was expected

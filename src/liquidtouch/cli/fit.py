@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
 import typer
 
+from liquidtouch.cli import options
 from liquidtouch.errors import SignalError
 
 
@@ -17,52 +19,62 @@ def register(app: typer.Typer) -> None:
 
 def fit(
     signal: Path | None = typer.Argument(
-        None, help="Signal CSV with header 't,u' (t in seconds, u in any unit).", show_default=False
+        None,
+        help="Signal CSV with header 't,u' (t in seconds, u in any unit), e.g. from "
+        "extract --signal-out.",
+        show_default=False,
     ),
-    as_json: bool = typer.Option(False, "--json", help="Print one JSON object on stdout."),
-    loss: str = typer.Option(
-        "paper", "--loss", help="'paper': Σ(u−û)²/(u²+δ) (default); 'ls': plain least squares."
-    ),
-    model: str = typer.Option(
-        "two-mode",
-        "--model",
-        help="'two-mode' (falls back to one mode if the data do not support a fast mode) "
-        "or 'single-mode'.",
-    ),
-    band_low_hz: float = typer.Option(0.3, "--band-low", help="Lowest slosh frequency [Hz]."),
-    band_high_hz: float = typer.Option(5.0, "--band-high", help="Highest slosh frequency [Hz]."),
-    noise: str = typer.Option(
-        "white",
-        "--noise",
-        help="Noise assumption for the standard errors: 'white' or 'correlated' (low-passed).",
-    ),
+    as_json: options.Json = False,
+    loss: options.Loss = options.DEFAULT_LOSS,
+    model: options.FitModel = options.DEFAULT_FIT_MODEL,
+    band_low_hz: options.BandLow = options.DEFAULT_BAND_LOW_HZ,
+    band_high_hz: options.BandHigh = options.DEFAULT_BAND_HIGH_HZ,
+    noise: options.Noise = options.DEFAULT_NOISE,
+    start: options.Start = None,
     plot: Path | None = typer.Option(
-        None, "--plot", help="Write a PNG of the signal, fit, both modes and residual."
+        None,
+        "--plot",
+        help="Write a figure of the fitted window: signal, fit, both modes and residual "
+        "(format from the suffix; PNG without one).",
+        show_default=False,
     ),
     example: bool = typer.Option(
         False, "--example", help="Fit the built-in example signal instead of a file."
     ),
 ) -> None:
-    """Fit u ≈ B e^{-λt}cos(ωt+ψ) + B' e^{-λ't}cos(ω't+ψ') + drift; print λ, ω and errors."""
+    """Fit u ≈ B e^{-λt}cos(ωt+ψ) + B' e^{-λ't}cos(ω't+ψ') + drift; print λ, ω and errors.
+
+    By default (--start auto) the fit covers the free decay after the push, as
+    extract does: a whole record (before the push, the push, the ring-down) gives
+    the same λ and ω as extract. A signal that already starts at the release needs
+    --start 0 (its largest excursion may come later, where two modes beat); the
+    built-in example is fitted from its first sample unless --start is given.
+    """
     from liquidtouch.fit.oscillation import example_signal, fit_oscillation
 
     if example == (signal is not None):
         raise SignalError("give either a SIGNAL.csv or --example (exactly one)")
+    settings = options.fit_settings(loss, model, band_low_hz, band_high_hz, noise, start)
+    if plot is not None:
+        from liquidtouch.io.figures import check_figure_path
+
+        check_figure_path(plot)  # before the fit: a typo in --plot costs nothing
     if example:
         t, u = example_signal()
         source = "built-in example signal"
+        if start is None:  # the example starts at the release
+            settings = dataclasses.replace(settings, start=float(t[0]))
     else:
         from liquidtouch.io.signal_csv import read_signal_csv
 
         t, u = read_signal_csv(signal)
         source = str(signal)
-    result = fit_oscillation(
-        t, u, loss=loss, model=model, band_hz=(band_low_hz, band_high_hz), noise=noise
-    )
+    t_fit, u_fit = settings.window(t, u)
+    result = fit_oscillation(t_fit, u_fit, **settings.fit_options())
     if plot is not None:
         from liquidtouch.fit.plot import plot_fit
 
-        plot_fit(t, u, result, plot)
+        plot_fit(t_fit, u_fit, result, plot)
     if as_json:
         typer.echo(json.dumps(result.to_dict()))
         return
@@ -71,34 +83,10 @@ def fit(
 
 def _print_table(result, source: str, plot: Path | None) -> None:
     from rich.console import Console
-    from rich.table import Table
+    from rich.markup import escape
 
-    def fmt(value: float, std: float | None = None) -> str:
-        if value != value:  # NaN: mode not fitted
-            return "—"
-        return f"{value:.4g}" + (f" ± {std:.2g}" if std is not None and std == std else "")
+    from liquidtouch.cli.format import fit_quality, fit_table
 
-    table = Table(title=f"{result.model} fit of {source} (loss={result.loss})")
-    table.add_column("mode")
-    table.add_column("decay rate λ [1/s]", justify="right")
-    table.add_column("angular frequency ω [rad/s]", justify="right")
-    table.add_column("amplitude", justify="right")
-    table.add_row(
-        "slow",
-        fmt(result.decay_rate, result.decay_rate_std),
-        fmt(result.angular_frequency, result.angular_frequency_std),
-        fmt(result.amplitude),
-    )
-    table.add_row(
-        "fast",
-        fmt(result.fast_decay_rate, result.fast_decay_rate_std),
-        fmt(result.fast_angular_frequency, result.fast_angular_frequency_std),
-        fmt(result.fast_amplitude),
-    )
     console = Console()
-    console.print(table)
-    console.print(
-        f"R² = {result.r2:.4f}   noise σ = {result.noise_std:.3g}   "
-        f"{result.n_samples} samples over {result.duration_s:.3g} s"
-        + (f"   plot: {plot}" if plot else "")
-    )
+    console.print(fit_table(result, f"{result.model} fit of {source} (loss={result.loss})"))
+    console.print(escape(fit_quality(result) + (f"   plot: {plot}" if plot else "")))

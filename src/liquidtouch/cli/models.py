@@ -1,18 +1,181 @@
-"""Commands from features to properties: ``train``, ``classify``, ``predict``, ``transfer``."""
+"""Commands from features to properties: ``train``, ``classify``, ``predict``, ``transfer``.
+
+``train``, ``classify`` and ``transfer`` take the rows selected by ``--split`` and
+``--where COLUMN=VALUE`` (all rows by default) and, after fitting, evaluate the
+model on the labelled rows that were not selected: MAE per target (or accuracy)
+as a table on stderr and under ``held_out`` in ``--json``.
+"""
 
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
+from typing import Any
 
 import typer
 
+from liquidtouch.cli import options
 
+MAX_LISTED_VALUES = 10  # values of a column quoted in an error message
+
+_SPLIT_HELP = (
+    "Train on the rows whose 'split' column is NAME (e.g. train); the labelled rows not "
+    "selected are evaluated after training."
+)
+_WHERE_HELP = (
+    "Train on the rows where COLUMN equals VALUE (numerically for a numeric column); "
+    "repeat to combine (all must hold). The labelled rows not selected are evaluated."
+)
 def _echo_summary(lines: list[str], out: Path) -> None:
     for line in lines:
         typer.echo(line)
     typer.echo(f"wrote {out}")
+
+
+def _warn(message: str) -> None:
+    typer.echo(f"warning: {message}", err=True)
+
+
+def _read_training_table(path: Path) -> tuple[Any, Any, int]:
+    """A features CSV without its failed rows (warned about), its (n, 2) features, rows skipped.
+
+    Rows whose ``error`` is set (or whose features are empty, in a table with an
+    ``error`` column) are skipped; empty features in a table without ``error`` stay
+    an error.
+    """
+    from liquidtouch.io.tables import feature_matrix, read_table
+    from liquidtouch.models.feature_rows import drop_failed, failed_rows, row_list
+
+    table = read_table(path)
+    failed = failed_rows(table)
+    kept, skipped = drop_failed(table)
+    if skipped:
+        _warn(
+            f"skipped {skipped} of {len(table)} rows of {path} whose feature extraction "
+            f"failed (non-empty error or empty features): rows {row_list(failed)}"
+        )
+    return kept, feature_matrix(kept), skipped
+
+
+def _listed(values: Any) -> str:
+    shown = [str(v) for v in list(values)[:MAX_LISTED_VALUES]]
+    more = len(values) - len(shown)
+    return ", ".join(shown) + (f" and {more} more" if more > 0 else "")
+
+
+def _column_equals(table: Any, column: str, value: str, flag: str, path: Path) -> Any:
+    """Boolean mask of ``table[column] == value``: numeric for a numeric column, else text."""
+    import numpy as np
+    import pandas as pd
+
+    from liquidtouch.errors import TableError
+
+    if column not in table.columns:
+        raise TableError(
+            f"{flag}: {path} has no column {column!r} (columns: {_listed(table.columns)})"
+        )
+    cells = table[column]
+    if pd.api.types.is_numeric_dtype(cells) and not pd.api.types.is_bool_dtype(cells):
+        try:
+            number = float(value)
+        except ValueError:
+            raise TableError(
+                f"{flag}: column {column} of {path} is numeric, but {value!r} is not a number"
+            ) from None
+        values = cells.to_numpy(dtype=float)
+        mask = np.isclose(values, number, rtol=1e-9, atol=0.0) | (values == number)
+        shown = np.unique(values[np.isfinite(values)])
+        shown = [f"{v:g}" for v in shown]
+    else:
+        text = cells.astype(str).str.strip()
+        mask = (text == value.strip()).to_numpy() & cells.notna().to_numpy()
+        shown = sorted(set(text[cells.notna()]))
+    if not mask.any():
+        raise TableError(
+            f"{flag}: no row of {path} has {column} = {value} ({column} values: {_listed(shown)})"
+        )
+    return mask
+
+
+def _selection(table: Any, split: str | None, where: list[str] | None, path: Path) -> Any:
+    """The rows chosen by ``--split``/``--where`` (boolean mask; None without either)."""
+    import numpy as np
+
+    from liquidtouch.errors import TableError
+
+    if split is None and not where:
+        return None
+    mask = np.ones(len(table), dtype=bool)
+    if split is not None:
+        mask &= _column_equals(table, "split", split, f"--split {split}", path)
+    for condition in where or []:
+        column, sep, value = condition.partition("=")
+        if not sep or not column.strip():
+            raise TableError(f"--where takes COLUMN=VALUE (e.g. split=train), got {condition!r}")
+        mask &= _column_equals(table, column.strip(), value, f"--where {condition}", path)
+    if not mask.any():
+        chosen = " ".join(
+            ([f"--split {split}"] if split is not None else [])
+            + [f"--where {w}" for w in where or []]
+        )
+        raise TableError(f"no row of {path} matches {chosen} (each alone matches some rows)")
+    return mask
+
+
+def _selection_json(mask: Any, split: str | None, where: list[str] | None) -> Any:
+    if mask is None:
+        return None
+    return {
+        "split": split,
+        "where": list(where or []),
+        "n_selected": int(mask.sum()),
+        "n_not_selected": int((~mask).sum()),
+    }
+
+
+def _labelled(table: Any, column: str) -> Any:
+    """Mask of rows with a usable label in ``column`` (finite number, or non-empty text)."""
+    import numpy as np
+    import pandas as pd
+
+    if column not in table.columns:
+        return np.zeros(len(table), dtype=bool)
+    cells = table[column]
+    if pd.api.types.is_numeric_dtype(cells):
+        return np.isfinite(cells.to_numpy(dtype=float))
+    return (cells.notna() & (cells.astype(str).str.strip() != "")).to_numpy()
+
+
+def _regression_errors(fitted: Any, rest: Any, targets: list[str]) -> dict[str, dict]:
+    """Per target with labelled rows in ``rest``: ``{"n_rows", "mae"}`` of ``fitted``."""
+    import numpy as np
+    import pandas as pd
+
+    from liquidtouch.io.tables import feature_matrix
+
+    out = {}
+    for target in targets:
+        rows = rest[_labelled(rest, target)]
+        if rows.empty:
+            continue
+        truth = pd.to_numeric(rows[target], errors="coerce").to_numpy(dtype=float)
+        mean, _ = fitted.predict(feature_matrix(rows))[target]
+        out[target] = {"n_rows": len(rows), "mae": float(np.mean(np.abs(mean - truth)))}
+    return out
+
+
+def _print_held_out(title: str, columns: list[str], rows: list[list[str]]) -> None:
+    """A small table on stderr (the summary and 'wrote' stay on stdout)."""
+    from rich.console import Console
+    from rich.markup import escape
+    from rich.table import Table
+
+    table = Table(title=escape(title))
+    for k, name in enumerate(columns):
+        table.add_column(escape(name), justify="left" if k == 0 else "right")
+    for row in rows:
+        table.add_row(*(escape(cell) for cell in row))
+    Console(stderr=True).print(table)
 
 
 def train(
@@ -27,21 +190,22 @@ def train(
         "--model",
         "-m",
         help="gpr (the paper's GP), quadratic (the paper's 6-parameter model) or "
-        "physics-gpr (GP with a sloshing-physics prior; height and viscosity targets).",
+        "physics-gpr (GP with a sloshing-physics prior; height and viscosity targets). "
+        "A GP takes at most 2000 rows (4000 over all targets; docs/formats.md, Limits).",
     ),
     out: Path = typer.Option(..., "--out", "-o", help="Model file to write (JSON)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """Train one regressor per --target on a features table and save them in one model file."""
     from liquidtouch.errors import TableError
-    from liquidtouch.io.tables import numeric_column, read_feature_table
+    from liquidtouch.io.tables import numeric_column
     from liquidtouch.models.modelfile import save_model
     from liquidtouch.models.property_model import MODEL_KINDS, train_regression
     from liquidtouch.progress import progress_bar
 
     if model not in MODEL_KINDS:
         raise TableError(f"unknown --model {model!r}; choose one of {', '.join(MODEL_KINDS)}")
-    table, X = read_feature_table(features)
+    table, X, skipped = _read_training_table(features)
     targets = {t: numeric_column(table, t) for t in dict.fromkeys(target)}
     with progress_bar(f"training {model}", len(targets), enabled=sys.stderr.isatty()) as advance:
         fitted = train_regression(X, targets, model, advance)
@@ -55,6 +219,7 @@ def train(
                     "model": model,
                     "targets": fitted.targets,
                     "n_rows": int(X.shape[0]),
+                    "n_skipped": skipped,
                     "training_mae": fitted.training_mae(),
                     "models": {t: r.describe() for t, r in fitted.regressors.items()},
                 }
@@ -71,11 +236,11 @@ def classify(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """Train the RBF-SVM liquid classifier (with class probabilities) and save it."""
-    from liquidtouch.io.tables import label_column, read_feature_table
+    from liquidtouch.io.tables import label_column
     from liquidtouch.models.modelfile import save_model
     from liquidtouch.models.property_model import train_classifier
 
-    table, X = read_feature_table(features)
+    table, X, skipped = _read_training_table(features)
     fitted = train_classifier(X, label_column(table, label), label=label)
     save_model(fitted, out)
     if as_json:
@@ -88,6 +253,7 @@ def classify(
                     "label": label,
                     "classes": clf.classes_.tolist(),
                     "n_rows": int(X.shape[0]),
+                    "n_skipped": skipped,
                     "training_accuracy": fitted.training_mae()["accuracy"],
                     "C": clf.C_,
                     "gamma": clf.gamma_,
@@ -109,19 +275,51 @@ def predict(
         None, "--out", "-o", help="Predictions CSV to write (default: print the CSV)."
     ),
 ) -> None:
-    """Predict properties (mean and std) or the liquid (with probabilities) for each row."""
+    """Predict properties (mean and std) or the liquid (with probabilities) for each row.
+
+    Rows whose feature extraction failed are kept with empty predictions (a warning
+    per row); rows outside the model's training domain are flagged in the
+    ``out_of_domain`` column (and a warning): their predictions are extrapolations.
+    """
+    import numpy as np
+
     from liquidtouch.batch.inputs import read_prediction_input
     from liquidtouch.io import atomic
+    from liquidtouch.io.tables import feature_matrix
+    from liquidtouch.models.feature_rows import error_messages, failed_rows, row_list
     from liquidtouch.models.modelfile import load_model
 
     fitted = load_model(model_file)
     table = read_prediction_input(input_path)
-    text = fitted.predict_table(table).to_csv(index=False)
+    failed = failed_rows(table)
+    if failed is None:
+        failed = np.zeros(len(table), dtype=bool)
+    else:
+        messages = error_messages(table)
+        for i in np.flatnonzero(failed):
+            who = f"trial {table['trial'].iloc[i]}" if "trial" in table.columns else f"row {i + 1}"
+            _warn(f"{who}: {messages.iloc[i] or 'empty decay_rate or angular_frequency'}")
+    good = table[~failed]
+    predicted = fitted.predict_table(good)
+    result = table.copy()
+    for column in predicted.columns:
+        if column not in table.columns or column.startswith(("predicted_", "probability_")):
+            result[column] = predicted[column].reindex(table.index)
+    outside = np.zeros(len(table), dtype=bool)
+    outside[np.flatnonzero(~failed)] = ~fitted.in_domain(feature_matrix(good))
+    result["out_of_domain"] = outside
+    if outside.any():
+        _warn(
+            f"{int(outside.sum())} row(s) outside the training domain "
+            f"({fitted.describe_domain()}): rows {row_list(outside)}"
+        )
+    text = result.to_csv(index=False)
     if out is None:
         typer.echo(text, nl=False)
     else:
         atomic.write_text(out, text)
-        typer.echo(f"wrote {out} ({len(table)} rows; predicted {', '.join(fitted.targets)})")
+        extra = f", {int(failed.sum())} without features" if failed.any() else ""
+        typer.echo(f"wrote {out} ({len(table)} rows{extra}; predicted {', '.join(fitted.targets)})")
 
 
 def transfer(
@@ -134,12 +332,12 @@ def transfer(
 ) -> None:
     """Fit f_B(λ, ω) = f_A(α1 λ + α2, β1 ω + β2) on a few trials of a new container."""
     from liquidtouch.errors import TableError
-    from liquidtouch.io.tables import numeric_column, read_feature_table
+    from liquidtouch.io.tables import numeric_column
     from liquidtouch.models.modelfile import load_model, save_model
     from liquidtouch.models.transfer import fit_transfer
 
     fitted = load_model(model_file)
-    table, X = read_feature_table(tune)
+    table, X, _ = _read_training_table(tune)
     labelled = [t for t in fitted.targets if t in table.columns]
     if fitted.kind != "regression":
         raise TableError("container transfer needs a regression model (train one with `train`)")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import typer
@@ -18,17 +19,28 @@ def trial_command(
     liquid: str = typer.Option(
         ..., "--liquid", help="water, olive-oil, corn-oil, mirin, detergent or sugar-water."
     ),
-    height_mm: float = typer.Option(..., "--height-mm", help="Fill height [mm]."),
-    out: Path = typer.Option(..., "--out", help="Trial directory to write."),
+    height_mm: float = typer.Option(
+        ..., "--height-mm", help="Fill height [mm], above 0 and below the container's height."
+    ),
+    out: Path = typer.Option(
+        ...,
+        "--out",
+        file_okay=False,
+        help="Trial directory to write: new, empty, or an existing trial (replaced as a whole).",
+    ),
     container: str = typer.Option(
         "grooved-cuboid", "--container", help="grooved-cuboid, cuboid, cylinder or glass."
     ),
     sugar_concentration: float | None = typer.Option(
         None, "--sugar-concentration", help="Sugar-water only: g sugar per 100 g water."
     ),
-    seed: int = typer.Option(0, "--seed", help="Random seed (trial conditions and noise)."),
+    seed: int = typer.Option(
+        0, "--seed", help="Random seed (trial conditions and noise), an integer 0 to 2**63-1."
+    ),
     temperature_c: float | None = typer.Option(
-        None, "--temperature-c", help="Liquid temperature [°C] (default: drawn around 21 °C)."
+        None,
+        "--temperature-c",
+        help="Liquid temperature, 0-60 °C (default: drawn around 21 °C).",
     ),
     video: bool = typer.Option(
         True, "--video/--no-video", help="Render the GelSight videos (left.mp4, right.mp4)."
@@ -40,11 +52,18 @@ def trial_command(
     """Simulate one trial (lift, lateral push, hold) and write meta.json, force.csv, wrench.csv.
 
     meta.json holds the labels and the ground truth: the small-amplitude decay
-    rate and angular frequency of the slow slosh mode.
+    rate and angular frequency of the slow slosh mode. Every argument is checked
+    before anything is written, and the trial directory is built beside --out
+    and renamed into place at the end: a failure or Ctrl-C leaves an existing
+    trial there untouched.
     """
-    from liquidtouch.sim.trial import simulate_trial
-    from liquidtouch.sim.trial_io import plot_trial, write_trial
+    from liquidtouch.sim.sensors import get_sensor_profile
+    from liquidtouch.sim.trial import check_seed, simulate_trial
+    from liquidtouch.sim.trial_io import check_trial_dir, write_trial
 
+    check_seed(seed)
+    get_sensor_profile(sensor)
+    check_trial_dir(out)
     trial = simulate_trial(
         liquid,
         height_mm=height_mm,
@@ -53,11 +72,8 @@ def trial_command(
         seed=seed,
         temperature_c=temperature_c,
     )
-    directory = write_trial(trial, out, video=video, sensor=sensor)
+    directory = write_trial(trial, out, video=video, sensor=sensor, plot=plot)
     files = sorted(p.name for p in directory.iterdir() if not p.name.startswith("."))
-    if plot:
-        plot_trial(trial, directory / "loads.png")
-        files = sorted({*files, "loads.png"})
     summary = {"trial": str(directory), "files": files, **trial.labels()}
     if as_json:
         typer.echo(json.dumps(summary))
@@ -73,7 +89,9 @@ def trial_command(
 @simulate_app.command("dataset")
 def dataset_command(
     preset: str = typer.Option(..., "--preset", help="Preset name (see 'simulate presets')."),
-    out: Path = typer.Option(..., "--out", help="Dataset directory to write."),
+    out: Path = typer.Option(
+        ..., "--out", file_okay=False, help="Dataset directory to write (created if needed)."
+    ),
     jobs: int = typer.Option(1, "--jobs", min=1, help="Worker processes."),
     quick: bool = typer.Option(False, "--quick", help="A small deterministic subset."),
     video: bool = typer.Option(True, "--video/--no-video", help="Render GelSight videos."),
@@ -81,13 +99,14 @@ def dataset_command(
 ) -> None:
     """Simulate every trial of a preset (a dataset of the paper) and write manifest.csv.
 
-    A failing trial is reported and left out; the rest are written.
+    A failing trial is reported and left out; the rest are written. Each trial
+    directory is written atomically and manifest.csv last, so after Ctrl-C the
+    finished trials are complete and nothing is half-written.
     """
     from liquidtouch.sim.presets import simulate_dataset
 
-    result = simulate_dataset(
-        preset, out, jobs=jobs, video=video, quick=quick, progress=not as_json
-    )
+    progress = not as_json and sys.stderr.isatty()  # a bar only where it can be redrawn
+    result = simulate_dataset(preset, out, jobs=jobs, video=video, quick=quick, progress=progress)
     summary = {
         "root": str(result.root),
         "manifest": str(result.manifest),

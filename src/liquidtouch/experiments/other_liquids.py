@@ -1,7 +1,7 @@
 """Experiment 4: olive oil, corn oil and mirin, estimated by the sugar-water models.
 
-Paper (GPR trained on sugar water): h MAE 1.50 / 1.46 / 0.99 mm,
-μ MAE 0.12 / 0.12 / 0.35 for olive oil / corn oil / mirin.
+The paper's MAE (GPR trained on sugar water) per liquid is
+:data:`.paper.OTHER_LIQUIDS_MAE`.
 """
 
 from __future__ import annotations
@@ -9,16 +9,36 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
-from liquidtouch.experiments.common import X, mae, pyplot, save_figure, usable
+from liquidtouch.experiments.common import (
+    AXIS_LABELS,
+    X,
+    diagonal,
+    mae,
+    pyplot,
+    save_figure,
+    usable,
+)
+from liquidtouch.experiments.paper import OTHER_LIQUIDS_MAE, UNITS
 from liquidtouch.experiments.report import ExperimentResult, Headline
 
-PAPER = {
-    "olive-oil": (1.50, 0.12),
-    "corn-oil": (1.46, 0.12),
-    "mirin": (0.99, 0.35),
-}
+_H, _MU = "height_mm", "log10_viscosity_cst"
+
+
+def _mae_bars(ax, rows: list[dict], ours: str, paper: str, unit: str, title: str) -> None:
+    """MAE per liquid: ours next to the paper's."""
+    x = np.arange(len(rows))
+    ax.bar(x - 0.2, [r[ours] for r in rows], 0.4, color="tab:blue", label="ours (simulated)")
+    ax.bar(
+        x + 0.2, [r[paper] for r in rows], 0.4, color="0.75", hatch="//", edgecolor="0.4",
+        label="paper",
+    )  # fmt: skip
+    ax.set_xticks(x, [r["liquid"] for r in rows])
+    ax.set_ylabel(f"MAE [{unit}]")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7)
 
 
 def run(sugar_model, table: pd.DataFrame, out_dir: Path) -> ExperimentResult:
@@ -27,37 +47,52 @@ def run(sugar_model, table: pd.DataFrame, out_dir: Path) -> ExperimentResult:
     table = usable(table)
     rows, headlines = [], []
     plt = pyplot()
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7.6))
     for liquid, part in table.groupby("liquid", sort=False):
         predictions = sugar_model.predict(X(part))
-        h, mu = predictions["height_mm"][0], predictions["log10_viscosity_cst"][0]
-        paper_h, paper_mu = PAPER.get(liquid, (float("nan"), float("nan")))
+        h, mu = predictions[_H][0], predictions[_MU][0]
+        paper = OTHER_LIQUIDS_MAE.get(liquid, {})
         row = {
             "liquid": liquid,
             "n": len(part),
-            "h MAE [mm]": mae(h, part["height_mm"]),
-            "paper h": paper_h,
-            "μ MAE": mae(mu, part["log10_viscosity_cst"]),
-            "paper μ": paper_mu,
-            "true μ": float(part["log10_viscosity_cst"].mean()),
+            "h MAE [mm]": mae(h, part[_H]),
+            "paper h MAE [mm]": paper[_H].value if _H in paper else np.nan,
+            "μ MAE [log10 cSt]": mae(mu, part[_MU]),
+            "paper μ MAE [log10 cSt]": paper[_MU].value if _MU in paper else np.nan,
+            "true μ [log10 cSt]": float(part[_MU].mean()),
         }
         rows.append(row)
         headlines += [
-            Headline("other liquids", f"{liquid} h MAE", row["h MAE [mm]"], paper_h, "mm"),
-            Headline("other liquids", f"{liquid} μ MAE", row["μ MAE"], paper_mu),
-        ]
-        axes[0].scatter(part["height_mm"], h, s=10, label=liquid)
-        axes[1].scatter(part["height_mm"], mu, s=10, label=liquid)
-        axes[1].axhline(
-            row["true μ"], lw=0.8, ls="--", color=axes[1].collections[-1].get_facecolor()[0]
+            Headline.vs("other liquids", f"{liquid} h MAE", row["h MAE [mm]"], paper.get(_H), "mm"),
+            Headline.vs(
+                "other liquids", f"{liquid} μ MAE", row["μ MAE [log10 cSt]"], paper.get(_MU),
+                UNITS[_MU],
+            ),
+        ]  # fmt: skip
+        axes[0, 0].scatter(part[_H], h, s=12, label=liquid)
+        colour = axes[0, 0].collections[-1].get_facecolor()[0]
+        axes[0, 1].scatter(part[_H], mu, s=12, color=colour, label=liquid)
+        axes[0, 1].axhline(row["true μ [log10 cSt]"], lw=0.9, ls="--", color=colour)
+    if len(table):
+        lo, hi = float(table[_H].min()) - 1, float(table[_H].max()) + 1
+        diagonal(axes[0, 0], lo, hi)
+    axes[0, 0].set_xlabel(f"true {AXIS_LABELS[_H]}")
+    axes[0, 0].set_ylabel(f"predicted {AXIS_LABELS[_H]}")
+    axes[0, 0].set_title("fill height (dashed: y = x)", fontsize=9)
+    axes[0, 1].set_xlabel(f"true {AXIS_LABELS[_H]}")
+    axes[0, 1].set_ylabel(f"predicted {AXIS_LABELS[_MU]}")
+    axes[0, 1].set_title("viscosity (dashed: each liquid's true μ)", fontsize=9)
+    if rows:
+        axes[0, 0].legend(fontsize=8)
+        source = next(iter(OTHER_LIQUIDS_MAE.values()))[_H].source.split(" (")[0]
+        _mae_bars(axes[1, 0], rows, "h MAE [mm]", "paper h MAE [mm]", "mm", "h MAE per liquid")
+        _mae_bars(
+            axes[1, 1], rows, "μ MAE [log10 cSt]", "paper μ MAE [log10 cSt]", "log10 cSt",
+            "μ MAE per liquid",
+        )  # fmt: skip
+        fig.suptitle(
+            f"Other liquids, estimated by the sugar-water GPR (paper: {source})", fontsize=10
         )
-    axes[0].plot([15, 41], [15, 41], "k--", lw=1)
-    axes[0].set_xlabel("true h [mm]")
-    axes[0].set_ylabel("predicted h [mm]")
-    axes[1].set_xlabel("true h [mm]")
-    axes[1].set_ylabel("predicted μ = log10 ν [cSt] (dashed: true)")
-    axes[0].legend(fontsize=8)
-    fig.suptitle("Other liquids, estimated by the sugar-water GPR")
     return ExperimentResult(
         "other_liquids",
         "4. Olive oil, corn oil, mirin with the sugar-water models",

@@ -1,18 +1,22 @@
 """Run every experiment of the paper on simulated trials, end to end, and write the report.
 
-Each dataset is simulated once (videos and all) into ``OUT/data/<quick|full>/<preset>``,
-its features extracted through the whole pipeline (videos → markers → signal
-→ fit; cached per trial), then the seven experiments run on the feature
-tables. Re-running reuses what is there.
+Each dataset is simulated once (videos and all) into
+``DATA/<quick|full>-seed<N>/<preset>``, its features extracted through the
+whole pipeline (videos → markers → signal → fit; cached per trial), then the
+seven experiments run on the feature tables. Re-running reuses what is there.
+``DATA`` defaults to ``<OUT>-data`` beside the report directory ``OUT``, so the
+report (a few MB) can be shared without the simulated data (a GB and more).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from liquidtouch.errors import LiquidTouchError
@@ -33,25 +37,69 @@ DATASETS = ("classification", "sugar", "other-liquids", "containers")
 
 @dataclass
 class Reproduction:
-    """Where the report went, its headline numbers and how long each part took [s]."""
+    """Where the report and the data went, its headline numbers and how long each part took [s]."""
 
     report_md: Path
     report_html: Path
     summary: pd.DataFrame
     seconds: dict[str, float]
+    data_dir: Path | None = None
+    seed: int = 0
+
+    @property
+    def summary_csv(self) -> Path:
+        """The headline numbers as CSV, beside the report."""
+        return self.report_html.parent / "summary.csv"
+
+
+def default_data_dir(out_dir: str | Path) -> Path:
+    """``<OUT>-data``: beside the report directory, not inside it."""
+    out = Path(out_dir).resolve()
+    return out.with_name(f"{out.name}-data")
+
+
+def sensor_for(quick: bool) -> str:
+    """The sensor profile: the quick run's GelSight Mini (320 x 240, 25 fps) is 3x cheaper."""
+    return "mini" if quick else "default"
+
+
+def seeded_specs(preset: str, *, quick: bool, seed: int = 0) -> list:
+    """The trial specs of ``preset``, their simulation seeds mixed with the base ``seed``.
+
+    Seed 0 keeps each trial's own seed (the datasets of earlier runs); another
+    base seed gives every trial a different, still deterministic, seed (the same
+    trials and labels, other noise and variability).
+    """
+    from liquidtouch.sim.presets import get_preset
+
+    specs = get_preset(preset, quick=quick)
+    if seed == 0:
+        return specs
+    return [
+        dataclasses.replace(
+            spec, seed=int(np.random.SeedSequence([seed, spec.seed]).generate_state(1)[0] >> 1)
+        )
+        for spec in specs
+    ]
 
 
 def prepare_dataset(
-    preset: str, root: Path, *, quick: bool, jobs: int, dask_address: str | None, progress: bool
+    preset: str,
+    root: Path,
+    *,
+    quick: bool,
+    jobs: int,
+    dask_address: str | None,
+    progress: bool,
+    seed: int = 0,
 ) -> dict[str, pd.DataFrame]:
     """Simulate ``preset`` into ``root`` unless it is there; return its feature tables."""
     from liquidtouch.batch.features import extract_features
     from liquidtouch.sim.presets import simulate_dataset
 
     if not (root / MANIFEST_NAME).is_file():
-        # the quick run uses the GelSight Mini profile (320 x 240 at 25 fps): 3x cheaper
-        sensor = "mini" if quick else "default"
-        simulate_dataset(preset, root, jobs=jobs, quick=quick, progress=progress, sensor=sensor)
+        specs = seeded_specs(preset, quick=quick, seed=seed)
+        simulate_dataset(specs, root, jobs=jobs, progress=progress, sensor=sensor_for(quick))
     tables = {
         "gelsight": extract_features(root, jobs=jobs, dask_address=dask_address, progress=progress)
     }
@@ -85,28 +133,36 @@ def _not_run(key: str, title: str, reason: Exception) -> ExperimentResult:
     return ExperimentResult(key, f"{title} (not run)", f"Not run: {reason}.")
 
 
-def _attempt(key: str, title: str, run: Callable[..., ExperimentResult], *args) -> ExperimentResult:
-    """``run(*args)``, or a "not run" result saying why when the data cannot support it.
+def _attempt(
+    key: str, title: str, run: Callable[..., ExperimentResult], *args, **options
+) -> ExperimentResult:
+    """``run(*args, **options)``, or a "not run" result saying why when the data cannot support it.
 
-    An argument ``None`` is the sugar-water model of an experiment 3 that did not run.
+    A positional argument ``None`` is the sugar-water model of an experiment 3 that did not run.
     """
     try:
         if any(arg is None for arg in args):
             raise LiquidTouchError("it needs the sugar-water model of experiment 3")
-        return run(*args)
+        return run(*args, **options)
     except LiquidTouchError as exc:
         return _not_run(key, title, exc)
 
 
 def run_experiments(
-    features: dict[str, dict[str, pd.DataFrame]], out_dir: str | Path
+    features: dict[str, dict[str, pd.DataFrame]],
+    out_dir: str | Path,
+    *,
+    seed: int = 0,
+    dataset_roots: dict[str, Path] | None = None,
 ) -> list[ExperimentResult]:
     """The seven experiments on feature tables (``features[preset]["gelsight" | "wrench"]``).
 
     ``features`` needs the presets of :data:`DATASETS`; ``classification`` also
     its ``wrench`` table. Figures and tables go to ``out_dir``. An experiment
     the data cannot support (too few usable trials) is reported as not run,
-    with the reason, and the others still run.
+    with the reason, and the others still run. ``seed`` draws the random
+    training subsets of experiments 6 and 7; ``dataset_roots`` (preset → dataset
+    directory) lets experiment 2 plot a trial's raw signals.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -123,7 +179,8 @@ def run_experiments(
         _attempt("classification", "1. Liquid classification", classification.run,
                  classes["gelsight"], out),
         _attempt("force_torque", "2. GelSight vs wrist force-torque sensor", force_torque.run,
-                 classes["gelsight"], classes["wrench"], out),
+                 classes["gelsight"], classes["wrench"], out,
+                 dataset_root=(dataset_roots or {}).get("classification")),
     ]  # fmt: skip
     sugar_gpr = None  # experiments 4 and 7 reuse experiment 3's model
     try:
@@ -135,8 +192,10 @@ def run_experiments(
         _attempt("other_liquids", "4. Olive oil, corn oil, mirin", other_liquids.run,
                  sugar_gpr, features["other-liquids"]["gelsight"], out),
         _attempt("containers", "5. Other containers", containers.run, container_table, out),
-        _attempt("data_efficiency", "6. Data efficiency", data_efficiency.run, per_container, out),
-        _attempt("transfer", "7. Container transfer", transfer.run, sugar_gpr, cuboid, out),
+        _attempt("data_efficiency", "6. Data efficiency", data_efficiency.run, per_container, out,
+                 seed=seed),
+        _attempt("transfer", "7. Container transfer", transfer.run, sugar_gpr, cuboid, out,
+                 seed=seed),
     ]  # fmt: skip
     return results
 
@@ -148,10 +207,21 @@ def reproduce(
     jobs: int = 1,
     dask_address: str | None = None,
     progress: bool = True,
+    data_dir: str | Path | None = None,
+    seed: int = 0,
 ) -> Reproduction:
-    """Simulate, extract, run the seven experiments and write ``report.md`` / ``report.html``."""
+    """Simulate, extract, run the seven experiments and write ``report.md`` / ``report.html``.
+
+    The simulated datasets go to ``data_dir`` (default :func:`default_data_dir`:
+    ``<out_dir>-data``), under ``quick-seed<seed>`` or ``full-seed<seed>``, and are
+    reused by the next run with the same data directory, size and seed. ``seed``
+    is the base seed of the simulated trials and of the experiments' random draws.
+    """
+    from liquidtouch.sim.sensors import get_sensor_profile
+
     out = Path(out_dir)
-    data_root = out / "data" / ("quick" if quick else "full")
+    data = Path(data_dir) if data_dir is not None else default_data_dir(out)
+    data_root = data / f"{'quick' if quick else 'full'}-seed{seed}"
     seconds: dict[str, float] = {}
     features: dict[str, dict[str, pd.DataFrame]] = {}
     reused: list[str] = []
@@ -166,24 +236,49 @@ def reproduce(
             jobs=jobs,
             dask_address=dask_address,
             progress=progress,
+            seed=seed,
         )
         seconds[f"data: {preset}"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    results = run_experiments(features, out)
+    roots = {preset: data_root / preset for preset in DATASETS}
+    results = run_experiments(features, out, seed=seed, dataset_roots=roots)
     seconds["experiments"] = time.perf_counter() - start
 
     timing = ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items())
     if reused:  # their simulation (and cached features) came from an earlier run
         timing += f" (simulated in an earlier run, not timed here: {', '.join(reused)})"
+    sensor = get_sensor_profile(sensor_for(quick))
+    sensor_text = (
+        f"{'GelSight Mini, ' if sensor.name == 'mini' else ''}profile `{sensor.name}`: "
+        f"{sensor.width_px}×{sensor.height_px} px, {sensor.fps:g} fps"
+    )
     preamble = (
         f"{'Quick' if quick else 'Full'} reproduction of Huang, Guo, Yuan (RSS 2022) on "
-        f"simulated trials, each through the whole pipeline (rendered GelSight videos of the "
-        f"{'GelSight Mini (320×240, 25 fps)' if quick else 'default (640×480, 30 fps)'} profile "
-        f"→ marker tracking → tactile signal → oscillation fit → models). {failure_note(features)} "
+        f"simulated trials, each through the whole pipeline (rendered GelSight videos ("
+        f"{sensor_text}) → marker tracking → tactile signal → oscillation fit → "
+        f"models). {failure_note(features)} "
         f"Time: {timing}; total {sum(seconds.values()):.0f} s with {jobs} worker(s)."
     )
-    md, html = write_report(
-        results, out, title="liquidtouch: reproduction of the paper", preamble=preamble
+    from liquidtouch.experiments.provenance import provenance
+
+    info = provenance(
+        **{
+            "base seed": (
+                f"{seed} (trial seeds derive from it, the preset and the trial's index; "
+                f"experiments 6 and 7 draw their random training subsets with it)"
+            ),
+            "sensor profile": sensor_text,
+            "datasets": f"{'quick' if quick else 'full'} ({', '.join(DATASETS)})",
+            "data directory": str(data_root.resolve()),
+            "workers": f"{jobs}" + (f" (dask {dask_address})" if dask_address else ""),
+        }
     )
-    return Reproduction(md, html, summary_table(results), seconds)
+    md, html = write_report(
+        results,
+        out,
+        title="liquidtouch: reproduction of the paper",
+        preamble=preamble,
+        provenance=info,
+    )
+    return Reproduction(md, html, summary_table(results), seconds, data_root, seed)

@@ -1,7 +1,7 @@
 """Experiment 3: sugar water — fill height, sugar concentration and viscosity.
 
-GPR and the 6-parameter quadratic model from (λ, ω); MAE on train and test.
-Paper (test): GPR 0.56 mm / 15.3 wt% / 0.16; quadratic 0.84 / 20.0 / 0.23.
+GPR and the 6-parameter quadratic model from (λ, ω); MAE on train and test,
+against the paper's test MAE (:data:`.paper.SUGAR_TEST_MAE`).
 """
 
 from __future__ import annotations
@@ -12,13 +12,20 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from liquidtouch.experiments.common import TARGETS, X, mae, pyplot, save_figure, split, usable
+from liquidtouch.experiments.common import (
+    AXIS_LABELS,
+    SYMBOLS,
+    TARGETS,
+    X,
+    diagonal,
+    mae,
+    pyplot,
+    save_figure,
+    split,
+    usable,
+)
+from liquidtouch.experiments.paper import SUGAR_TEST_MAE, UNITS
 from liquidtouch.experiments.report import ExperimentResult, Headline
-
-PAPER_TEST = {
-    "gpr": {"height_mm": 0.56, "sugar_concentration": 15.3, "log10_viscosity_cst": 0.16},
-    "quadratic": {"height_mm": 0.84, "sugar_concentration": 20.0, "log10_viscosity_cst": 0.23},
-}
 
 
 def train_models(train: pd.DataFrame, kind: str, targets=tuple(TARGETS)):
@@ -51,46 +58,50 @@ def run(
         models[kind] = train_models(train, kind)
         for name, part in (("train", train), ("test", test)):
             err = errors(models[kind], part)
-            paper = PAPER_TEST.get(kind, {}) if name == "test" else {}
+            paper = SUGAR_TEST_MAE.get(kind, {}) if name == "test" else {}
             rows.append(
                 {"model": kind, "split": name, "n": len(part)}
                 | {TARGETS[t]: err[t] for t in TARGETS}
-                | {f"paper {TARGETS[t]}": paper.get(t, np.nan) for t in TARGETS}
+                | {f"paper {TARGETS[t]}": paper[t].value if t in paper else np.nan for t in TARGETS}
             )
     result = pd.DataFrame(rows)
     plt = pyplot()
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.8))
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.4))
     predictions = models["gpr"].predict(X(test))
     for ax, target in zip(axes, TARGETS, strict=True):
         mean, std = predictions[target]
-        ax.errorbar(test[target], mean, yerr=std, fmt="o", ms=3, alpha=0.6, elinewidth=0.6)
-        lims = [min(test[target].min(), mean.min()), max(test[target].max(), mean.max())]
-        ax.plot(lims, lims, "k--", lw=1)
-        ax.set_xlabel(f"true {TARGETS[target]}")
-        ax.set_ylabel(f"GPR predicted {TARGETS[target]}")
-    fig.suptitle("Sugar water, test trials: GPR prediction ± std")
+        ours = mae(mean, test[target])
+        ax.errorbar(
+            test[target], mean, yerr=std, fmt="o", ms=3, alpha=0.6, elinewidth=0.6,
+            label=f"ours: MAE {ours:.3g} {UNITS[target]}",
+        )  # fmt: skip
+        lo = min(test[target].min(), mean.min())
+        hi = max(test[target].max(), mean.max())
+        paper = SUGAR_TEST_MAE["gpr"][target]
+        diagonal(ax, lo, hi, paper.value, f"± paper MAE {paper.value:g} {paper.unit}")
+        ax.set_xlabel(f"true {AXIS_LABELS[target]}")
+        ax.set_ylabel(f"GPR predicted {AXIS_LABELS[target]}")
+        ax.legend(fontsize=7, loc="upper left")
+    fig.suptitle(
+        "Sugar water, test trials: GPR prediction ± std; grey band: y = x ± the paper's GPR "
+        f"test MAE ({SUGAR_TEST_MAE['gpr']['height_mm'].source})",
+        fontsize=10,
+    )
     figure = save_figure(fig, out_dir / "sugar.png")
     test_rows = result[result["split"] == "test"].set_index("model")
     headlines = [
-        Headline(
+        Headline.vs(
             "sugar",
-            f"{kind} test MAE {TARGETS[t]}",
+            f"{kind} test MAE {SYMBOLS[t]}",
             float(test_rows.loc[kind, TARGETS[t]]),
-            PAPER_TEST[kind][t],
+            SUGAR_TEST_MAE.get(kind, {}).get(t),
+            UNITS[t],
+            note="" if kind in SUGAR_TEST_MAE else "ours (physics-informed GPR), not in the paper",
         )
-        for kind in PAPER_TEST
+        for kind in (*SUGAR_TEST_MAE, "physics-gpr")
         if kind in test_rows.index
         for t in TARGETS
     ]
-    if "physics-gpr" in test_rows.index:
-        headlines += [
-            Headline(
-                "sugar",
-                f"physics-gpr test MAE {TARGETS[t]}",
-                float(test_rows.loc["physics-gpr", TARGETS[t]]),
-            )
-            for t in TARGETS
-        ]
     summary = (
         f"Sugar water in the grooved cuboid: {len(train)} training and {len(test)} test trials "
         "through the whole pipeline (videos → markers → signal → fit → models). "

@@ -109,6 +109,10 @@ def solve_linear(design: np.ndarray, u: np.ndarray, sqrt_w: np.ndarray) -> tuple
     return params, float(resid @ resid)
 
 
+#: bytes of the (rates, freqs, n, 5) design array evaluated at once by profile_cost_grid
+GRID_CHUNK_BYTES = 64 * 2**20
+
+
 def profile_cost_grid(
     tau: np.ndarray,
     x: np.ndarray,
@@ -121,8 +125,31 @@ def profile_cost_grid(
 
     Returns the cost array of shape ``(rates.size, freqs.size)``; vectorised with
     batched normal equations (the grid only seeds the optimiser, so their mild
-    ill-conditioning is harmless).
+    ill-conditioning is harmless). The rates are taken in chunks so the design
+    array never exceeds :data:`GRID_CHUNK_BYTES` (one chunk for the usual signal
+    of a few hundred samples).
     """
+    rates = np.asarray(rates, dtype=float)
+    per_rate = max(1, freqs.size * tau.size * 5 * 8)
+    step = max(1, GRID_CHUNK_BYTES // per_rate)
+    if step >= rates.size:
+        return _profile_cost_chunk(tau, x, u, sqrt_w, rates, freqs)
+    return np.concatenate(
+        [
+            _profile_cost_chunk(tau, x, u, sqrt_w, rates[i : i + step], freqs)
+            for i in range(0, rates.size, step)
+        ]
+    )
+
+
+def _profile_cost_chunk(
+    tau: np.ndarray,
+    x: np.ndarray,
+    u: np.ndarray,
+    sqrt_w: np.ndarray,
+    rates: np.ndarray,
+    freqs: np.ndarray,
+) -> np.ndarray:
     env = np.exp(-np.outer(rates, tau))  # (R, n)
     phase = np.outer(freqs, tau)  # (F, n)
     cos, sin = np.cos(phase), np.sin(phase)

@@ -10,6 +10,14 @@
    phase and drift solved exactly at every grid point. This is a least-squares
    fit of the envelope — unlike a log-decrement of picked peaks it does not
    break down when noise hides the late peaks.
+
+Start values need no more than a few thousand samples: a longer signal
+(> :data:`START_MAX_SAMPLES`) is thinned for this search to every k-th sample,
+as few as that many while still sampling at least :data:`THIN_MIN_RATE_OVER_BAND`
+times faster than the band's top frequency (so the band stays below Nyquist);
+the cost grid is evaluated in row chunks of bounded size. Memory and time of
+the start search so stay bounded whatever the signal's length; the optimiser
+then uses every sample.
 """
 
 from __future__ import annotations
@@ -20,6 +28,29 @@ from liquidtouch.fit.model import profile_cost_grid
 
 #: decay rates [1/s] tried on the profile grid
 RATE_GRID = np.geomspace(0.01, 8.0, 22)
+#: most samples the start-value search works on (longer signals are thinned)
+START_MAX_SAMPLES = 4096
+#: a thinned signal still samples this many times faster than the band's top frequency
+THIN_MIN_RATE_OVER_BAND = 4.0
+
+
+def thin(tau: np.ndarray, *arrays: np.ndarray, band_high_rad_s: float) -> tuple[np.ndarray, ...]:
+    """``tau`` and ``arrays`` at every k-th sample, for the start-value search.
+
+    ``k`` is the smallest stride leaving at most :data:`START_MAX_SAMPLES`
+    samples, but no larger than keeps the rate at least
+    :data:`THIN_MIN_RATE_OVER_BAND` × the band's top frequency. Signals of at
+    most :data:`START_MAX_SAMPLES` samples come back unchanged (the same objects).
+    """
+    n = tau.size
+    if n <= START_MAX_SAMPLES:
+        return (tau, *arrays)
+    rate_hz = (n - 1) / float(tau[-1] - tau[0])
+    top_hz = band_high_rad_s / (2 * np.pi)
+    stride = min(-(-n // START_MAX_SAMPLES), int(rate_hz / (THIN_MIN_RATE_OVER_BAND * top_hz)))
+    if stride <= 1:
+        return (tau, *arrays)
+    return tuple(a[::stride] for a in (tau, *arrays))
 
 
 def spectral_peaks(
@@ -28,7 +59,9 @@ def spectral_peaks(
     """Angular frequencies [rad/s] of the strongest spectral peaks inside the band.
 
     Falls back to the band's geometric centre when the band holds no local maximum.
+    Signals longer than :data:`START_MAX_SAMPLES` are thinned first (:func:`thin`).
     """
+    tau, u_detrended = thin(tau, u_detrended, band_high_rad_s=band_rad_s[1])
     n = tau.size
     dt = (tau[-1] - tau[0]) / (n - 1)
     grid = tau[0] + dt * np.arange(n)
@@ -61,7 +94,11 @@ def profile_starts(
     peaks: list[float],
     band_rad_s: tuple[float, float],
 ) -> list[tuple[float, float, float]]:
-    """Best (cost, λ, ω) of the single-mode profile grid around each spectral peak."""
+    """Best (cost, λ, ω) of the single-mode profile grid around each spectral peak.
+
+    Signals longer than :data:`START_MAX_SAMPLES` are thinned first (:func:`thin`).
+    """
+    tau, x, u, sqrt_w = thin(tau, x, u, sqrt_w, band_high_rad_s=band_rad_s[1])
     starts = []
     for peak in peaks:
         freqs = peak * np.linspace(0.93, 1.07, 7)

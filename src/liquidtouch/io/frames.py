@@ -6,6 +6,17 @@ and ``image`` a 2-D ``uint8`` grey image. Grey (luma) is what the marker
 detector wants: the printed markers are dark on every LED colour, and for the
 usual YUV codecs the luma plane is read straight out of the decoder, with no
 colour conversion.
+
+**Image folders** carry no clock of their own. Their frames are timed, in this
+order, by a ``timestamps.csv`` in the folder (column ``t_s``, one row per image
+in natural name order), or by a frame rate the caller gives (a trial's
+``meta.json`` ``fps``, or ``extract --fps``); with neither, reading refuses
+instead of guessing a rate.
+
+**Truncated videos**: a video whose decoding fails part-way, or that ends well
+before the frame count or duration its container declares (a recording cut
+short, a partial copy), raises :class:`VideoError` instead of silently giving
+the frames decoded so far (a shortened decay biases the fit).
 """
 
 from __future__ import annotations
@@ -22,6 +33,11 @@ from liquidtouch.errors import VideoError
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+#: per-frame timestamps of an image folder: CSV with a ``t_s`` column, one row per image
+TIMESTAMPS_NAME = "timestamps.csv"
+#: a video may end this many frames (or this fraction) short of its declared length
+TRUNCATION_TOLERANCE_FRAMES = 2
+TRUNCATION_TOLERANCE_FRACTION = 0.02
 
 
 @dataclass(frozen=True)
@@ -87,6 +103,8 @@ def iter_video(path: str | Path) -> Iterator[tuple[float, np.ndarray]]:
         stream.thread_type = "AUTO"
         rate = float(stream.average_rate or stream.guessed_rate or 30.0)
         time_base = float(stream.time_base) if stream.time_base else 1.0 / rate
+        declared_frames = int(stream.frames or 0)
+        declared_s = _declared_duration_s(container, stream)
         t0: float | None = None
         previous = -1.0 / rate
         count = 0
@@ -104,21 +122,66 @@ def iter_video(path: str | Path) -> Iterator[tuple[float, np.ndarray]]:
         except av.FFmpegError as exc:
             if count == 0:
                 raise VideoError(f"cannot decode video {path}: {exc}") from None
-            # A truncated tail (recording cut short) keeps the frames decoded so far.
+            raise VideoError(
+                f"video {path} is damaged or cut short: decoding failed after {count} frames "
+                f"({previous:.2f} s); re-export the recording, or remux the good part "
+                "(e.g. ffmpeg -i IN -c copy OUT) to use it"
+            ) from None
         if count == 0:
             raise VideoError(f"video {path} has no frames; record again or pick another file")
+        _check_complete(path, count, previous, declared_frames, declared_s)
 
 
-def iter_image_folder(folder: str | Path, fps: float = 30.0) -> Iterator[tuple[float, np.ndarray]]:
-    """Read a folder of images in natural name order; frame ``k`` gets ``t = k / fps``."""
+def _declared_duration_s(container, stream) -> float:
+    """The video stream's duration [s] its container declares (0 when it does not say)."""
+    if stream.duration and stream.time_base:
+        return float(stream.duration * stream.time_base)
+    if container.duration:
+        return float(container.duration) / 1e6  # AV_TIME_BASE (microseconds)
+    return 0.0
+
+
+def _check_complete(
+    path: Path, count: int, last_s: float, declared_frames: int, declared_s: float
+) -> None:
+    """Raise :class:`VideoError` if a video ended far short of its declared length."""
+    shortfall = max(TRUNCATION_TOLERANCE_FRAMES, TRUNCATION_TOLERANCE_FRACTION * declared_frames)
+    if declared_frames and count < declared_frames - shortfall:
+        raise VideoError(
+            f"video {path} is cut short: {count} of the {declared_frames} frames its container "
+            "declares could be decoded (a truncated file?); re-export the recording, or remux "
+            "the good part (e.g. ffmpeg -i IN -c copy OUT) to use it"
+        )
+    if declared_frames or count < 2 or declared_s <= 0:
+        return
+    frame_s = last_s / (count - 1)
+    missing_s = declared_s - (last_s + frame_s)
+    if missing_s > max(
+        TRUNCATION_TOLERANCE_FRAMES * frame_s, TRUNCATION_TOLERANCE_FRACTION * declared_s
+    ):
+        raise VideoError(
+            f"video {path} is cut short: its frames end at {last_s + frame_s:.2f} s but its "
+            f"container declares {declared_s:.2f} s (a truncated file?); re-export the "
+            "recording, or remux the good part (e.g. ffmpeg -i IN -c copy OUT) to use it"
+        )
+
+
+def iter_image_folder(
+    folder: str | Path, fps: float | None = None
+) -> Iterator[tuple[float, np.ndarray]]:
+    """Read a folder of images in natural name order; yield ``(t_s, grey_image)``.
+
+    Timing: the folder's ``timestamps.csv`` if there is one
+    (:func:`read_folder_timestamps`, shifted to start at 0), else frame ``k`` at
+    ``t = k / fps``; with neither a :class:`VideoError` says to give one.
+    """
     import cv2
 
     folder = Path(folder)
     files = image_files(folder)
-    if fps <= 0 or not np.isfinite(fps):
-        raise VideoError(f"frame rate must be positive, got {fps}")
+    times = folder_times(folder, len(files), fps)
     shape = None
-    for k, file in enumerate(files):
+    for file, t_s in zip(files, times, strict=True):
         image = cv2.imread(str(file), cv2.IMREAD_GRAYSCALE)
         if image is None:
             raise VideoError(f"cannot read image {file}; is it a PNG/JPEG/BMP/TIFF image?")
@@ -128,7 +191,75 @@ def iter_image_folder(folder: str | Path, fps: float = 30.0) -> Iterator[tuple[f
                 f"{shape[1]}x{shape[0]}; all frames of a folder must have one size"
             )
         shape = image.shape
-        yield k / fps, image
+        yield float(t_s), image
+
+
+def folder_times(folder: str | Path, n_images: int, fps: float | None = None) -> np.ndarray:
+    """Frame times [s] from 0 of an image folder of ``n_images`` images (see iter_image_folder)."""
+    folder = Path(folder)
+    stamps = read_folder_timestamps(folder, n_images)
+    if stamps is not None:
+        return stamps - stamps[0]
+    if fps is None:
+        raise VideoError(
+            f"image folder {folder} has no frame rate: give it (--fps, or the trial's "
+            f"meta.json 'fps') or add a {TIMESTAMPS_NAME} with a t_s column, one row per image"
+        )
+    try:
+        fps = float(fps)
+    except (TypeError, ValueError):
+        raise VideoError(f"frame rate must be a number of frames per second, got {fps!r}") from None
+    if not 0 < fps < np.inf:
+        raise VideoError(f"frame rate must be positive and finite, got {fps}")
+    return np.arange(n_images) / fps
+
+
+def read_folder_timestamps(folder: str | Path, n_images: int) -> np.ndarray | None:
+    """The ``t_s`` column [s] of ``folder/timestamps.csv``; ``None`` when there is no such file.
+
+    The file must hold a header with a ``t_s`` column and exactly one row per image
+    (``n_images``), finite and strictly increasing; otherwise :class:`VideoError`.
+    """
+    import csv
+
+    path = Path(folder) / TIMESTAMPS_NAME
+    if not path.exists():
+        return None
+    limit = 64 * (n_images + 2) + 4096  # generous for one number per row and extra columns
+    try:
+        size = path.stat().st_size
+        if size > limit:
+            raise VideoError(
+                f"{path} is {size} bytes, far more than {n_images} timestamps need; "
+                "give one t_s row per image"
+            )
+        lines = path.read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise VideoError(f"cannot read {path}: {getattr(exc, 'strerror', None) or exc}") from None
+    rows = [row for row in csv.reader(lines) if row and any(cell.strip() for cell in row)]
+    header = [cell.strip() for cell in rows[0]] if rows else []
+    if "t_s" not in header:
+        raise VideoError(f"{path} needs a header row with a t_s column (frame times in seconds)")
+    column = header.index("t_s")
+    if len(rows) - 1 != n_images:
+        raise VideoError(
+            f"{path} lists {len(rows) - 1} timestamps but the folder holds {n_images} images; "
+            "give exactly one t_s row per image, in name order"
+        )
+    try:
+        stamps = np.array([float(row[column]) for row in rows[1:]])
+    except (ValueError, IndexError):
+        raise VideoError(f"{path}: every t_s value must be a number of seconds") from None
+    if not np.isfinite(stamps).all():
+        raise VideoError(f"{path}: t_s holds NaN or infinite values")
+    steps = np.diff(stamps)
+    if (steps <= 0).any():
+        i = int(np.argmax(steps <= 0))
+        raise VideoError(
+            f"{path}: t_s must increase strictly, but row {i + 2} ({stamps[i + 1]:g}) is not "
+            f"after row {i + 1} ({stamps[i]:g})"
+        )
+    return stamps
 
 
 def image_files(folder: str | Path) -> list[Path]:
@@ -183,8 +314,13 @@ def iter_camera(
         capture.release()
 
 
-def iter_frames(source: str | Path | int, fps: float = 30.0) -> Iterator[tuple[float, np.ndarray]]:
-    """Frames of any source: a video file, an image folder, or a camera index (``int``)."""
+def iter_frames(
+    source: str | Path | int, fps: float | None = None
+) -> Iterator[tuple[float, np.ndarray]]:
+    """Frames of any source: a video file, an image folder, or a camera index (``int``).
+
+    ``fps`` times an image folder without ``timestamps.csv`` (see :func:`iter_image_folder`).
+    """
     if isinstance(source, int):
         return iter_camera(source, duration_s=10.0)
     path = Path(source)
@@ -193,7 +329,9 @@ def iter_frames(source: str | Path | int, fps: float = 30.0) -> Iterator[tuple[f
     return iter_video(path)
 
 
-def read_frames(source: str | Path | int, fps: float = 30.0) -> tuple[np.ndarray, np.ndarray]:
+def read_frames(
+    source: str | Path | int, fps: float | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """All frames of a source at once: ``(t_s (T,), images (T, H, W) uint8)``."""
     times, images = zip(*iter_frames(source, fps=fps), strict=True)
     return np.asarray(times, dtype=float), np.stack(images)

@@ -21,20 +21,32 @@ FEATURE_COLUMNS: tuple[str, str] = ("decay_rate", "angular_frequency")
 
 
 def read_table(path: str | os.PathLike[str]) -> pd.DataFrame:
-    """Read a CSV file into a DataFrame; raise :class:`TableError` if it is not a table."""
+    """Read a CSV file into a DataFrame; raise :class:`TableError` if it is not a table.
+
+    Bounded like every CSV reader (``io.signal_csv.check_csv_bounds``): at most
+    ``MAX_CSV_BYTES`` (64 MiB) and ``MAX_CSV_COLUMNS`` (1000) columns, checked
+    before parsing.
+    """
+    from liquidtouch.io.signal_csv import check_csv_bounds, shorten
+
     path = Path(path)
     if not path.is_file():
         raise TableError(
-            f"{path}: no such file (give a features CSV, e.g. from `liquidtouch features`)"
+            f"{shorten(path)}: no such file (give a features CSV, e.g. from `liquidtouch features`)"
         )
+    check_csv_bounds(path, "feature table")
     try:
         table = pd.read_csv(path)
     except pd.errors.EmptyDataError:
-        raise TableError(f"{path}: the file is empty; expected a CSV with a header row") from None
+        raise TableError(
+            f"{shorten(path)}: the file is empty; expected a CSV with a header row"
+        ) from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
-        raise TableError(f"{path}: not a readable CSV table ({exc})") from None
+        raise TableError(
+            f"{shorten(path)}: not a readable CSV table ({shorten(exc, 120)})"
+        ) from None
     if table.empty:
-        raise TableError(f"{path}: the table has a header but no rows")
+        raise TableError(f"{shorten(path)}: the table has a header but no rows")
     table.attrs["source"] = str(path)
     return table
 

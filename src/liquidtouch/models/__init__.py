@@ -15,6 +15,7 @@ from liquidtouch.models.physics_prior import PhysicsGPRegressor
 from liquidtouch.models.property_model import (
     MODEL_KINDS,
     PropertyModel,
+    TrainingDomain,
     train_classifier,
     train_regression,
 )
@@ -28,6 +29,7 @@ __all__ = [
     "PhysicsGPRegressor",
     "PropertyModel",
     "QuadraticRegressor",
+    "TrainingDomain",
     "fit_transfer",
     "load_model",
     "save_model",

@@ -3,12 +3,16 @@
 :class:`PropertyModel` is what ``liquidtouch train`` / ``classify`` /
 ``transfer`` write and ``predict`` reads (see :mod:`liquidtouch.models.modelfile`).
 It may carry a container-transfer :class:`FeatureMap` applied to (λ, ω)
-before the trained estimators (:mod:`liquidtouch.models.transfer`).
+before the trained estimators (:mod:`liquidtouch.models.transfer`), and knows
+its :class:`TrainingDomain`: :meth:`PropertyModel.in_domain` tells which inputs
+lie outside the (λ, ω) box it was trained on, where its predictions are
+extrapolations (a quadratic diverges, a GP reverts to its prior mean, the SVM
+picks a class at random with confidence).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,8 +23,13 @@ from liquidtouch.errors import TableError
 from liquidtouch.io.tables import FEATURE_COLUMNS, feature_matrix
 from liquidtouch.models.classifier import LiquidClassifier
 from liquidtouch.models.physics_prior import PhysicsGPRegressor, prior_for_target
-from liquidtouch.models.regressors import GPRegressor, QuadraticRegressor
-from liquidtouch.models.validation import check_features
+from liquidtouch.models.regressors import (
+    MAX_KERNEL_ROWS_TOTAL,
+    GPRegressor,
+    QuadraticRegressor,
+    check_kernel_rows,
+)
+from liquidtouch.models.validation import check_features, check_positive
 
 #: The regressor kinds, by the name used on the command line and in model files:
 #: the paper's GP, the paper's 6-parameter quadratic, our physics-informed GP.
@@ -28,6 +37,9 @@ MODEL_KINDS: tuple[str, ...] = ("gpr", "quadratic", "physics-gpr")
 REGRESSORS: dict[str, type] = dict(
     zip(MODEL_KINDS, (GPRegressor, QuadraticRegressor, PhysicsGPRegressor), strict=True)
 )
+#: Widening of the training domain on each side, as a fraction of the training span
+#: (test points of a grid experiment lie a little beyond the training extremes).
+DOMAIN_MARGIN = 0.1
 
 
 @dataclass(frozen=True)
@@ -66,6 +78,56 @@ class FeatureMap:
         return self.alpha == (1.0, 0.0) and self.beta == (1.0, 0.0)
 
 
+@dataclass(frozen=True)
+class TrainingDomain:
+    """The (λ, ω) box a model was trained on, widened by ``margin`` × span on each side.
+
+    ``low`` and ``high`` are the per-feature minimum and maximum of the training
+    features (λ [1/s], ω [rad/s]) in the estimators' coordinates, i.e. after a
+    model's :class:`FeatureMap`.
+    """
+
+    low: tuple[float, float]
+    high: tuple[float, float]
+    margin: float = DOMAIN_MARGIN
+
+    def __post_init__(self) -> None:
+        low = np.asarray(self.low, dtype=float)
+        high = np.asarray(self.high, dtype=float)
+        if low.shape != (2,) or high.shape != (2,) or not np.isfinite([*low, *high]).all():
+            raise TableError("TrainingDomain.low and .high must be two finite numbers each")
+        if (low > high).any():
+            raise TableError(f"TrainingDomain: low {low.tolist()} exceeds high {high.tolist()}")
+        check_positive(self.margin, "TrainingDomain.margin", allow_zero=True)
+
+    @classmethod
+    def of(cls, feature_arrays: Iterable[Any], margin: float = DOMAIN_MARGIN) -> TrainingDomain:
+        """The domain of one or more (n, 2) training feature arrays."""
+        X = np.concatenate([check_features(x) for x in feature_arrays])
+        low, high = X.min(axis=0), X.max(axis=0)
+        return cls((float(low[0]), float(low[1])), (float(high[0]), float(high[1])), margin)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The accepted box ``(lower, upper)``, margin included, each (λ, ω)."""
+        low, high = np.asarray(self.low, dtype=float), np.asarray(self.high, dtype=float)
+        span = high - low
+        return low - self.margin * span, high + self.margin * span
+
+    def contains(self, X: Any) -> np.ndarray:
+        """Boolean (n,): which rows of the (n, 2) features ``X`` lie inside :meth:`bounds`."""
+        X = check_features(X)
+        lower, upper = self.bounds()
+        return ((X >= lower) & (X <= upper)).all(axis=1)
+
+
+def _input_interval(lower: float, upper: float, scale: float, shift: float) -> tuple[float, float]:
+    """The inputs x with ``scale · x + shift`` in [lower, upper]."""
+    if scale == 0:
+        return (-np.inf, np.inf) if lower <= shift <= upper else (np.nan, np.nan)
+    ends = sorted(((lower - shift) / scale, (upper - shift) / scale))
+    return float(ends[0]), float(ends[1])
+
+
 class PropertyModel:
     """Regressors (one per target column) or a classifier, plus an optional feature map.
 
@@ -73,6 +135,10 @@ class PropertyModel:
     fitted single-target estimators, each trained on the two features
     ``FEATURE_COLUMNS`` (λ [1/s], ω [rad/s]). :meth:`predict` returns
     ``{target: (mean, std)}``.
+
+    ``domain`` is the :class:`TrainingDomain`; by default the box of the
+    estimators' training features (``X_train_``) with :data:`DOMAIN_MARGIN`, or
+    ``None`` (no check) if an estimator does not expose its training features.
     """
 
     def __init__(
@@ -81,11 +147,14 @@ class PropertyModel:
         classifier: LiquidClassifier | None = None,
         label: str | None = None,
         feature_map: FeatureMap | None = None,
+        domain: TrainingDomain | None = None,
     ) -> None:
         if bool(regressors) == (classifier is not None):
             raise TableError("a PropertyModel holds either regressors or a classifier")
         if feature_map is not None and not isinstance(feature_map, FeatureMap):
             raise TableError(f"feature_map must be a FeatureMap; got {type(feature_map).__name__}")
+        if domain is not None and not isinstance(domain, TrainingDomain):
+            raise TableError(f"domain must be a TrainingDomain; got {type(domain).__name__}")
         estimators = dict(regressors or {})
         if classifier is not None:
             estimators[label or "liquid"] = classifier
@@ -99,6 +168,11 @@ class PropertyModel:
         self.classifier = classifier
         self.label = label
         self.feature_map = feature_map or FeatureMap()
+        if domain is None and all(hasattr(e, "X_train_") for e in estimators.values()):
+            domain = TrainingDomain.of(e.X_train_ for e in estimators.values())
+        self.domain = domain
+        #: what made the model (versions, training-table hash), set by ``load_model``
+        self.provenance: dict[str, str] | None = None
 
     @property
     def kind(self) -> str:
@@ -112,6 +186,39 @@ class PropertyModel:
 
     def _mapped(self, X: Any) -> np.ndarray:
         return self.feature_map.apply(X)
+
+    def in_domain(self, X: Any) -> np.ndarray:
+        """Boolean (n,): which rows of the (n, 2) features ``X`` lie in the training domain.
+
+        ``X`` is mapped by the feature map first (as :meth:`predict` does). All
+        ``True`` when the model has no :attr:`domain`.
+        """
+        Xm = self._mapped(X)
+        if self.domain is None:
+            return np.ones(Xm.shape[0], dtype=bool)
+        return self.domain.contains(Xm)
+
+    def input_domain(self) -> tuple[tuple[float, float], tuple[float, float]] | None:
+        """The accepted ``((λ_min, λ_max), (ω_min, ω_max))`` of the inputs, margin included.
+
+        The training domain mapped back through the feature map (λ_min is at least 0);
+        ``None`` without a :attr:`domain`.
+        """
+        if self.domain is None:
+            return None
+        lower, upper = self.domain.bounds()
+        fmap = self.feature_map
+        lam = _input_interval(lower[0], upper[0], *fmap.alpha)
+        omega = _input_interval(lower[1], upper[1], *fmap.beta)
+        return (max(lam[0], 0.0), lam[1]), omega
+
+    def describe_domain(self) -> str:
+        """``"λ in [a, b] 1/s, ω in [c, d] rad/s"`` (see :meth:`input_domain`)."""
+        bounds = self.input_domain()
+        if bounds is None:
+            return "no training domain recorded"
+        (a, b), (c, d) = bounds
+        return f"λ in [{a:.4g}, {b:.4g}] 1/s, ω in [{c:.4g}, {d:.4g}] rad/s"
 
     def predict(self, X: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """Regression: ``{target: (mean, std)}`` at the (n, 2) features ``X``."""
@@ -207,6 +314,16 @@ def train_regression(
     X = check_features(X)
     if not isinstance(targets, Mapping) or not targets:
         raise TableError("give at least one target column to train on (a dict column → values)")
+    if model != "quadratic":  # kernel models are refit on loading: bounded size
+        check_kernel_rows(make_regressor(model, next(iter(targets))), X.shape[0])
+        if X.shape[0] * len(targets) > MAX_KERNEL_ROWS_TOTAL:
+            raise TableError(
+                f"{len(targets)} GP targets × {X.shape[0]} rows = "
+                f"{X.shape[0] * len(targets)} GP training rows, but a model file holds at most "
+                f"{MAX_KERNEL_ROWS_TOTAL} (each GP is refit on loading); train one model per "
+                "target, subsample the training table, or use the quadratic model "
+                "(--model quadratic)"
+            )
     if progress is not None and not callable(progress):
         raise TableError("progress must be a callable taking the target name, or None")
     for target, y in targets.items():

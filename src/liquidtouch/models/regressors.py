@@ -55,6 +55,29 @@ MIN_ROWS_GPR = 5
 # but a worse interpolant (3 mm vs 0.2 mm test MAE on the sugar benchmark).
 LENGTH_SCALE_BOUNDS = (0.3, 100.0)
 MIN_ROWS_QUADRATIC = 7  # (λ, ω): six coefficients plus one degree of freedom for the noise
+# A kernel model (GP, SVM) is refit on its stored training rows whenever a model file is
+# loaded: O(n³) time, O(n²) memory. Measured (2 cores, BLAS single-threaded, peak RSS
+# above the 150 MB of the imports): one GP refit takes 0.13 s and +40 MB at 1000 rows,
+# 0.6-1.3 s and +145 MB at 2000, 2.6 s and +225 MB at 3000, 9.6 s and +600 MB at 5000
+# (20 000 rows: 136 s and 9.6 GB); the SVM refit with random labels (every row a support
+# vector, the worst case) 0.4 s at 1000 rows, 2.4 s at 2000, 11 s at 5000.
+#: Most training rows of one kernel model (GP regressor or SVM classifier).
+MAX_KERNEL_ROWS = 2000
+#: Most kernel-model training rows of one model file, summed over its targets.
+MAX_KERNEL_ROWS_TOTAL = 4000
+#: Rows predicted at once by a GP (bounds the (rows × training rows) cross-kernel matrix).
+PREDICT_CHUNK_ROWS = 2048
+
+
+def check_kernel_rows(estimator: Any, n_rows: int) -> None:
+    """:class:`TableError` if a kernel model would have more than :data:`MAX_KERNEL_ROWS` rows."""
+    if n_rows > MAX_KERNEL_ROWS:
+        raise TableError(
+            f"{type(estimator).__name__}: {n_rows} training rows, but a kernel model (GP, SVM) "
+            f"is limited to {MAX_KERNEL_ROWS} rows (a model file refits it on loading, which "
+            "takes O(n³) time and O(n²) memory); subsample the training table, or use the "
+            "quadratic model (--model quadratic)"
+        )
 
 
 def single_threaded_blas() -> Any:
@@ -160,10 +183,11 @@ class GPRegressor(RegressorMixin, BaseEstimator):
         """Fit on (n, d) features ``X`` and one target ``y`` of shape (n,); return ``self``.
 
         Raises :class:`TableError` for bad hyperparameters, a bad shape, NaN or
-        infinity, or fewer than :data:`MIN_ROWS_GPR` rows.
+        infinity, fewer than :data:`MIN_ROWS_GPR` or more than :data:`MAX_KERNEL_ROWS` rows.
         """
         self._check_params()
         X, y = validate_X_y(self, X, y, self.min_rows)
+        check_kernel_rows(self, X.shape[0])
         self._check_input(X)
         self.X_train_, self.y_train_ = X, y
         self._fit_prior(self.X_train_, self.y_train_)
@@ -197,9 +221,13 @@ class GPRegressor(RegressorMixin, BaseEstimator):
         self._check_input(X)
         Z = (self._inputs(X) - self.x_mean_) / self.x_scale_
         prior = self._prior_mean(X)
+        starts = range(0, Z.shape[0], PREDICT_CHUNK_ROWS)
         if not return_std:
-            return prior + self.y_mean_ + self.y_scale_ * self.gp_.predict(Z)
-        mean, std = self.gp_.predict(Z, return_std=True)
+            parts = [self.gp_.predict(Z[i : i + PREDICT_CHUNK_ROWS]) for i in starts]
+            return prior + self.y_mean_ + self.y_scale_ * np.concatenate(parts)
+        chunks = [self.gp_.predict(Z[i : i + PREDICT_CHUNK_ROWS], return_std=True) for i in starts]
+        mean = np.concatenate([m for m, _ in chunks])
+        std = np.concatenate([sd for _, sd in chunks])
         return prior + self.y_mean_ + self.y_scale_ * mean, self.y_scale_ * std
 
     def describe(self) -> str:

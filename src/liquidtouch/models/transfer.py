@@ -139,7 +139,9 @@ def fit_transfer(
         ]
     theta = min(fits, key=lambda fit: fit.cost).x
     new_map = FeatureMap((float(theta[0]), float(theta[1])), (float(theta[2]), float(theta[3])))
-    transferred = PropertyModel(regressors=model.regressors, feature_map=inner.then(new_map))
+    transferred = PropertyModel(
+        regressors=model.regressors, feature_map=inner.then(new_map), domain=model.domain
+    )
     return TransferResult(
         model=transferred,
         feature_map=new_map,

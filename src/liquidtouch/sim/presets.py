@@ -24,6 +24,7 @@ arguments, split, seed). Sizes and ranges follow Huang, Guo, Yuan (RSS 2022):
 
 from __future__ import annotations
 
+import os
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from liquidtouch.batch.executors import open_executor, run_each
-from liquidtouch.errors import CatalogueError, DatasetError
+from liquidtouch.errors import CatalogueError, DatasetError, OutputError
 from liquidtouch.progress import progress_bar
 
 
@@ -165,13 +166,29 @@ def get_preset(name: str, *, quick: bool = False) -> list[TrialSpec]:
 
 
 def run_spec(spec: TrialSpec, root: str, video: bool, sensor: str = "default") -> dict[str, Any]:
-    """Simulate and write one trial; return its manifest row (used by worker processes)."""
-    from liquidtouch.sim.trial import simulate_trial
-    from liquidtouch.sim.trial_io import write_trial
+    """Simulate and write one trial; return its manifest row (used by worker processes).
 
+    The trial directory is checked before the simulation and replaced as a
+    whole at the end (:func:`~liquidtouch.sim.trial_io.write_trial`).
+    """
+    from liquidtouch.sim.trial import simulate_trial
+    from liquidtouch.sim.trial_io import check_trial_dir, write_trial
+
+    check_trial_dir(Path(root) / spec.name)
     trial = simulate_trial(seed=spec.seed, **spec.kwargs)
     write_trial(trial, Path(root) / spec.name, video=video, sensor=sensor)
     return {"trial": spec.name, "split": spec.split, **trial.labels()}
+
+
+def _prune_empty_dirs(root: Path, *, remove_root: bool) -> None:
+    """Remove the empty directories under ``root`` (and ``root`` itself if asked)."""
+    for current, _, _ in sorted(os.walk(root), key=lambda entry: -len(entry[0])):
+        if current == str(root) and not remove_root:
+            continue
+        try:
+            os.rmdir(current)  # fails, harmlessly, unless empty
+        except OSError:
+            pass
 
 
 def simulate_dataset(
@@ -189,29 +206,51 @@ def simulate_dataset(
     Runs on ``jobs`` worker processes when ``jobs > 1``. A failing trial does
     not stop the batch: it is left out of the manifest and listed in
     ``DatasetResult.failures``; only a batch where every trial fails raises
-    :class:`DatasetError`.
+    :class:`DatasetError`. The preset, ``jobs``, ``sensor`` and ``out_dir``
+    are checked before anything is written. Each trial directory is written
+    atomically (built beside its place, then renamed in), and ``manifest.csv``
+    last: after a failure or Ctrl-C the trials already finished are complete,
+    no trial is half-written, and the manifest is not (re)written.
     """
     from liquidtouch.io.dataset import write_manifest
+    from liquidtouch.sim.sensors import get_sensor_profile
 
     specs = get_preset(preset, quick=quick) if isinstance(preset, str) else list(preset)
-    if jobs < 1:
-        raise DatasetError(f"jobs must be at least 1, got {jobs}")
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise DatasetError(f"jobs must be a whole number of at least 1, got {jobs!r}")
+    get_sensor_profile(sensor)
+    if str(out_dir) == "":
+        raise OutputError("cannot write an empty path; give a dataset directory")
     root = Path(out_dir)
-    root.mkdir(parents=True, exist_ok=True)
+    created = not root.exists()
+    if root.exists() and not root.is_dir():
+        raise OutputError(
+            f"cannot write {root}: it exists and is not a directory; choose a directory path"
+        )
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(
+            f"cannot create {root}: {exc.strerror or exc}; choose another output path"
+        ) from None
     rows: dict[str, dict[str, Any]] = {}
     failures: list[tuple[str, str]] = []
 
-    with (
-        open_executor(jobs, n_tasks=len(specs)) as pool,
-        progress_bar("simulating trials", len(specs), enabled=progress) as advance,
-    ):
-        tasks = {spec.name: (spec, str(root), video, sensor) for spec in specs}
-        for name, future in run_each(pool, run_spec, tasks):
-            try:
-                rows[name] = future.result()
-            except Exception as exc:  # a bad trial must not kill the batch
-                failures.append((name, f"{type(exc).__name__}: {exc}"))
-            advance()
+    try:
+        with (
+            open_executor(jobs, n_tasks=len(specs)) as pool,
+            progress_bar("simulating trials", len(specs), enabled=progress) as advance,
+        ):
+            tasks = {spec.name: (spec, str(root), video, sensor) for spec in specs}
+            for name, future in run_each(pool, run_spec, tasks):
+                try:
+                    rows[name] = future.result()
+                except Exception as exc:  # a bad trial must not kill the batch
+                    failures.append((name, f"{type(exc).__name__}: {exc}"))
+                advance()
+    except BaseException:  # Ctrl-C: remove the directories this call made and left empty
+        _prune_empty_dirs(root, remove_root=created)
+        raise
     if not rows:
         first = failures[0][1] if failures else "no trials"
         raise DatasetError(f"every trial failed ({len(failures)}); first error: {first}")

@@ -16,7 +16,7 @@ from functools import partial
 
 import numpy as np
 
-from liquidtouch.errors import LiquidTouchError
+from liquidtouch.errors import CatalogueError, LiquidTouchError
 from liquidtouch.io.dataset import LABEL_COLUMNS, TRUTH_COLUMNS
 from liquidtouch.sim.activation import min_jerk_acceleration
 from liquidtouch.sim.containers import get_container
@@ -31,6 +31,42 @@ __all__ = ["SimulatedTrial", "TrialParameters", "Variability", "simulate_trial"]
 SAMPLE_RATE_HZ = 240.0
 DURATION_S = 13.0
 CAMERA_FPS = 30.0
+MIN_DURATION_S = 3.0
+MAX_DURATION_S = 120.0
+"""Longest trial [s]: the paper's trials last 13 s; longer ones only cost memory and time."""
+MIN_SAMPLE_RATE_HZ = 60.0
+MAX_SAMPLE_RATE_HZ = 2000.0
+"""Highest load sample rate [Hz] (the slosh lives below 5 Hz; the default is 240 Hz)."""
+FILL_MARGIN_MM = 1.0
+"""A trial's fill height stays this far from empty and from full [mm]: below, the liquid
+is a film and above, the container is brim-full; the slosh model holds for neither."""
+MAX_SEED = 2**63 - 1
+"""Largest seed: seeds are stored as 64-bit integers in meta.json and the manifest."""
+
+
+def _check_range(
+    what: str, value: object, unit: str, low: float, high: float, words: tuple[str, str]
+) -> None:
+    allowed = f"use {low:g}-{high:g} {unit}"
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise LiquidTouchError(f"{what} must be a number of {unit}, got {value!r}; {allowed}")
+    if not math.isfinite(value):
+        raise LiquidTouchError(f"{what} {value} {unit} is not a finite number; {allowed}")
+    if value < low:
+        raise LiquidTouchError(f"{what} {value:g} {unit} is {words[0]}; {allowed}")
+    if value > high:
+        raise LiquidTouchError(f"{what} {value:g} {unit} is {words[1]}; {allowed}")
+
+
+def check_seed(seed: object) -> int:
+    """Return ``seed`` as an int; :class:`LiquidTouchError` unless an integer in 0..2**63-1."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise LiquidTouchError(f"the seed must be a non-negative integer, got {seed!r}")
+    if not 0 <= int(seed) <= MAX_SEED:
+        raise LiquidTouchError(
+            f"seed {seed} is out of range; use a non-negative integer up to 2**63-1"
+        )
+    return int(seed)
 
 
 @dataclass(frozen=True)
@@ -90,15 +126,37 @@ def simulate_trial(
     coupled liquid-container-grasp system (eigenvalue of the linearised model).
     ``variability`` sets the calibrated spreads and noise (default
     :class:`Variability`).
+
+    Limits: ``height_mm`` at least 1 mm from empty and from full
+    (:data:`FILL_MARGIN_MM`); ``seed`` an integer in 0..2**63-1; ``duration_s`` within
+    3-120 s (:data:`MAX_DURATION_S`); ``sample_rate_hz`` within 60-2000 Hz
+    (:data:`MAX_SAMPLE_RATE_HZ`); ``temperature_c`` within 0-60 °C. Anything
+    else raises :class:`~liquidtouch.errors.LiquidTouchError` before any work.
     """
     var = Variability() if variability is None else variability
+    seed = check_seed(seed)
     box = get_container(container)
     get_liquid(liquid, sugar_concentration=sugar_concentration)  # validate names early
     box.check_height(height_mm)
-    if not (math.isfinite(duration_s) and duration_s >= 3.0):
-        raise LiquidTouchError(f"duration {duration_s} s is too short; use at least 3 s")
-    if not (math.isfinite(sample_rate_hz) and sample_rate_hz >= 60.0):
-        raise LiquidTouchError(f"sample rate {sample_rate_hz} Hz is too low; use >= 60 Hz")
+    if not FILL_MARGIN_MM <= height_mm <= box.depth_mm - FILL_MARGIN_MM:
+        raise CatalogueError(
+            f"fill height {height_mm:g} mm does not fit container {container!r}: use "
+            f"{FILL_MARGIN_MM:g}-{box.depth_mm - FILL_MARGIN_MM:g} mm (the slosh model needs "
+            "more than a film of liquid and some free space above it)"
+        )
+    if temperature_c is not None:
+        get_liquid(liquid, sugar_concentration=sugar_concentration, temperature_c=temperature_c)
+    _check_range(
+        "duration", duration_s, "s", MIN_DURATION_S, MAX_DURATION_S, ("too short", "too long")
+    )
+    _check_range(
+        "sample rate",
+        sample_rate_hz,
+        "Hz",
+        MIN_SAMPLE_RATE_HZ,
+        MAX_SAMPLE_RATE_HZ,
+        ("too low", "too high"),
+    )
     rng = np.random.default_rng(seed)
     params = draw_parameters(rng, height_mm, box.wall_factor, box.contact_line_damping, var)
     if temperature_c is not None:
@@ -144,6 +202,12 @@ def simulate_trial(
     net = net_loads(system, state, t, params, box.depth_mm)
     loads = finger_loads(t, net, params, rng, var)
     wrench = wrist_wrench(t, net, hand_acc, rng, var)
+    finite = (loads.shear_force_n, loads.twist_moment_nmm, wrench, [true_lambda, true_omega])
+    if not all(np.isfinite(np.asarray(a, dtype=float)).all() for a in finite):
+        raise LiquidTouchError(
+            f"the simulation of {liquid} at {height_mm:g} mm in {container!r} diverged "
+            "(non-finite loads); choose a fill height further from empty or full"
+        )
     return SimulatedTrial(
         loads=loads,
         wrench=wrench,

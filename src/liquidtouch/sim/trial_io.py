@@ -1,12 +1,19 @@
 """Writing a simulated trial to a trial directory (formats: ``docs/formats.md``), and plotting it.
 
 Files: ``force.csv`` (time, per-finger shear force and twist), ``wrench.csv``
-(the wrist force-torque signal), one video per sensor (when rendered) and,
-written last so that its presence means the trial is complete, ``meta.json``.
+(the wrist force-torque signal), one video per sensor (when rendered),
+``truth_tracks.npz`` (with the videos), ``loads.png`` (on request) and, written
+last so that its presence means the trial is complete, ``meta.json``.
+
+The whole directory is built beside the target and renamed into place at the
+end (:func:`liquidtouch.io.atomic.atomic_directory`): a failed or interrupted
+write leaves an existing trial exactly as it was. An existing directory is only
+replaced if it holds nothing but trial files.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
@@ -18,6 +25,8 @@ from liquidtouch.io import atomic
 from liquidtouch.io.dataset import (
     FORCE_COLUMNS,
     FORCE_NAME,
+    META_NAME,
+    TRUTH_TRACKS_NAME,
     WRENCH_COLUMNS,
     WRENCH_NAME,
     TrialMeta,
@@ -25,7 +34,14 @@ from liquidtouch.io.dataset import (
 )
 from liquidtouch.io.figures import save_figure
 from liquidtouch.sim.encode import X264_PARAMS
+from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import CAMERA_FPS, SimulatedTrial
+
+PLOT_NAME = "loads.png"
+TRIAL_FILES = frozenset(
+    {META_NAME, FORCE_NAME, WRENCH_NAME, TRUTH_TRACKS_NAME, "left.mp4", "right.mp4", PLOT_NAME}
+)
+"""The files ``write_trial`` may write: a directory holding only these may be replaced."""
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -65,6 +81,36 @@ def trial_meta(trial: SimulatedTrial, *, sensors: list[str], fps: float) -> Tria
     )
 
 
+def _trial_replace_reason(path: Path) -> str | None:
+    """``None`` if the existing directory ``path`` may be replaced by a new trial, else why not."""
+    try:
+        names = [entry.name for entry in os.scandir(path)]
+    except OSError as exc:
+        return f"it cannot be read ({exc.strerror or exc})"
+    foreign = sorted(
+        name
+        for name in names
+        if name not in TRIAL_FILES and not (name.startswith(".") and ".tmp" in name)
+    )
+    if foreign:
+        shown = ", ".join(foreign[:3]) + (", ..." if len(foreign) > 3 else "")
+        return (
+            f"it holds files that are not part of a simulated trial ({shown}); "
+            "choose a new or empty directory, or an existing trial directory"
+        )
+    return None
+
+
+def check_trial_dir(out_dir: str | Path) -> Path:
+    """Raise :class:`~liquidtouch.errors.OutputError` now unless ``out_dir`` can take a trial.
+
+    ``out_dir`` may be new, an empty directory, or a directory holding only
+    trial files (:data:`TRIAL_FILES`: it is replaced as a whole). Writes nothing;
+    returns the resolved directory path.
+    """
+    return atomic.check_directory_target(out_dir, replaceable=_trial_replace_reason)
+
+
 def write_trial(
     trial: SimulatedTrial,
     out_dir: str | Path,
@@ -72,32 +118,46 @@ def write_trial(
     video: bool = True,
     sensor: str = "default",
     x264_params: str = X264_PARAMS,
+    plot: bool = False,
 ) -> Path:
-    """Write ``trial`` into ``out_dir`` (created if needed); return the directory.
+    """Write ``trial`` as the trial directory ``out_dir``; return the directory.
 
     With ``video=True`` the GelSight renderer writes one video per finger
     (``liquidtouch.sim.gelsight.write_sensor_videos``); otherwise the trial
     holds the loads and labels only and ``fps`` is the camera's nominal 30.
     ``x264_params`` overrides the video encoder's options (see
-    :data:`liquidtouch.sim.encode.X264_PARAMS`).
-    """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    _write_csv(out / FORCE_NAME, FORCE_COLUMNS, force_table(trial))
-    _write_csv(
-        out / WRENCH_NAME, ("t_s", *WRENCH_COLUMNS), np.column_stack([trial.t_s, trial.wrench])
-    )
-    sensors: list[str] = []
-    fps = CAMERA_FPS
-    if video:
-        from liquidtouch.sim.gelsight import write_sensor_videos
+    :data:`liquidtouch.sim.encode.X264_PARAMS`). ``plot`` also saves
+    ``loads.png`` (:func:`plot_trial`).
 
-        recording = write_sensor_videos(
-            trial.loads, out, sensor=sensor, seed=trial.seed, x264_params=x264_params
+    The directory is built beside ``out_dir`` and renamed into place at the
+    end, replacing an existing trial there as a whole; on any failure (or
+    Ctrl-C) an existing ``out_dir`` is left untouched and nothing else remains.
+    ``sensor`` and ``out_dir`` are checked before anything is written: an
+    unknown sensor raises :class:`~liquidtouch.errors.CatalogueError`; an
+    ``out_dir`` that is a file, or a directory holding other files, raises
+    :class:`~liquidtouch.errors.OutputError`.
+    """
+    get_sensor_profile(sensor)
+    with atomic.atomic_directory(out_dir, replaceable=_trial_replace_reason) as tmp:
+        _write_csv(tmp / FORCE_NAME, FORCE_COLUMNS, force_table(trial))
+        _write_csv(
+            tmp / WRENCH_NAME,
+            ("t_s", *WRENCH_COLUMNS),
+            np.column_stack([trial.t_s, trial.wrench]),
         )
-        sensors, fps = list(recording.files), float(recording.fps)
-    write_trial_meta(out, trial_meta(trial, sensors=sensors, fps=fps))
-    return out
+        sensors: list[str] = []
+        fps = CAMERA_FPS
+        if video:
+            from liquidtouch.sim.gelsight import write_sensor_videos
+
+            recording = write_sensor_videos(
+                trial.loads, tmp, sensor=sensor, seed=trial.seed, x264_params=x264_params
+            )
+            sensors, fps = list(recording.files), float(recording.fps)
+        if plot:
+            plot_trial(trial, tmp / PLOT_NAME)
+        write_trial_meta(tmp, trial_meta(trial, sensors=sensors, fps=fps))
+    return Path(out_dir)
 
 
 def plot_trial(

@@ -77,7 +77,9 @@ __all__ = [
     "match_one_to_one",
     "refine_centroids",
     "save_tracks",
+    "save_tracks_csv",
     "track_markers",
+    "tracks_format",
     "window_half_size",
 ]
 
@@ -262,3 +264,55 @@ def load_tracks(path: str | Path) -> list[MarkerTracks]:
             )
             for name in data["sensors"]
         ]
+
+
+TRACKS_FORMATS = {".npz": "npz", ".csv": "csv"}
+"""Tracks file formats by suffix: compressed NumPy archive, or long-format CSV."""
+TRACKS_CSV_COLUMNS = ("t", "sensor", "marker", "x", "y", "valid")
+
+
+def tracks_format(path: str | Path) -> str:
+    """``"npz"`` or ``"csv"`` from the suffix of ``path``; OutputError for any other suffix."""
+    from liquidtouch.errors import OutputError
+
+    suffix = Path(path).suffix.lower()
+    if suffix not in TRACKS_FORMATS:
+        raise OutputError(
+            f"cannot write tracks to {path}: the suffix picks the format, "
+            f"{' or '.join(TRACKS_FORMATS)} (got {suffix or 'none'!r})"
+        )
+    return TRACKS_FORMATS[suffix]
+
+
+def save_tracks_csv(path: str | Path, tracks: list[MarkerTracks]) -> None:
+    """Write tracks as one long-format CSV (atomic): one row per frame, sensor and marker.
+
+    Columns :data:`TRACKS_CSV_COLUMNS`: ``t`` [s], ``sensor`` (name), ``marker``
+    (index within the sensor, as in the ``.npz``), ``x``, ``y`` [px] (empty where
+    lost) and ``valid`` (1, or 0 where lost); rows by sensor, frame, marker.
+    """
+    import pandas as pd
+
+    from liquidtouch.io import atomic
+
+    parts = []
+    for tr in tracks:
+        n_frames, n_markers = tr.valid.shape
+        parts.append(
+            pd.DataFrame(
+                {
+                    "t": np.repeat(np.asarray(tr.t, dtype=float), n_markers),
+                    "sensor": tr.sensor,
+                    "marker": np.tile(np.arange(n_markers), n_frames),
+                    "x": tr.positions[:, :, 0].ravel(),
+                    "y": tr.positions[:, :, 1].ravel(),
+                    "valid": tr.valid.ravel().astype(int),
+                }
+            )
+        )
+    table = (
+        pd.concat(parts, ignore_index=True)
+        if parts
+        else pd.DataFrame(columns=list(TRACKS_CSV_COLUMNS))
+    )
+    atomic.write_text(path, table.to_csv(index=False, float_format="%.6f"))

@@ -1,0 +1,228 @@
+"""Options shared by several commands, declared once: flag names, help, choices, defaults.
+
+A command takes e.g. ``loss: options.Loss = options.DEFAULT_LOSS``: the flags and
+the help text live here only, so ``fit``, ``extract`` and ``features`` offer the
+same fit options, and every ``--out``/``--jobs`` has the same short flag. Choices
+are enums, so ``--help`` lists them and typer refuses anything else. Nothing heavy
+is imported (``--help`` stays fast); the choice lists and defaults equal the
+library's (``tests/test_cli_consistency.py`` checks).
+
+Units in help texts are written in words or upper-case brackets ("[Hz]"): rich reads
+a lower-case bracket such as "[rad/s]" as markup and drops it.
+"""
+
+from __future__ import annotations
+
+import math
+from enum import StrEnum
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+if TYPE_CHECKING:
+    from liquidtouch.extraction import FitSettings
+
+OUT = ("--out", "-o")
+"""The flags of every output-file option (``typer.Option(*OUT, help=...)``)."""
+
+
+class LossChoice(StrEnum):
+    """``fit_oscillation``'s ``loss`` (``fit.oscillation.LOSSES``)."""
+
+    paper = "paper"
+    ls = "ls"
+
+
+class FitModelChoice(StrEnum):
+    """``fit_oscillation``'s ``model`` (``fit.oscillation.MODELS``)."""
+
+    two_mode = "two-mode"
+    single_mode = "single-mode"
+
+
+class NoiseChoice(StrEnum):
+    """``fit_oscillation``'s ``noise`` (``fit.oscillation.NOISE_MODELS``)."""
+
+    white = "white"
+    correlated = "correlated"
+
+
+class RegressorChoice(StrEnum):
+    """``train --model`` (``models.property_model.MODEL_KINDS``)."""
+
+    gpr = "gpr"
+    quadratic = "quadratic"
+    physics_gpr = "physics-gpr"
+
+
+class SourceChoice(StrEnum):
+    """``features --source`` (``batch.features.SOURCES``)."""
+
+    gelsight = "gelsight"
+    wrench = "wrench"
+
+
+# -- output and execution --------------------------------------------------------------------
+
+Json = Annotated[
+    bool,
+    typer.Option(
+        "--json", help="Print one JSON object on stdout (warnings and progress go to stderr)."
+    ),
+]
+Jobs = Annotated[
+    int,
+    typer.Option(
+        "--jobs",
+        "-j",
+        min=1,
+        help="Worker processes (capped at the CPU cores and the number of trials).",
+    ),
+]
+Dask = Annotated[
+    str | None,
+    typer.Option(
+        "--dask",
+        metavar="ADDRESS",
+        help="Run the trials on a Dask cluster (scheduler address tcp://HOST:PORT) "
+        "instead of local processes.",
+        show_default=False,
+    ),
+]
+Plot = Annotated[
+    Path | None,
+    typer.Option(
+        "--plot",
+        help="Write a figure (format from the suffix: .png, .pdf, .svg; PNG without one).",
+        show_default=False,
+    ),
+]
+
+# -- signal: video -> u(t) ---------------------------------------------------------------------
+
+DEFAULT_LOWPASS_HZ = 3.0
+DEFAULT_MARKERS = 16
+
+Lowpass = Annotated[
+    float,
+    typer.Option("--lowpass", metavar="HZ", help="Low-pass cut-off of the marker motion [Hz]."),
+]
+Markers = Annotated[
+    int,
+    typer.Option(
+        "--markers",
+        metavar="N",
+        help="Markers to keep for u(t), across sensors: the ones that move most.",
+    ),
+]
+Sensor = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--sensor",
+        metavar="NAME",
+        help="Use only this sensor's video (its name: the video's stem, e.g. left); repeat "
+        "for several. Default: every sensor.",
+        show_default=False,
+    ),
+]
+
+# -- oscillation fit ---------------------------------------------------------------------------
+
+DEFAULT_LOSS = LossChoice.paper
+DEFAULT_FIT_MODEL = FitModelChoice.two_mode
+DEFAULT_BAND_LOW_HZ = 0.3
+DEFAULT_BAND_HIGH_HZ = 5.0
+DEFAULT_NOISE = NoiseChoice.white
+DEFAULT_START = "auto"
+"""``--start`` when not given (the option's default is None: ``fit --example`` differs)."""
+
+
+def parse_start(value: str | float | None) -> str | float | None:
+    """``--start``: ``auto``, a finite time in seconds, or None (not given: the command's default).
+
+    Raises typer.BadParameter for anything else.
+    """
+    if value is None:
+        return None
+    text = str(value).strip().lower()
+    if text == DEFAULT_START:
+        return DEFAULT_START
+    try:
+        seconds = float(text)
+    except ValueError:
+        seconds = math.nan
+    if not math.isfinite(seconds):
+        raise typer.BadParameter(
+            f"{value!r} is neither 'auto' nor a time in seconds (e.g. 1.5)", param_hint="'--start'"
+        )
+    return seconds
+
+
+Loss = Annotated[
+    LossChoice,
+    typer.Option(
+        "--loss",
+        help="paper: the paper's Σ(u−û)²/(u²+δ), which weighs the late decay; "
+        "ls: plain least squares.",
+    ),
+]
+FitModel = Annotated[
+    FitModelChoice,
+    typer.Option(
+        "--model",
+        help="two-mode (falls back to one mode when the data do not support a fast mode) "
+        "or single-mode.",
+    ),
+]
+BandLow = Annotated[
+    float,
+    typer.Option("--band-low", metavar="HZ", help="Lowest slosh frequency of the fit [Hz]."),
+]
+BandHigh = Annotated[
+    float,
+    typer.Option("--band-high", metavar="HZ", help="Highest slosh frequency of the fit [Hz]."),
+]
+Noise = Annotated[
+    NoiseChoice,
+    typer.Option(
+        "--noise",
+        help="Noise assumption of the standard errors: white, or correlated (low-passed).",
+    ),
+]
+Start = Annotated[
+    str | None,
+    typer.Option(
+        "--start",
+        metavar="auto|SECONDS",
+        callback=parse_start,
+        help="Where the fitted window starts: auto = the free decay after the push (at its "
+        "largest excursion, as extract cuts it), or a time in seconds on the signal's clock "
+        "(0 for a signal that starts at the release). [default: auto]",
+        show_default=False,
+    ),
+]
+
+
+def fit_settings(
+    loss: str,
+    model: str,
+    band_low: float,
+    band_high: float,
+    noise: str,
+    start: str | float | None,
+) -> FitSettings:
+    """The :class:`~liquidtouch.extraction.FitSettings` of the fit options (SignalError if bad).
+
+    ``start`` None (not given) is ``auto``.
+    """
+    from liquidtouch.extraction import FitSettings
+
+    start = parse_start(start)
+    return FitSettings(
+        loss=str(loss),
+        model=str(model),
+        band_hz=(band_low, band_high),
+        noise=str(noise),
+        start=DEFAULT_START if start is None else start,
+    )

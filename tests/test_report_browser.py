@@ -1,0 +1,89 @@
+"""The report as a reader sees it: report.html opened in headless Chromium.
+
+A small report (the seven experiments on the synthetic tables of
+``benchmarks.experiment_tables``, with fewer random draws) is rendered to a
+screenshot and to its DOM by ``benchmarks.report_browser``: every image is an
+embedded PNG that decodes, the page is not blank, the headline table is there
+and no text says "wt%". Without Chromium the tests skip locally, and fail
+when the environment variable ``CI`` is set (CI must not skip them silently;
+``.ci/run`` installs Debian's ``chromium``).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+import pytest
+
+from benchmarks.experiment_tables import experiment_features
+from benchmarks.report_browser import check_report, find_chromium
+
+
+@pytest.fixture(scope="module")
+def browser() -> str:
+    path = find_chromium()
+    if path is None:
+        if os.environ.get("CI"):
+            pytest.fail("CI is set but chromium is not installed (.ci/run installs it)")
+        pytest.skip("chromium is not installed (apt-get install chromium) and CI is not set")
+    return path
+
+
+@pytest.fixture(scope="module")
+def report_html(tmp_path_factory) -> Path:
+    from liquidtouch.experiments import data_efficiency, transfer
+    from liquidtouch.experiments.provenance import provenance
+    from liquidtouch.experiments.report import write_report
+    from liquidtouch.experiments.reproduce import failure_note, run_experiments
+
+    out = tmp_path_factory.mktemp("browser_report")
+    features = experiment_features()
+    with pytest.MonkeyPatch.context() as patch:  # fewer random draws: seconds, not minutes
+        patch.setattr(data_efficiency, "SIZES", (6, 10, 20))
+        patch.setattr(data_efficiency, "REPEATS", 1)
+        patch.setattr(transfer, "SIZES", (5, 15))
+        patch.setattr(transfer, "REPEATS", 2)
+        results = run_experiments(features, out)
+    _, html = write_report(
+        results,
+        out,
+        title="liquidtouch: browser check",
+        preamble=failure_note(features),
+        provenance=provenance(**{"base seed": 0}),
+    )
+    return html
+
+
+def test_report_renders_with_all_images_and_the_headline_table(browser, report_html) -> None:
+    png = report_html.with_name("screenshot.png")
+    check = check_report(report_html, png, browser=browser)
+    assert check.problems == [], check.problems
+    assert check.images == check.images_loaded == 7  # one figure per experiment
+    assert check.colours > 500  # text and seven figures, not a blank page
+    from PIL import Image
+
+    with Image.open(png) as im:
+        assert im.size == (1280, 4000)
+
+
+def test_the_check_catches_a_broken_image_and_wt_percent(browser, report_html, tmp_path) -> None:
+    page = report_html.read_text(encoding="utf-8")
+    broken = re.sub(
+        r"src='data:image/png;base64,[^']{0,200}", "src='data:image/png;base64,AAAA", page, count=1
+    )
+    broken = broken.replace("<h2>Summary</h2>", "<h2>Summary</h2><p>c [wt%]</p>", 1)
+    path = tmp_path / "broken.html"
+    path.write_text(broken, encoding="utf-8")
+    problems = check_report(path, tmp_path / "broken.png", browser=browser).problems
+    assert any("6 of 7 images decoded" in p for p in problems), problems
+    assert any("wt%" in p for p in problems), problems
+
+
+def test_the_check_catches_a_blank_page(browser, tmp_path) -> None:
+    path = tmp_path / "blank.html"
+    path.write_text("<!DOCTYPE html><html><body></body></html>", encoding="utf-8")
+    problems = check_report(path, tmp_path / "blank.png", browser=browser).problems
+    assert any("blank" in p for p in problems), problems
+    assert any("no headline" in p for p in problems), problems
