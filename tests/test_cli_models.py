@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 import re
 
@@ -169,7 +170,7 @@ def _bad_tables(d):
         (["train", "{d}/train.csv", "-t", "colour", "--out", "{d}/x.json"], "colour"),
         (
             ["train", "{d}/train.csv", "-t", "height_mm", "-m", "forest", "--out", "{d}/x.json"],
-            "unknown --model",
+            "'forest' is not one of 'gpr', 'quadratic', 'physics-gpr'",
         ),
         (["classify", "{d}/train.csv", "--out", "{d}/x.json"], "missing column.*liquid"),
         (["predict", "{d}/foreign.json", "{d}/test.csv"], "not a liquidtouch model"),
@@ -211,3 +212,108 @@ def test_help_of_every_command(capsys) -> None:
     for command in ("train", "classify", "predict", "transfer"):
         assert main([command, "--help"]) == 0
         assert "--out" in capsys.readouterr().out
+
+
+# -- --split / --where: train on the selected rows, evaluate on the others --------------------
+
+
+@pytest.fixture(scope="module")
+def split_files(files):
+    train, test = pd.read_csv(files / "train.csv"), pd.read_csv(files / "test.csv")
+    both = pd.concat([train.assign(split="train"), test.assign(split="test")], ignore_index=True)
+    both["error"] = ""
+    both.loc[0, ["decay_rate", "error"]] = [np.nan, "no push found"]  # a failed trial: skipped
+    both.iloc[1:].to_csv(files / "split_clean.csv", index=False)
+    both.to_csv(files / "split.csv", index=False)
+    liquids = pd.read_csv(files / "liquids.csv")
+    liquids["split"] = np.where(np.arange(len(liquids)) % 3 == 0, "test", "train")
+    liquids.to_csv(files / "liquids_split.csv", index=False)
+    return files
+
+
+def test_train_split_trains_on_the_selection_and_evaluates_the_rest(split_files, capsys) -> None:
+    d = split_files
+    n_test = len(pd.read_csv(d / "test.csv"))
+    args = ["train", d / "split.csv", "-t", "height_mm", "-m", "quadratic", "-o", d / "s.json"]
+    assert main([str(a) for a in [*args, "--split", "train", "--json"]]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    n_train = len(pd.read_csv(d / "train.csv")) - 1  # the failed row is skipped
+    assert doc["n_rows"] == n_train and doc["n_skipped"] == 1
+    assert doc["selection"] == {
+        "split": "train",
+        "where": [],
+        "n_selected": n_train,
+        "n_not_selected": n_test,
+    }
+    held = doc["held_out"]["height_mm"]
+    assert held["n_rows"] == n_test and 0 < held["mae"] < 1.0
+    # the same as training on train.csv and measuring on test.csv by hand
+    pred = pd.read_csv(io.StringIO(_predict_csv(capsys, d / "s.json", d / "test.csv")))
+    by_hand = np.mean(np.abs(pred["predicted_height_mm"] - pred["height_mm"]))
+    assert held["mae"] == pytest.approx(by_hand, rel=1e-9)
+
+    # human output: the summary on stdout, the evaluation table on stderr
+    assert main([str(a) for a in [*args, "--split", "train"]]) == 0
+    captured = capsys.readouterr()
+    assert "training MAE" in captured.out and "held-out MAE" in captured.err
+    assert f"{n_test} rows not selected" in captured.err
+
+    # --where on a numeric column, combined with --split
+    where = ["--where", "split=train", "--where", "sugar_concentration=0"]
+    assert main([str(a) for a in [*args, *where, "--json"]]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    table = pd.read_csv(d / "split.csv").iloc[1:]
+    expected = int(((table["split"] == "train") & (table["sugar_concentration"] == 0)).sum())
+    assert doc["selection"]["n_selected"] == expected == doc["n_rows"]
+
+
+def _predict_csv(capsys, model, table) -> str:
+    assert main(["predict", str(model), str(table)]) == 0
+    return capsys.readouterr().out
+
+
+def test_classify_and_transfer_split(split_files, capsys) -> None:
+    d = split_files
+    classify = ["classify", str(d / "liquids_split.csv"), "-o", str(d / "cs.json")]
+    rc = main([*classify, "--split", "train", "--json"])
+    doc = json.loads(capsys.readouterr().out)
+    n = len(pd.read_csv(d / "liquids_split.csv"))
+    assert rc == 0 and doc["n_rows"] == n - n // 3 - (n % 3 > 0)
+    assert doc["held_out"]["n_rows"] == n - doc["n_rows"] and doc["held_out"]["accuracy"] > 0.8
+
+    base = d / "base_split.json"
+    assert main(["train", str(d / "train.csv"), "-t", "height_mm", "-o", str(base)]) == 0
+    tune = pd.read_csv(d / "tune.csv")
+    tune["split"] = np.where(np.arange(len(tune)) < 8, "tune", "test")
+    tune.to_csv(d / "tune_split.csv", index=False)
+    capsys.readouterr()
+    transfer = ["transfer", str(base), str(d / "tune_split.csv"), "-o", str(d / "ts.json")]
+    rc = main([*transfer, "--split", "tune", "--json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert rc == 0 and doc["n_points"] == 8
+    held = doc["held_out"]["height_mm"]
+    assert held["n_rows"] == len(tune) - 8 and held["mae_after"] < held["mae_before"]
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (
+            ["--split", "validation"],
+            r"no row .* has split = validation \(split values: test, train",
+        ),
+        (["--where", "colour=red"], "has no column 'colour'"),
+        (["--where", "height_mm=tall"], "height_mm .* is numeric, but 'tall' is not a number"),
+        (["--where", "height_mm=17"], r"no row .* has height_mm = 17 \(height_mm values: 16"),
+        (["--where", "height_mm"], "--where takes COLUMN=VALUE"),
+        (["--split", "test", "--where", "container=B"], "no row .* has container = B"),
+        (["--split", "test", "--where", "height_mm=16"], "no row .* matches --split test --where"),
+    ],
+)
+def test_selection_errors(split_files, capsys, extra, message) -> None:
+    d = split_files
+    out = d / "never.json"
+    args = ["train", str(d / "split_clean.csv"), "-t", "height_mm", "-o", str(out), *extra]
+    assert main(args) == 2
+    assert re.search(message, _one_error_line(capsys))
+    assert not out.exists()

@@ -10,7 +10,7 @@ import pytest
 from helpers import grid, render_blobs
 
 from liquidtouch.cli import main
-from liquidtouch.errors import VideoError
+from liquidtouch.errors import SignalError, VideoError
 from liquidtouch.io.frames import iter_video
 
 LAM, OMEGA = 0.7, 2 * np.pi * 1.2
@@ -70,3 +70,23 @@ def test_extract_checks_signal_options_before_reading_any_video(tmp_path):
         extract(missing, n_markers=0)
     with pytest.raises(SignalError, match="lowpass_hz must be a cut-off frequency"):
         extract(missing, lowpass_hz=-1.0)
+
+
+def test_extract_sensor_choice_and_fit_options(tmp_path, capsys):
+    from liquidtouch.extraction import FitSettings, extract
+
+    a = write_video(tmp_path / "a.mp4")
+    b = write_video(tmp_path / "b.mp4", amplitude=1.0)
+    assert main(["extract", str(a), str(b), "--sensor", "c"]) == 2
+    assert "no sensor 'c'; the sensors are a, b" in capsys.readouterr().err
+    assert main(["extract", str(a), str(b), "--sensor", "b", "--json", "--start", "0"]) == 0
+    only_b = json.loads(capsys.readouterr().out)
+    assert only_b["t0"] == 0.0 and only_b["angular_frequency"] == pytest.approx(OMEGA, rel=0.02)
+    direct = extract([a, b], sensors=["b"], fit_settings=FitSettings(start=0.0, loss="ls"))
+    assert [tr.sensor for tr in direct.tracks] == ["b"] and direct.fit.loss == "ls"
+    with pytest.raises(SignalError, match="unknown loss 'l1'"):
+        FitSettings(loss="l1")
+    with pytest.raises(SignalError, match="0 < low < high"):
+        FitSettings(band_hz=(5.0, 1.0))
+    with pytest.raises(SignalError, match="'auto' or a time in seconds"):
+        FitSettings(start="soon")

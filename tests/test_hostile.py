@@ -163,3 +163,17 @@ def test_full_disk_leaves_nothing_behind(tmp_path: Path) -> None:
             full.write(b"x" * 65536)
             full.flush()
     assert not target.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_a_recording_far_longer_than_a_trial_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    from helpers import grid, render_blobs
+
+    from liquidtouch.errors import VideoError
+    from liquidtouch.tracking import tracks
+
+    monkeypatch.setattr(tracks, "MAX_FRAMES", 5)
+    image = render_blobs(grid())
+    frames = ((k / 30.0, image) for k in range(10))
+    with pytest.raises(VideoError, match="more than 5 frames"):
+        tracks.track_markers(frames)
+    assert tracks.track_markers((k / 30.0, image) for k in range(5)).positions.shape[0] == 5

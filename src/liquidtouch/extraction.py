@@ -310,8 +310,12 @@ def extract(
     settings = FitSettings() if fit_settings is None else fit_settings
     if not isinstance(settings, FitSettings):
         raise TypeError(f"fit_settings must be a FitSettings, got {type(settings).__name__}")
-    sources = select_sensors(resolve_sources(paths, fps=fps), sensors)
-    tracks = track_sources(sources, progress=progress)
+    from liquidtouch.io.importers import stored_tracks
+
+    tracks = stored_tracks(paths, sensors)  # a trial of imported marker tracks: no videos
+    if tracks is None:
+        sources = select_sensors(resolve_sources(paths, fps=fps), sensors)
+        tracks = track_sources(sources, progress=progress)
     signal = tactile_signal(tracks, lowpass_hz=lowpass_hz, n_markers=n_markers)
     result = settings.fit(signal.t, signal.u) if fit else None
     return Extraction(tracks=tracks, signal=signal, fit=result)

@@ -163,12 +163,19 @@ def _fingerprint(trial_dir: Path, source: str, settings: dict[str, object] | Non
 def _safe_run(
     trial_dir: str, source: str, settings: dict[str, object] | None = None
 ) -> dict[str, object]:
-    """Worker: features of one trial, or the error that stopped it (never raises)."""
+    """Worker: features of one trial, or the error that stopped it (never raises).
+
+    Only the settings that differ from the defaults are passed on to
+    :func:`trial_features`.
+    """
     chosen = feature_settings(source) if settings is None else settings
-    kwargs = {k: v for k, v in chosen.items() if k not in ("source", "fit")}
+    defaults = feature_settings(source)
+    changed = {k for k, v in chosen.items() if v != defaults[k]}
+    kwargs: dict[str, object] = {k: chosen[k] for k in changed - {"fit"}}
     done = {"liquidtouch_version": __version__}
     try:
-        kwargs["fit_settings"] = _fit_settings(chosen)
+        if "fit" in changed:
+            kwargs["fit_settings"] = _fit_settings(chosen)
         features = trial_features(trial_dir, source, **kwargs)
         return {"features": features, "error": None, "cacheable": True, **done}
     except LiquidTouchError as exc:

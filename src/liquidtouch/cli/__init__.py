@@ -21,7 +21,7 @@ except ImportError:  # pragma: no cover - older typer uses click itself
     from click import exceptions as click_exc
 
 from liquidtouch import __version__
-from liquidtouch.cli import experiments, extract, fit, models, simulate
+from liquidtouch.cli import dataset, experiments, extract, fit, models, simulate
 from liquidtouch.cli.paths import guard_output_paths
 from liquidtouch.errors import LiquidTouchError
 
@@ -34,7 +34,7 @@ app = typer.Typer(
     "from GelSight tactile sloshing signals.",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
-    add_completion=False,
+    rich_markup_mode=None,  # help texts carry units in brackets ("[mm]"): not markup
 )
 
 
@@ -53,7 +53,7 @@ def _main(
     """liquidtouch: liquid properties from dynamic tactile sensing."""
 
 
-for _module in (fit, simulate, extract, models, experiments):
+for _module in (fit, simulate, extract, models, experiments, dataset):
     _module.register(app)
 
 

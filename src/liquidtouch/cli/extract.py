@@ -101,24 +101,20 @@ def extract(
 
 def _print_extraction(result, written: list[Path]) -> None:
     from rich.console import Console
-    from rich.markup import escape
 
     from liquidtouch.cli.format import fit_quality, fit_table, number, percent
 
     sig = result.signal
-    console = Console()
-    console.print(
-        escape(
-            f"{len(result.tracks)} sensor(s), {sum(tr.n_markers for tr in result.tracks)} "
-            f"markers tracked; {sig.n_markers} used, explained variance "
-            f"{percent(sig.explained_variance)}, {len(sig.t)} samples at {number(sig.fps, 3)} fps"
-        )
+    typer.echo(
+        f"{len(result.tracks)} sensor(s), {sum(tr.n_markers for tr in result.tracks)} "
+        f"markers tracked; {sig.n_markers} used, explained variance "
+        f"{percent(sig.explained_variance)}, {len(sig.t)} samples at {number(sig.fps, 3)} fps"
     )
     fit = result.fit
-    console.print(fit_table(fit, f"{fit.model} fit of the free decay (loss={fit.loss})"))
-    console.print(escape(fit_quality(fit)))
+    Console().print(fit_table(fit, f"{fit.model} fit of the free decay (loss={fit.loss})"))
+    typer.echo(fit_quality(fit))
     for path in written:
-        console.print(escape(f"wrote {path}"))
+        typer.echo(f"wrote {path}")
 
 
 def features(

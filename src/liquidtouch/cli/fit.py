@@ -83,10 +83,8 @@ def fit(
 
 def _print_table(result, source: str, plot: Path | None) -> None:
     from rich.console import Console
-    from rich.markup import escape
 
     from liquidtouch.cli.format import fit_quality, fit_table
 
-    console = Console()
-    console.print(fit_table(result, f"{result.model} fit of {source} (loss={result.loss})"))
-    console.print(escape(fit_quality(result) + (f"   plot: {plot}" if plot else "")))
+    Console().print(fit_table(result, f"{result.model} fit of {source} (loss={result.loss})"))
+    typer.echo(fit_quality(result) + (f"   plot: {plot}" if plot else ""))

@@ -26,6 +26,8 @@ _WHERE_HELP = (
     "Train on the rows where COLUMN equals VALUE (numerically for a numeric column); "
     "repeat to combine (all must hold). The labelled rows not selected are evaluated."
 )
+
+
 def _echo_summary(lines: list[str], out: Path) -> None:
     for line in lines:
         typer.echo(line)
@@ -180,35 +182,45 @@ def _print_held_out(title: str, columns: list[str], rows: list[list[str]]) -> No
 
 def train(
     features: Path = typer.Argument(
-        ..., help="Features CSV: decay_rate, angular_frequency, labels."
+        ..., help="Features CSV: decay_rate, angular_frequency, labels.", show_default=False
     ),
     target: list[str] = typer.Option(
         ..., "--target", "-t", help="Label column to learn (repeat for several targets)."
     ),
-    model: str = typer.Option(
-        "gpr",
+    model: options.RegressorChoice = typer.Option(
+        options.RegressorChoice.gpr,
         "--model",
         "-m",
         help="gpr (the paper's GP), quadratic (the paper's 6-parameter model) or "
         "physics-gpr (GP with a sloshing-physics prior; height and viscosity targets). "
         "A GP takes at most 2000 rows (4000 over all targets; docs/formats.md, Limits).",
     ),
-    out: Path = typer.Option(..., "--out", "-o", help="Model file to write (JSON)."),
-    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+    out: Path = typer.Option(..., *options.OUT, help="Model file to write (JSON)."),
+    split: str | None = typer.Option(
+        None, "--split", metavar="NAME", help=_SPLIT_HELP, show_default=False
+    ),
+    where: list[str] | None = typer.Option(
+        None, "--where", metavar="COLUMN=VALUE", help=_WHERE_HELP, show_default=False
+    ),
+    as_json: options.Json = False,
 ) -> None:
     """Train one regressor per --target on a features table and save them in one model file."""
-    from liquidtouch.errors import TableError
+    from liquidtouch.cli.format import number
     from liquidtouch.io.tables import numeric_column
     from liquidtouch.models.modelfile import save_model
-    from liquidtouch.models.property_model import MODEL_KINDS, train_regression
-    from liquidtouch.progress import progress_bar
+    from liquidtouch.models.property_model import train_regression
+    from liquidtouch.progress import on_terminal, progress_bar
 
-    if model not in MODEL_KINDS:
-        raise TableError(f"unknown --model {model!r}; choose one of {', '.join(MODEL_KINDS)}")
+    kind = str(model)
     table, X, skipped = _read_training_table(features)
+    chosen = _selection(table, split, where, features)
+    rest = None if chosen is None else table[~chosen]
+    if chosen is not None:
+        table, X = table[chosen], X[chosen]
     targets = {t: numeric_column(table, t) for t in dict.fromkeys(target)}
-    with progress_bar(f"training {model}", len(targets), enabled=sys.stderr.isatty()) as advance:
-        fitted = train_regression(X, targets, model, advance)
+    with progress_bar(f"training {kind}", len(targets), enabled=on_terminal()) as advance:
+        fitted = train_regression(X, targets, kind, advance)
+    held_out = None if rest is None else _regression_errors(fitted, rest, list(targets))
     save_model(fitted, out)
     if as_json:
         typer.echo(
@@ -216,32 +228,68 @@ def train(
                 {
                     "out": str(out),
                     "kind": fitted.kind,
-                    "model": model,
+                    "model": kind,
                     "targets": fitted.targets,
                     "n_rows": int(X.shape[0]),
                     "n_skipped": skipped,
+                    "selection": _selection_json(chosen, split, where),
                     "training_mae": fitted.training_mae(),
+                    "held_out": held_out,
                     "models": {t: r.describe() for t, r in fitted.regressors.items()},
                 }
             )
         )
-    else:
-        _echo_summary(fitted.summary(), out)
+        return
+    _echo_summary(fitted.summary(), out)
+    if held_out is not None:
+        training = fitted.training_mae()
+        _print_held_out(
+            f"evaluation on the {len(rest)} rows not selected",
+            ["target", "rows", "training MAE", "held-out MAE"],
+            [
+                [t, str(e["n_rows"]), number(training[t]), number(e["mae"])]
+                for t, e in held_out.items()
+            ]
+            or [["(no labelled rows)", "0", "", ""]],
+        )
 
 
 def classify(
-    features: Path = typer.Argument(..., help="Features CSV with decay_rate, angular_frequency."),
+    features: Path = typer.Argument(
+        ..., help="Features CSV with decay_rate, angular_frequency.", show_default=False
+    ),
     label: str = typer.Option("liquid", "--label", "-l", help="Class label column."),
-    out: Path = typer.Option(..., "--out", "-o", help="Model file to write (JSON)."),
-    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+    out: Path = typer.Option(..., *options.OUT, help="Model file to write (JSON)."),
+    split: str | None = typer.Option(
+        None, "--split", metavar="NAME", help=_SPLIT_HELP, show_default=False
+    ),
+    where: list[str] | None = typer.Option(
+        None, "--where", metavar="COLUMN=VALUE", help=_WHERE_HELP, show_default=False
+    ),
+    as_json: options.Json = False,
 ) -> None:
     """Train the RBF-SVM liquid classifier (with class probabilities) and save it."""
-    from liquidtouch.io.tables import label_column
+    import numpy as np
+
+    from liquidtouch.cli.format import percent
+    from liquidtouch.io.tables import feature_matrix, label_column
     from liquidtouch.models.modelfile import save_model
     from liquidtouch.models.property_model import train_classifier
 
     table, X, skipped = _read_training_table(features)
+    chosen = _selection(table, split, where, features)
+    rest = None if chosen is None else table[~chosen]
+    if chosen is not None:
+        table, X = table[chosen], X[chosen]
     fitted = train_classifier(X, label_column(table, label), label=label)
+    held_out = None
+    if rest is not None:
+        rows = rest[_labelled(rest, label)]
+        held_out = {"n_rows": len(rows), "accuracy": None}
+        if len(rows):
+            predicted, _ = fitted.predict_proba(feature_matrix(rows))
+            truth = rows[label].astype(str).str.strip().to_numpy()
+            held_out["accuracy"] = float(np.mean(predicted == truth))
     save_model(fitted, out)
     if as_json:
         clf = fitted.classifier
@@ -254,32 +302,56 @@ def classify(
                     "classes": clf.classes_.tolist(),
                     "n_rows": int(X.shape[0]),
                     "n_skipped": skipped,
+                    "selection": _selection_json(chosen, split, where),
                     "training_accuracy": fitted.training_mae()["accuracy"],
+                    "held_out": held_out,
                     "C": clf.C_,
                     "gamma": clf.gamma_,
                 }
             )
         )
-    else:
-        _echo_summary(fitted.summary(), out)
+        return
+    _echo_summary(fitted.summary(), out)
+    if held_out is not None:
+        _print_held_out(
+            f"evaluation on the {len(rest)} rows not selected",
+            ["label", "rows", "training accuracy", "held-out accuracy"],
+            [
+                [
+                    label,
+                    str(held_out["n_rows"]),
+                    percent(fitted.training_mae()["accuracy"]),
+                    percent(held_out["accuracy"]),
+                ]
+            ],
+        )
 
 
 def predict(
-    model_file: Path = typer.Argument(..., help="Model file from train, classify or transfer."),
+    model_file: Path = typer.Argument(
+        ..., help="Model file from train, classify or transfer.", show_default=False
+    ),
     input_path: Path = typer.Argument(
         ...,
         metavar="INPUT",
         help="Features CSV, dataset directory, trial directory or video.",
+        show_default=False,
     ),
     out: Path | None = typer.Option(
-        None, "--out", "-o", help="Predictions CSV to write (default: print the CSV)."
+        None,
+        *options.OUT,
+        help="Predictions CSV to write (default: print the CSV, or with --json put the "
+        "rows in the JSON object).",
+        show_default=False,
     ),
+    as_json: options.Json = False,
 ) -> None:
     """Predict properties (mean and std) or the liquid (with probabilities) for each row.
 
     Rows whose feature extraction failed are kept with empty predictions (a warning
     per row); rows outside the model's training domain are flagged in the
     ``out_of_domain`` column (and a warning): their predictions are extrapolations.
+    --json prints the counts, the output path (or the rows) as one JSON object.
     """
     import numpy as np
 
@@ -313,24 +385,61 @@ def predict(
             f"{int(outside.sum())} row(s) outside the training domain "
             f"({fitted.describe_domain()}): rows {row_list(outside)}"
         )
-    text = result.to_csv(index=False)
-    if out is None:
-        typer.echo(text, nl=False)
+    if out is not None:
+        atomic.write_text(out, result.to_csv(index=False))
+    if as_json:
+        summary: dict[str, Any] = {
+            "out": None if out is None else str(out),
+            "model": str(model_file),
+            "kind": fitted.kind,
+            "targets": fitted.targets,
+            "n_rows": len(table),
+            "n_predicted": int((~failed).sum()),
+            "n_failed": int(failed.sum()),
+            "n_out_of_domain": int(outside.sum()),
+            "failed_rows": [int(i) + 1 for i in np.flatnonzero(failed)],
+        }
+        if out is None:  # the predictions themselves, NaN as null
+            records = json.loads(result.to_json(orient="records", double_precision=15))
+            summary["rows"] = records
+        typer.echo(json.dumps(summary, ensure_ascii=False))
+    elif out is None:
+        typer.echo(result.to_csv(index=False), nl=False)
     else:
-        atomic.write_text(out, text)
         extra = f", {int(failed.sum())} without features" if failed.any() else ""
         typer.echo(f"wrote {out} ({len(table)} rows{extra}; predicted {', '.join(fitted.targets)})")
 
 
 def transfer(
-    model_file: Path = typer.Argument(..., help="Regression model of container A."),
-    tune: Path = typer.Argument(
-        ..., help="Features CSV of a few trials in container B, labelled with model targets."
+    model_file: Path = typer.Argument(
+        ..., help="Regression model of container A.", show_default=False
     ),
-    out: Path = typer.Option(..., "--out", "-o", help="Transferred model file to write."),
-    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+    tune: Path = typer.Argument(
+        ...,
+        help="Features CSV of trials in container B, labelled with model targets.",
+        show_default=False,
+    ),
+    out: Path = typer.Option(..., *options.OUT, help="Transferred model file to write."),
+    split: str | None = typer.Option(
+        None,
+        "--split",
+        metavar="NAME",
+        help="Tune on the rows whose 'split' column is NAME; the labelled rows not selected "
+        "are evaluated before and after the transfer.",
+        show_default=False,
+    ),
+    where: list[str] | None = typer.Option(
+        None,
+        "--where",
+        metavar="COLUMN=VALUE",
+        help="Tune on the rows where COLUMN equals VALUE (numerically for a numeric column); "
+        "repeat to combine. The labelled rows not selected are evaluated.",
+        show_default=False,
+    ),
+    as_json: options.Json = False,
 ) -> None:
     """Fit f_B(λ, ω) = f_A(α1 λ + α2, β1 ω + β2) on a few trials of a new container."""
+    from liquidtouch.cli.format import number
     from liquidtouch.errors import TableError
     from liquidtouch.io.tables import numeric_column
     from liquidtouch.models.modelfile import load_model, save_model
@@ -338,6 +447,10 @@ def transfer(
 
     fitted = load_model(model_file)
     table, X, _ = _read_training_table(tune)
+    chosen = _selection(table, split, where, tune)
+    rest = None if chosen is None else table[~chosen]
+    if chosen is not None:
+        table, X = table[chosen], X[chosen]
     labelled = [t for t in fitted.targets if t in table.columns]
     if fitted.kind != "regression":
         raise TableError("container transfer needs a regression model (train one with `train`)")
@@ -347,6 +460,14 @@ def transfer(
             "label the tuning trials with at least one of them"
         )
     result = fit_transfer(fitted, X, {t: numeric_column(table, t) for t in labelled})
+    held_out = None
+    if rest is not None:
+        before = _regression_errors(fitted, rest, labelled)
+        after = _regression_errors(result.model, rest, labelled)
+        held_out = {
+            t: {"n_rows": e["n_rows"], "mae_before": before[t]["mae"], "mae_after": e["mae"]}
+            for t, e in after.items()
+        }
     save_model(result.model, out)
     if as_json:
         fmap = result.feature_map
@@ -355,15 +476,27 @@ def transfer(
                 {
                     "out": str(out),
                     "n_points": result.n_points,
+                    "selection": _selection_json(chosen, split, where),
                     "alpha": list(fmap.alpha),
                     "beta": list(fmap.beta),
                     "tune_mae_before": result.mae_before,
                     "tune_mae_after": result.mae_after,
+                    "held_out": held_out,
                 }
             )
         )
-    else:
-        _echo_summary(result.summary(), out)
+        return
+    _echo_summary(result.summary(), out)
+    if held_out is not None:
+        _print_held_out(
+            f"evaluation on the {len(rest)} rows not selected",
+            ["target", "rows", "MAE before", "MAE after"],
+            [
+                [t, str(e["n_rows"]), number(e["mae_before"]), number(e["mae_after"])]
+                for t, e in held_out.items()
+            ]
+            or [["(no labelled rows)", "0", "", ""]],
+        )
 
 
 def register(app: typer.Typer) -> None:

@@ -106,7 +106,12 @@ DEFAULT_MARKERS = 16
 
 Lowpass = Annotated[
     float,
-    typer.Option("--lowpass", metavar="HZ", help="Low-pass cut-off of the marker motion [Hz]."),
+    typer.Option(
+        "--lowpass",
+        metavar="HZ",
+        help="Low-pass cut-off of the marker motion [Hz] (features --source wrench: of the "
+        "wrist forces).",
+    ),
 ]
 Markers = Annotated[
     int,

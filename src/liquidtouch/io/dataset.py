@@ -74,6 +74,7 @@ class TrialMeta(BaseModel):
     temperature_c: float | None = None
     true_decay_rate: float | None = None
     true_angular_frequency: float | None = None
+    tracks: str | None = None  # imported marker tracks (tracks.npz), used instead of videos
 
     def labels(self) -> dict[str, object]:
         """The label and ground-truth columns of this trial (``None`` when unknown)."""
@@ -103,7 +104,7 @@ def read_trial_meta(trial_dir: str | Path) -> TrialMeta:
             f"up to {TRIAL_FORMAT_VERSION} (upgrade liquidtouch)"
         )
     root = Path(trial_dir).resolve()
-    for name in meta.sensors:
+    for name in [*meta.sensors, *([meta.tracks] if meta.tracks else [])]:
         resolved = (root / name).resolve()  # a symlink must not lead outside the trial either
         if Path(name).is_absolute() or ".." in Path(name).parts or root not in resolved.parents:
             raise DatasetError(

@@ -30,9 +30,9 @@ the simulator's force signal (``benchmarks/sim_calibration.py``: 3 Hz low-pass,
 30 fps, ``fit_oscillation``, GPR with RBF + white noise on standardised λ, ω,
 full ``sugar`` preset) and widening the physically motivated spreads (fill,
 wetting, temperature, weighing) — never the estimator — until the force-level
-test errors were ~55-65 % of the paper's GPR errors (0.56 mm, 15.3 wt%, 0.16 in
+test errors were ~55-65 % of the paper's GPR errors (0.56 mm, 15.3 g/100 g water, 0.16 in
 log10 cSt), leaving room for the GelSight stage (marker noise, tracking),
-which adds its own error on top. Result: 0.36 mm, 8.2 wt%, 0.088 (quadratic
+which adds its own error on top. Result: 0.36 mm, 8.2 g/100 g, 0.088 (quadratic
 model: 0.42, 8.9, 0.097).
 """
 

@@ -58,6 +58,9 @@ from liquidtouch.tracking.track import (
 
 #: track_markers fails when all markers are lost in more than this fraction of the frames
 MAX_ALL_LOST_FRACTION = 0.1
+#: Frames tracked per sensor at most: 20 min at 30 fps. A trial is a push and ~13 s of
+#: ring-down; the tracks of a longer recording (frames × markers × 16 bytes) only cost memory.
+MAX_FRAMES = 36_000
 
 __all__ = [
     "AREA_CHANGE",
@@ -177,6 +180,11 @@ def track_markers(
     rows: list[np.ndarray] = []
     first = None
     for k, item in enumerate(frames):
+        if k >= MAX_FRAMES:
+            raise VideoError(
+                f"{sensor}: more than {MAX_FRAMES} frames; a trial is the push and its "
+                "ring-down (~15 s): trim the recording to that"
+            )
         t_s, image = _frame(item, k, sensor, times[-1] if times else None)
         if k == 0:
             first = as_grey(image)
