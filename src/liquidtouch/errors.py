@@ -46,3 +46,7 @@ class OutputError(LiquidTouchError):
 
 class CatalogueError(LiquidTouchError):
     """An unknown liquid, container, preset or sensor name."""
+
+
+class DeviceError(LiquidTouchError):
+    """A camera, gripper or arm cannot be reached or misbehaves."""

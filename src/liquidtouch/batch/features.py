@@ -141,7 +141,8 @@ def trial_features(
 def _fingerprint(trial_dir: Path, source: str, settings: dict[str, object] | None = None) -> str:
     """Hash of everything the trial's features depend on (file sizes and mtimes, settings)."""
     meta = read_trial_meta(trial_dir)
-    inputs = [META_NAME, *(meta.sensors if source == "gelsight" else [WRENCH_NAME])]
+    recorded = [*meta.sensors, *([meta.tracks] if meta.tracks else [])]
+    inputs = [META_NAME, *(recorded if source == "gelsight" else [WRENCH_NAME])]
     chosen = feature_settings(source) if settings is None else settings
     digest = hashlib.sha256(
         f"v{FEATURES_VERSION}:{source}:fps={meta.fps!r}:"

@@ -1,4 +1,4 @@
-"""Dataset-scale commands: ``features``, ``reproduce`` and ``demo``."""
+"""The paper's experiments end to end: ``reproduce`` and ``demo``."""
 
 from __future__ import annotations
 
@@ -108,35 +108,7 @@ _DATA_HELP = (
 
 
 def register(app: typer.Typer) -> None:
-    """Register ``features``, ``reproduce`` and ``demo``."""
-
-    @app.command()
-    def features(
-        dataset: Path = typer.Argument(..., help="Dataset directory (with manifest.csv)."),
-        out: Path | None = typer.Option(
-            None, "--out", help="Output CSV [default: DATASET/features.csv]."
-        ),
-        jobs: int = typer.Option(1, "--jobs", "-j", help="Worker processes."),
-        dask: str | None = typer.Option(
-            None, "--dask", help="Dask scheduler address (tcp://HOST:PORT)."
-        ),
-        source: str = typer.Option(
-            "gelsight", "--source", help="gelsight (videos) or wrench (wrist F/T)."
-        ),
-    ) -> None:
-        """Extract (λ, ω) and fit quality for every trial of a dataset → features.csv.
-
-        Parallel, cached per trial (unchanged trials are not redone), resumable;
-        a bad trial is recorded with its error and the others go on.
-        """
-        from liquidtouch.batch.features import extract_features
-
-        table = extract_features(dataset, out=out, jobs=jobs, dask_address=dask, source=source)
-        failed = table[table["error"].astype(str) != ""]
-        target = out or Path(dataset) / "features.csv"
-        typer.echo(f"{len(table) - len(failed)} of {len(table)} trials extracted → {target}")
-        for row in failed.itertuples(index=False):
-            typer.echo(f"failed: {row.trial}: {row.error}", err=True)
+    """Register ``reproduce`` and ``demo``."""
 
     @app.command()
     def reproduce(

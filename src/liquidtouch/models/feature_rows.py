@@ -27,7 +27,7 @@ def row_list(mask: np.ndarray, limit: int = 10) -> str:
 
 def error_messages(table: pd.DataFrame) -> pd.Series:
     """The ``error`` column as stripped strings (empty for good rows and missing cells)."""
-    return table[ERROR_COLUMN].fillna("").astype(str).str.strip()
+    return table[ERROR_COLUMN].astype(object).fillna("").astype(str).str.strip()
 
 
 def failed_rows(table: pd.DataFrame) -> np.ndarray | None:

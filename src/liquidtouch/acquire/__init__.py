@@ -1,0 +1,1 @@
+"""Acquisition (the lab path): live GelSight cameras, recording trials, driving the rig."""

@@ -1,0 +1,1 @@
+"""A simulated lab rig: GelSight cameras streamed like the real ones, gripper and arm stand-ins."""

@@ -1,0 +1,258 @@
+"""A simulated networked GelSight: an MJPEG-over-HTTP stream as mjpg-streamer serves it.
+
+A GelSight R1.5 is a Raspberry Pi that streams its camera with mjpg-streamer:
+``GET /stream`` (mjpg-streamer: ``/?action=stream``) answers with
+``multipart/x-mixed-replace; boundary=...`` and then one JPEG part per frame,
+each with ``Content-Type: image/jpeg``, ``Content-Length`` and ``X-Timestamp``
+headers, for as long as the client stays connected. :class:`MjpegServer` does
+the same on the loopback interface from a Python frame source, so the whole
+recording path (OpenCV/FFmpeg client, capture threads, recorder) can be run and
+timed without hardware.
+
+One producer thread "captures" frames on the server's schedule: it calls
+``frame_source()`` once per frame period, at the frame's time, encodes the image
+as JPEG (``cv2.imencode``) and hands it to every connected client. A client that
+reads too slowly misses frames (it always gets the newest one), as with
+mjpg-streamer. Clients connected to ``/stream`` receive only frames captured
+after they connected.
+
+Timing (all on :func:`time.monotonic`, seconds): ``sent_timestamps[k]`` is the
+capture time of the k-th frame (the moment just before the k-th
+``frame_source()`` call), which is also its ``X-Timestamp`` header. Frames are
+indexed by the order of the ``frame_source`` calls, so a test whose frame
+source encodes a counter in the image can match each received frame to its
+capture time.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+import numpy as np
+
+from liquidtouch.errors import DeviceError
+
+BOUNDARY = "liquidtouchframe"
+"""The multipart boundary between JPEG parts."""
+STREAM_PATH = "/stream"
+CLIENT_TIMEOUT_S = 5.0
+"""Socket timeout [s] of a client connection: a stalled client is dropped after this."""
+_WAIT_S = 0.1  # how often waiting threads check for stop [s]
+
+
+class _Handler(BaseHTTPRequestHandler):
+    server: _Server
+    timeout = CLIENT_TIMEOUT_S
+
+    def log_message(self, format: str, *args: object) -> None:  # noqa: A002 - stdlib name
+        """Stay quiet (the stdlib handler logs every request to stderr)."""
+
+    def do_GET(self) -> None:
+        path = self.path.split("?", 1)[0]
+        if path in ("/", "/index.html"):
+            self._index()
+        elif path == STREAM_PATH or (path == "/" and "action=stream" in self.path):
+            self._stream()
+        else:
+            self.send_error(404, "not found")
+
+    def _index(self) -> None:
+        body = (
+            "<!doctype html><title>liquidtouch simulated GelSight</title>"
+            f'<img src="{STREAM_PATH}" alt="stream">'
+        ).encode()
+        self.send_response(200)
+        self.send_header("Content-Type", "text/html; charset=utf-8")
+        self.send_header("Content-Length", str(len(body)))
+        self.end_headers()
+        self.wfile.write(body)
+
+    def _stream(self) -> None:
+        owner = self.server.owner
+        self.send_response(200)
+        self.send_header("Content-Type", f"multipart/x-mixed-replace; boundary={BOUNDARY}")
+        self.send_header("Cache-Control", "no-cache, no-store, must-revalidate")
+        self.send_header("Pragma", "no-cache")
+        self.send_header("Connection", "close")
+        self.end_headers()
+        seen = owner._latest_index()
+        try:
+            while not owner._stopping.is_set():
+                part = owner._next_part(seen)
+                if part is None:
+                    continue
+                seen, t_s, jpeg = part
+                head = (
+                    f"--{BOUNDARY}\r\nContent-Type: image/jpeg\r\n"
+                    f"Content-Length: {len(jpeg)}\r\nX-Timestamp: {t_s:.6f}\r\n\r\n"
+                ).encode("ascii")
+                self.wfile.write(head + jpeg + b"\r\n")
+                self.wfile.flush()
+        except (OSError, ValueError):  # the client went away (or the socket timed out)
+            return
+
+
+class _Server(ThreadingHTTPServer):
+    daemon_threads = True
+    allow_reuse_address = True
+    owner: MjpegServer
+
+
+class MjpegServer:
+    """Serve ``frame_source()`` images as an MJPEG HTTP stream at ``fps`` frames per second.
+
+    Parameters
+    ----------
+    frame_source : called with no argument once per frame, at the frame's capture
+        time; returns a grey (H, W) or BGR (H, W, 3) ``uint8`` image.
+    fps : frame rate [Hz] of the stream.
+    host, port : where to listen; the default port 0 picks a free port (see :attr:`url`).
+        Only loopback use is intended (the default ``127.0.0.1``).
+    quality : JPEG quality, 0–100.
+
+    Use as a context manager, or call :meth:`start` and :meth:`stop`. An exception
+    raised by ``frame_source`` stops the stream and is kept in :attr:`error`.
+    """
+
+    def __init__(
+        self,
+        frame_source: Callable[[], np.ndarray],
+        *,
+        fps: float,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        quality: int = 95,
+    ) -> None:
+        if not 0 < float(fps) <= 1000:
+            raise DeviceError(f"the stream's frame rate must be in (0, 1000] Hz, got {fps!r}")
+        if not 0 <= int(quality) <= 100:
+            raise DeviceError(f"JPEG quality must be 0..100, got {quality!r}")
+        self.frame_source = frame_source
+        self.fps = float(fps)
+        self.host = host
+        self.port = int(port)
+        self.quality = int(quality)
+        self.sent_timestamps: list[float] = []
+        """Capture time [s, time.monotonic] of every frame, in frame_source call order."""
+        self.error: BaseException | None = None
+        self._stopping = threading.Event()
+        self._cond = threading.Condition()
+        self._part: tuple[int, float, bytes] | None = None
+        self._server: _Server | None = None
+        self._threads: list[threading.Thread] = []
+
+    @property
+    def url(self) -> str:
+        """The stream's URL, ``http://host:port/stream`` (after :meth:`start`)."""
+        if self._server is None:
+            raise DeviceError("the MJPEG server is not running: call start() first")
+        host, port = self._server.server_address[:2]
+        return f"http://{host}:{port}{STREAM_PATH}"
+
+    @property
+    def frames_captured(self) -> int:
+        """How many frames the producer has captured so far."""
+        return len(self.sent_timestamps)
+
+    def start(self) -> MjpegServer:
+        """Bind the socket, start producing frames and serving clients; return ``self``."""
+        if self._server is not None:
+            return self
+        try:
+            server = _Server((self.host, self.port), _Handler)
+        except OSError as exc:
+            raise DeviceError(
+                f"cannot listen on {self.host}:{self.port}: {exc.strerror or exc}"
+            ) from None
+        server.owner = self
+        server.timeout = _WAIT_S
+        self._server = server
+        self._stopping.clear()
+        self._threads = [
+            threading.Thread(target=self._produce, name="mjpeg-producer", daemon=True),
+            threading.Thread(
+                target=server.serve_forever,
+                kwargs={"poll_interval": _WAIT_S},
+                name="mjpeg-server",
+                daemon=True,
+            ),
+        ]
+        for thread in self._threads:
+            thread.start()
+        return self
+
+    def stop(self) -> None:
+        """Stop producing, close every client connection and the listening socket."""
+        if self._server is None:
+            return
+        self._stopping.set()
+        with self._cond:
+            self._cond.notify_all()
+        self._server.shutdown()
+        for thread in self._threads:
+            thread.join(timeout=5.0)
+        self._server.server_close()
+        self._server = None
+        self._threads = []
+
+    def __enter__(self) -> MjpegServer:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    # --- producer -----------------------------------------------------------------------
+
+    def _produce(self) -> None:
+        import cv2
+
+        period = 1.0 / self.fps
+        due = time.monotonic()
+        params = [int(cv2.IMWRITE_JPEG_QUALITY), self.quality]
+        index = 0
+        while not self._stopping.is_set():
+            now = time.monotonic()
+            if now < due:
+                self._stopping.wait(min(due - now, _WAIT_S))
+                continue
+            if now > due + period:  # fell behind by more than a frame: skip, as a camera drops
+                due = now
+            t_s = time.monotonic()
+            try:
+                image = np.asarray(self.frame_source())
+                if image.dtype != np.uint8 or image.ndim not in (2, 3):
+                    raise DeviceError(
+                        f"frame_source must return a grey or BGR uint8 image, got "
+                        f"{image.dtype} of shape {image.shape}"
+                    )
+                ok, jpeg = cv2.imencode(".jpg", image, params)
+                if not ok:
+                    raise DeviceError("cv2.imencode could not encode the frame as JPEG")
+            except BaseException as exc:  # kept for the caller; the stream ends
+                self.error = exc
+                self._stopping.set()
+                with self._cond:
+                    self._cond.notify_all()
+                return
+            self.sent_timestamps.append(t_s)
+            with self._cond:
+                self._part = (index, t_s, jpeg.tobytes())
+                self._cond.notify_all()
+            index += 1
+            due += period
+
+    def _latest_index(self) -> int:
+        with self._cond:
+            return self._part[0] if self._part is not None else -1
+
+    def _next_part(self, seen: int) -> tuple[int, float, bytes] | None:
+        """The newest frame after index ``seen``, or ``None`` after a short wait without one."""
+        with self._cond:
+            if self._part is None or self._part[0] <= seen:
+                self._cond.wait(_WAIT_S)
+            if self._part is None or self._part[0] <= seen:
+                return None
+            return self._part
