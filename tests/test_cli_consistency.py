@@ -29,6 +29,18 @@ def _commands() -> dict:
     return typer.main.get_command(app).commands
 
 
+def _all_commands(command=None, path: tuple[str, ...] = ()) -> dict[tuple[str, ...], object]:
+    """Every command of the app by its path, e.g. ``("simulate", "trial")`` (groups walked)."""
+    command = typer.main.get_command(app) if command is None else command
+    subcommands = getattr(command, "commands", None)
+    if subcommands is None:
+        return {path: command}
+    found: dict[tuple[str, ...], object] = {}
+    for name, sub in subcommands.items():
+        found.update(_all_commands(sub, (*path, name)))
+    return found
+
+
 def _params(command: str) -> dict[str, object]:
     """The command's options by their long flag."""
     return {
@@ -152,17 +164,29 @@ def test_my_commands_exist_and_share_flags() -> None:
     commands = _commands()
     for name in MY_COMMANDS:
         assert name in commands, name
-        params = _params(name)
-        assert "--json" in params, name
-        if "--out" in params:
-            assert "-o" in params["--out"].opts, name
-        if "--jobs" in params:
-            assert "-j" in params["--jobs"].opts, name
-    assert "--dask" in _params("features") and "--sensor" in _params("features")
+        assert "--json" in _params(name), name
+    for name in ("features", "predict"):
+        assert {"--jobs", "--dask", "--sensor"} <= set(_params(name)), name
     assert "--sensor" in _params("extract")
 
 
-@pytest.mark.parametrize("command", ["extract", "features"])
+def test_every_out_and_jobs_has_its_short_flag() -> None:
+    """Every command of the app (groups too): ``--out``/``-o``, one shared ``--jobs``/``-j``."""
+    with_out, with_jobs = set(), {}
+    for path, command in _all_commands().items():
+        for param in command.params:
+            if "--out" in param.opts:
+                assert "-o" in param.opts, path
+                with_out.add(path)
+            if "--jobs" in param.opts:
+                assert "-j" in param.opts, path
+                with_jobs[path] = (tuple(param.opts), param.help)
+    assert {("train",), ("predict",), ("simulate", "trial"), ("reproduce",)} <= with_out
+    assert {("features",), ("predict",), ("simulate", "dataset"), ("demo",)} <= set(with_jobs)
+    assert len(set(with_jobs.values())) == 1, with_jobs  # declared once (options.Jobs)
+
+
+@pytest.mark.parametrize("command", ["extract", "features", "predict"])
 def test_fit_and_signal_options_are_declared_once(command: str) -> None:
     fit, other = _params("fit"), _params(command)
     for flag in FIT_OPTIONS:
@@ -400,3 +424,22 @@ def test_predict_json(tmp_path: Path, capsys) -> None:
     assert doc["rows"][0]["predicted_height_mm"] == pytest.approx(
         pd.read_csv(out)["predicted_height_mm"][0], rel=1e-9
     )
+
+
+def test_predict_extracts_a_dataset_with_the_features_options(fresh: Path, tmp_path, capsys):
+    """``predict DATASET`` takes ``-j``, ``--dask`` and the extraction and fit options."""
+    from benchmarks.synthetic_tables import PAPER_CONCENTRATIONS, PAPER_HEIGHTS_MM, sugar_table
+
+    train = tmp_path / "train.csv"
+    sugar_table(PAPER_HEIGHTS_MM[::2], PAPER_CONCENTRATIONS[::3], seed=3).to_csv(train, index=False)
+    model = tmp_path / "m.json"
+    assert main(["train", str(train), "-t", "height_mm", "-m", "quadratic", "-o", str(model)]) == 0
+    capsys.readouterr()
+    argv = ["predict", model, fresh, "-j", "1", "--markers", "8", "--model", "single-mode"]
+    status, stdout, _ = _run(capsys, *argv, "--json")
+    doc = json.loads(stdout)
+    assert status == 0 and doc["n_rows"] == 2 and doc["n_predicted"] == 2
+    assert all(row["n_markers"] == 8 and row["fast_decay_rate"] is None for row in doc["rows"])
+    assert not (fresh / "features.csv").exists()
+    status, _, err = _run(capsys, "predict", model, fresh, "--markers", "0")
+    assert status == 2 and "markers" in _one_error_line(err)

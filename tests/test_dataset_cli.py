@@ -225,7 +225,7 @@ def test_failed_manifest_write_rolls_the_trial_back(simulated, tmp_path, monkeyp
     def broken(*args, **kwargs):
         raise KeyboardInterrupt  # Ctrl-C (or a full disk) while the manifest is written
 
-    monkeypatch.setattr(recordings, "_write_manifest", broken)
+    monkeypatch.setattr(recordings, "append_manifest_row", broken)
     with pytest.raises(KeyboardInterrupt):
         add_trial(root, [directory / "left.mp4"], name="lost")
     assert _snapshot(root) == before

@@ -18,13 +18,9 @@ import pytest
 
 from liquidtouch.cli import main
 from liquidtouch.errors import DatasetError, TableError, VideoError
-from liquidtouch.io.importers import (
-    TRACKS_NAME,
-    read_marker_csv,
-    read_trial_tracks,
-    stored_tracks,
-    topic_sensor_names,
-)
+from liquidtouch.io.marker_csv import read_marker_csv
+from liquidtouch.io.rosbag import topic_sensor_names
+from liquidtouch.io.trial_tracks import TRACKS_NAME, read_trial_tracks, stored_tracks
 
 EPOCH_NS = 1_700_000_000_000_000_000
 
@@ -336,7 +332,7 @@ def test_bag_encodings_compressed_images_and_time_source(tmp_path: Path, ros1: b
     pytest.importorskip("rosbags")
     import cv2
 
-    from liquidtouch.io.importers import bag_image_topics, import_bag
+    from liquidtouch.io.rosbag import bag_image_topics, import_bag
 
     frames = [_dots(k) for k in range(4)]
     colour = [np.dstack([f, f // 2, 255 - f]) for f in frames]  # B, G, R planes differ
@@ -379,8 +375,8 @@ def test_bag_encodings_compressed_images_and_time_source(tmp_path: Path, ros1: b
 
 def test_bad_bags_are_refused(tmp_path: Path, capsys, monkeypatch) -> None:
     pytest.importorskip("rosbags")
-    from liquidtouch.io.importers import import_bag
     from liquidtouch.io.recordings import init_dataset
+    from liquidtouch.io.rosbag import import_bag
 
     stamps = [EPOCH_NS + k * 40_000_000 for k in range(3)]
     deep = [np.full((4, 5), 1000 * k, dtype=np.uint16) for k in range(3)]

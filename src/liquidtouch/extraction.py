@@ -3,9 +3,10 @@
 ``extract_signal(paths)`` gives the :class:`~liquidtouch.signal.TactileSignal`;
 ``extract(paths)`` also keeps the tracks and runs
 :func:`~liquidtouch.fit.oscillation.fit_oscillation` on the free decay
-(:class:`FitSettings`: the fit's options and where the fitted window starts, shared
-with the ``fit`` command); ``extract_trial(trial_dir)`` gives the feature row used by
-dataset feature tables.
+(:class:`~liquidtouch.fit_settings.FitSettings`: the fit's options and where the
+fitted window starts, shared with the ``fit`` command); ``extract_trial(trial_dir)``
+gives the feature row used by dataset feature tables. Its figure:
+:func:`~liquidtouch.extraction_plot.plot_extraction`.
 """
 
 from __future__ import annotations
@@ -15,133 +16,34 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from liquidtouch.errors import VideoError
+from liquidtouch.extraction_plot import plot_extraction
+from liquidtouch.fit_settings import AUTO, FitSettings, fit_window
 from liquidtouch.progress import progress_bar
 from liquidtouch.signal import TactileSignal, check_signal_options, tactile_signal
 from liquidtouch.tracking.detect import as_number
 from liquidtouch.tracking.tracks import MarkerTracks, track_markers
 
-if TYPE_CHECKING:
-    from matplotlib.axes import Axes
-    from matplotlib.figure import Figure
+__all__ = [
+    "AUTO",
+    "Extraction",
+    "FitSettings",
+    "check_consistent",
+    "extract",
+    "extract_signal",
+    "extract_trial",
+    "fit_window",
+    "plot_extraction",
+    "resolve_sources",
+    "select_sensors",
+    "track_sources",
+]
 
 PathLike = str | os.PathLike[str]
 RATE_TOLERANCE = 0.01  # relative frame-rate difference allowed between the videos of a trial
-AUTO = "auto"
-"""``FitSettings.start`` value: fit from the start of the free decay (:func:`free_decay`)."""
-
-
-@dataclass(frozen=True)
-class FitSettings:
-    """How a signal is fitted: the options of ``fit_oscillation`` and where the fit starts.
-
-    ``loss``, ``model``, ``band_hz`` [Hz] and ``noise`` are passed to
-    :func:`~liquidtouch.fit.oscillation.fit_oscillation`. ``start`` is ``"auto"``
-    (the free decay after the push: :func:`~liquidtouch.segment.free_decay`) or a
-    time [s] on the signal's clock: the samples from then on are fitted. The
-    defaults are what ``extract``, ``features`` and ``fit`` use. Raises
-    :class:`~liquidtouch.errors.SignalError` for a bad option.
-    """
-
-    loss: str = "paper"
-    model: str = "two-mode"
-    band_hz: tuple[float, float] = (0.3, 5.0)
-    noise: str = "white"
-    start: float | str = AUTO
-
-    def __post_init__(self) -> None:
-        from liquidtouch.errors import SignalError
-        from liquidtouch.fit.oscillation import LOSSES, MODELS, NOISE_MODELS
-
-        for name, value, choices in (
-            ("loss", self.loss, LOSSES),
-            ("model", self.model, MODELS),
-            ("noise", self.noise, NOISE_MODELS),
-        ):
-            if value not in choices:
-                raise SignalError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
-        try:
-            low, high = (as_number(v) for v in self.band_hz)
-        except (TypeError, ValueError):
-            raise SignalError(
-                f"band_hz must be a pair (low, high) in Hz, got {self.band_hz!r}"
-            ) from None
-        if not 0 < low < high < math.inf:
-            raise SignalError(
-                f"the frequency band must satisfy 0 < low < high in Hz, got {low:g}–{high:g} Hz"
-            )
-        object.__setattr__(self, "band_hz", (float(low), float(high)))
-        if self.start != AUTO:
-            start = as_number(self.start)
-            if not -math.inf < start < math.inf:
-                raise SignalError(
-                    f"the fit start must be 'auto' or a time in seconds, got {self.start!r}"
-                )
-            object.__setattr__(self, "start", float(start))
-
-    def to_dict(self) -> dict[str, object]:
-        """JSON-ready: ``loss``, ``model``, ``band_hz`` [low, high], ``noise``, ``start``."""
-        return {
-            "loss": self.loss,
-            "model": self.model,
-            "band_hz": list(self.band_hz),
-            "noise": self.noise,
-            "start": self.start,
-        }
-
-    def window(self, t: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The samples to fit: from ``start`` on (see :func:`fit_window`)."""
-        return fit_window(t, u, self.start)
-
-    def fit_options(self) -> dict[str, object]:
-        """Keyword arguments of ``fit_oscillation``: ``loss``, ``model``, ``band_hz``, ``noise``."""
-        return {
-            "loss": self.loss,
-            "model": self.model,
-            "band_hz": self.band_hz,
-            "noise": self.noise,
-        }
-
-    def fit(self, t: np.ndarray, u: np.ndarray) -> object:
-        """:func:`~liquidtouch.fit.oscillation.fit_oscillation` of :meth:`window` of ``(t, u)``."""
-        from liquidtouch.fit.oscillation import fit_oscillation
-
-        return fit_oscillation(*self.window(t, u), **self.fit_options())
-
-
-def fit_window(
-    t: np.ndarray, u: np.ndarray, start: float | str = AUTO
-) -> tuple[np.ndarray, np.ndarray]:
-    """``(t, u)`` from ``start`` on; time stays absolute [s].
-
-    The whole signal is first checked as a fit input (finite, strictly increasing
-    time, long enough, not flat, at most ``MAX_SAMPLES``), so a bad signal is named
-    for what it is. ``start="auto"``: the free decay
-    (:func:`~liquidtouch.segment.free_decay`, what ``extract`` fits); a number: the
-    samples at ``t >= start`` (before the first sample: all of them), at least
-    ``MIN_DURATION_S`` of them.
-    """
-    from liquidtouch.errors import SignalError
-    from liquidtouch.fit.oscillation import MIN_DURATION_S, _validate
-    from liquidtouch.segment import free_decay
-
-    t, u = _validate(t, u)
-    if start == AUTO:
-        return free_decay(t, u)
-    start = as_number(start)
-    if not -math.inf < start < math.inf:
-        raise SignalError(f"the fit start must be 'auto' or a time in seconds, got {start!r}")
-    if t[-1] - max(start, t[0]) < MIN_DURATION_S:
-        raise SignalError(
-            f"the fit start {start:g} s leaves {max(t[-1] - start, 0.0):.3g} s of the signal "
-            f"({t[0]:.3g}–{t[-1]:.3g} s); the fit needs at least {MIN_DURATION_S:g} s"
-        )
-    keep = t >= start
-    return t[keep], u[keep]
 
 
 @dataclass
@@ -310,7 +212,7 @@ def extract(
     settings = FitSettings() if fit_settings is None else fit_settings
     if not isinstance(settings, FitSettings):
         raise TypeError(f"fit_settings must be a FitSettings, got {type(settings).__name__}")
-    from liquidtouch.io.importers import stored_tracks
+    from liquidtouch.io.trial_tracks import stored_tracks
 
     tracks = stored_tracks(paths, sensors)  # a trial of imported marker tracks: no videos
     if tracks is None:
@@ -351,75 +253,3 @@ def extract_trial(
         fit_settings=fit_settings,
         sensors=sensors,
     ).to_dict()
-
-
-def plot_extraction(
-    extraction: Extraction, path: PathLike | None = None, *, axes: object = None
-) -> Figure:
-    """First frames with markers (chosen ones highlighted), marker motions, u(t) and fit.
-
-    ``axes``: one Axes (u(t) and fit only) or a 2 × ``max(2, sensors)`` grid of
-    Axes (first row: each sensor's first frame; second row: the motions, then
-    u(t)); by default a new :class:`~matplotlib.figure.Figure` (built without
-    pyplot: no backend is selected). ``path``: also save the figure there,
-    atomically (format from the suffix, PNG without one). Returns the figure.
-    """
-    from liquidtouch.fit.plot import as_axes_list
-    from liquidtouch.io.figures import save_figure
-
-    tracks, signal = extraction.tracks, extraction.signal
-    columns = max(2, len(tracks))
-    if axes is None:
-        from matplotlib.figure import Figure
-
-        fig = Figure(figsize=(5 * columns, 8))
-        panels = list(fig.subplots(2, columns, squeeze=False).ravel())
-    else:
-        panels = as_axes_list(axes, (1, 2 * columns), "plot_extraction")
-        fig = panels[0].figure
-    if len(panels) > 1:
-        for ax, tr in zip(panels[:columns], tracks, strict=False):
-            _draw_markers(ax, tr, signal)
-        _draw_motion(panels[columns], signal)
-    _draw_signal(panels[columns + 1] if len(panels) > 1 else panels[0], extraction)
-    if axes is None:
-        fig.tight_layout()
-    if path is not None:
-        save_figure(fig, path, dpi=90)
-    return fig
-
-
-def _draw_markers(ax: Axes, tr: MarkerTracks, signal: TactileSignal) -> None:
-    if tr.first_frame is not None:
-        ax.imshow(tr.first_frame, cmap="gray")
-    ax.plot(*tr.reference.T, "o", mfc="none", mec="tab:blue", ms=6, label="markers")
-    chosen = [i for name, i in signal.markers if name == tr.sensor]
-    ax.plot(*tr.reference[chosen].T, "o", color="tab:red", ms=6, label="chosen")
-    ax.set_title(f"{tr.sensor}: {tr.n_markers} markers, {len(chosen)} chosen")
-    ax.legend(loc="upper right", fontsize=8)
-
-
-def _draw_motion(ax: Axes, signal: TactileSignal) -> None:
-    for k in range(signal.n_markers):
-        ax.plot(signal.t, signal.motion[:, k, 0], lw=0.8, color="tab:blue", alpha=0.6)
-        ax.plot(signal.t, signal.motion[:, k, 1], lw=0.8, color="tab:orange", alpha=0.6)
-    ax.set(xlabel="t [s]", ylabel="displacement [px] (x blue, y orange)")
-    ax.set_title(f"filtered motion of the {signal.n_markers} chosen markers")
-
-
-def _draw_signal(ax: Axes, extraction: Extraction) -> None:
-    """u(t); the fit drawn only over the window it was fitted to (shaded), not through the push."""
-    signal = extraction.signal
-    ax.plot(signal.t, signal.u, color="k", lw=1, label="u(t)")
-    if extraction.fit is not None:
-        fit = extraction.fit
-        start, end = fit.t0, fit.t0 + fit.duration_s
-        ax.axvspan(start, end, color="tab:red", alpha=0.08, lw=0, label="fitted window")
-        inside = (signal.t >= start) & (signal.t <= end)
-        ax.plot(signal.t[inside], fit.curve(signal.t[inside]), color="tab:red", lw=1, label="fit")
-        ax.set_title(
-            f"λ = {fit.decay_rate:.3g} 1/s, ω = {fit.angular_frequency:.3g} rad/s, "
-            f"EV = {signal.explained_variance:.1%}"
-        )
-    ax.set(xlabel="t [s]", ylabel="u [px]")
-    ax.legend(fontsize=8)

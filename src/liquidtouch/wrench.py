@@ -3,23 +3,35 @@
 The paper compares GelSight with a wrist F/T sensor (its noise is far larger
 than the slosh force). We treat the wrist signal exactly like the markers:
 zero-phase low-pass, then the first principal component of the force
-channels, resampled to the camera's rate, then :func:`fit_oscillation`.
+channels, resampled to the camera's rate (:data:`WRENCH_FPS`), then the
+oscillation fit (:class:`~liquidtouch.fit_settings.FitSettings`).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from liquidtouch.errors import SignalError
 from liquidtouch.io.dataset import WRENCH_NAME, read_wrench_csv
 
+if TYPE_CHECKING:
+    from liquidtouch.fit_settings import FitSettings
+
+WRENCH_FPS = 30.0
+"""The clock the wrist signal is resampled to [Hz] (the cameras' frame rate)."""
+
 
 def wrench_signal(
-    t_s: np.ndarray, force_n: np.ndarray, *, lowpass_hz: float = 3.0, fps: float = 30.0
+    t_s: np.ndarray, force_n: np.ndarray, *, lowpass_hz: float = 3.0, fps: float = WRENCH_FPS
 ) -> tuple[np.ndarray, np.ndarray, float]:
-    """``(t, u, explained variance)`` of the wrist forces, on a uniform ``fps`` clock."""
+    """``(t [s], u [N], explained variance)`` of the wrist forces, on a uniform ``fps`` clock.
+
+    ``t_s`` (n,) [s] and ``force_n`` (n, 3) [N] are the wrist samples; ``lowpass_hz``
+    [Hz] is the zero-phase low-pass cut-off applied before the principal component.
+    """
     from liquidtouch.signal import first_component, lowpass
 
     rate = 1.0 / float(np.median(np.diff(t_s)))
@@ -32,13 +44,20 @@ def wrench_signal(
     return t_uniform, u, explained
 
 
-def wrench_features(trial_dir: str | Path) -> dict[str, float]:
-    """Feature row of a trial's wrist F/T signal (the same keys as the GelSight features)."""
-    from liquidtouch.fit.oscillation import fit_oscillation
-    from liquidtouch.segment import free_decay
+def wrench_features(
+    trial_dir: str | Path, *, lowpass_hz: float = 3.0, fit_settings: FitSettings | None = None
+) -> dict[str, float]:
+    """Feature row of a trial's wrist F/T signal (the same keys as the GelSight features).
 
+    ``lowpass_hz`` [Hz]: the low-pass of the wrist forces (:func:`wrench_signal`);
+    ``fit_settings``: how the signal is fitted (default
+    :class:`~liquidtouch.fit_settings.FitSettings`: the free decay, the paper's fit).
+    """
+    from liquidtouch.fit_settings import FitSettings
+
+    fit = FitSettings() if fit_settings is None else fit_settings
     t_s, force_n = read_wrench_csv(Path(trial_dir) / WRENCH_NAME)
-    t, u, explained = wrench_signal(t_s, force_n)
-    row = dict(fit_oscillation(*free_decay(t, u)).to_dict())
-    row.update(explained_variance=explained, n_markers=0, fps=30.0, frames=len(t))
+    t, u, explained = wrench_signal(t_s, force_n, lowpass_hz=lowpass_hz, fps=WRENCH_FPS)
+    row = dict(fit.fit(t, u).to_dict())
+    row.update(explained_variance=explained, n_markers=0, fps=WRENCH_FPS, frames=len(t))
     return row

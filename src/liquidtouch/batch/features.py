@@ -55,7 +55,6 @@ FEATURE_ROW_COLUMNS = (
 #: settings of the run (compact JSON, :func:`feature_settings`).
 PROVENANCE_COLUMNS = ("liquidtouch_version", "extraction_settings")
 CACHE_DIR = Path(".cache") / "features"
-WRENCH_FPS = 30.0  # the wrist signal's clock (liquidtouch.wrench.wrench_signal's default)
 
 
 def feature_settings(
@@ -69,10 +68,10 @@ def feature_settings(
     """Every setting the features of ``source`` depend on, JSON-ready (validated).
 
     ``gelsight``: ``lowpass_hz``, ``n_markers``, ``sensors`` (None: all) and ``fit``
-    (:meth:`~liquidtouch.extraction.FitSettings.to_dict`); ``wrench``: ``lowpass_hz``
+    (:meth:`~liquidtouch.fit_settings.FitSettings.to_dict`); ``wrench``: ``lowpass_hz``
     (a number: the wrist forces are always low-passed) and ``fit``.
     """
-    from liquidtouch.extraction import FitSettings
+    from liquidtouch.fit_settings import FitSettings
     from liquidtouch.signal import check_signal_options
 
     if source not in SOURCES:
@@ -99,7 +98,7 @@ def feature_settings(
 
 
 def _fit_settings(settings: dict[str, object]):
-    from liquidtouch.extraction import FitSettings
+    from liquidtouch.fit_settings import FitSettings
 
     fit = dict(settings["fit"])
     return FitSettings(**{**fit, "band_hz": tuple(fit["band_hz"])})
@@ -118,17 +117,9 @@ def trial_features(
     chosen = feature_settings(source, **settings)
     fit = _fit_settings(chosen)
     if source == "wrench":
-        from liquidtouch.io.dataset import read_wrench_csv
-        from liquidtouch.wrench import wrench_signal
+        from liquidtouch.wrench import wrench_features
 
-        # as liquidtouch.wrench.wrench_features, with the run's low-pass and fit settings
-        t_s, force_n = read_wrench_csv(Path(trial_dir) / WRENCH_NAME)
-        t, u, explained = wrench_signal(
-            t_s, force_n, lowpass_hz=chosen["lowpass_hz"], fps=WRENCH_FPS
-        )
-        row = dict(fit.fit(t, u).to_dict())
-        row.update(explained_variance=explained, n_markers=0, fps=WRENCH_FPS, frames=len(t))
-        return row
+        return wrench_features(trial_dir, lowpass_hz=chosen["lowpass_hz"], fit_settings=fit)
     return extract_trial(
         trial_dir,
         lowpass_hz=chosen["lowpass_hz"],
@@ -226,7 +217,7 @@ def extract_features(
     filled). ``on_trial(trial, result)`` is called as each trial is computed (not
     for trials read from the cache; used by tests and progress reports).
     ``lowpass_hz``, ``n_markers``, ``sensors`` and ``fit_settings``
-    (:class:`~liquidtouch.extraction.FitSettings`) are the extraction and fit
+    (:class:`~liquidtouch.fit_settings.FitSettings`) are the extraction and fit
     settings (:func:`feature_settings`); they are checked before any work, and a
     trial cached under other settings is recomputed.
     """

@@ -21,7 +21,7 @@ except ImportError:  # pragma: no cover - older typer uses click itself
     from click import exceptions as click_exc
 
 from liquidtouch import __version__
-from liquidtouch.cli import dataset, experiments, extract, fit, models, simulate
+from liquidtouch.cli import dataset, experiments, extract, fit, models, record, rig, simulate
 from liquidtouch.cli.paths import guard_output_paths
 from liquidtouch.errors import LiquidTouchError
 
@@ -53,7 +53,7 @@ def _main(
     """liquidtouch: liquid properties from dynamic tactile sensing."""
 
 
-for _module in (fit, simulate, extract, models, experiments, dataset):
+for _module in (fit, simulate, extract, models, experiments, dataset, record, rig):
     _module.register(app)
 
 

@@ -3,7 +3,8 @@
 ``dataset init DIR`` makes an empty dataset; ``dataset add DIR ...`` adds one trial
 (videos or image folders, GelSight marker CSVs, or the image topics of a ROS bag)
 with its labels, a validated ``meta.json`` and its row in ``manifest.csv``. The
-work is done by :mod:`liquidtouch.io.recordings` and :mod:`liquidtouch.io.importers`.
+work is done by :mod:`liquidtouch.io.recordings` (importers:
+:mod:`liquidtouch.io.marker_csv`, :mod:`liquidtouch.io.rosbag`).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ dataset_app = typer.Typer(
 
 
 class TimeSourceChoice(StrEnum):
-    """``dataset add --time-source`` (``io.importers.TIME_SOURCES``)."""
+    """``dataset add --time-source`` (``io.rosbag.TIME_SOURCES``)."""
 
     header = "header"
     bag = "bag"
@@ -135,6 +136,7 @@ def add_command(
     it, and renamed into place; the manifest is then rewritten atomically. A
     failure leaves the dataset as it was.
     """
+    from liquidtouch.cli.format import warn
     from liquidtouch.io.recordings import add_trial, parse_label_options
     from liquidtouch.progress import on_terminal
 
@@ -154,7 +156,7 @@ def add_command(
         progress=not as_json and on_terminal(),
     )
     for warning in added.warnings:
-        typer.echo(f"warning: {warning}", err=True)
+        warn(warning)
     if as_json:
         typer.echo(json.dumps(added.to_dict()))
         return

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import typer
 
+from liquidtouch.cli import options
+
 DEFAULT_JOBS = max(1, min(2, os.cpu_count() or 1))
 
 
@@ -112,7 +114,9 @@ def register(app: typer.Typer) -> None:
 
     @app.command()
     def reproduce(
-        out: Path = typer.Option(Path("reports/reproduction"), "--out", help="Report directory."),
+        out: Path = typer.Option(
+            Path("reports/reproduction"), *options.OUT, help="Report directory."
+        ),
         data: Path | None = typer.Option(None, "--data", file_okay=False, help=_DATA_HELP),
         quick: bool = typer.Option(
             False, "--quick", help="Reduced datasets: a few minutes on 2 cores."
@@ -120,8 +124,8 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(
             0, "--seed", min=0, help="Base seed of the simulated trials and the random draws."
         ),
-        jobs: int = typer.Option(DEFAULT_JOBS, "--jobs", "-j", help="Worker processes."),
-        dask: str | None = typer.Option(None, "--dask", help="Dask scheduler address."),
+        jobs: options.Jobs = DEFAULT_JOBS,
+        dask: options.Dask = None,
         as_json: bool = typer.Option(False, "--json", help=_JSON_HELP),
     ) -> None:
         """Run every experiment of the paper on simulated trials; write report.md / report.html."""
@@ -137,9 +141,9 @@ def register(app: typer.Typer) -> None:
 
     @app.command()
     def demo(
-        out: Path = typer.Option(Path("demo-report"), "--out", help="Report directory."),
+        out: Path = typer.Option(Path("demo-report"), *options.OUT, help="Report directory."),
         data: Path | None = typer.Option(None, "--data", file_okay=False, help=_DATA_HELP),
-        jobs: int = typer.Option(DEFAULT_JOBS, "--jobs", "-j", help="Worker processes."),
+        jobs: options.Jobs = DEFAULT_JOBS,
         as_json: bool = typer.Option(False, "--json", help=_JSON_HELP),
     ) -> None:
         """The quick reproduction: simulate, extract from videos, fit, model, report."""

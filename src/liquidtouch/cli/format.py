@@ -7,7 +7,8 @@
   readable range (``0.01235``, ``12346``), else scientific;
 - :func:`fixed`: a fixed number of decimals (R² to 4: ``0.9990``);
 - :func:`fit_table`: the slow/fast-mode table of an oscillation fit, units in
-  the headers (escaped: rich would read ``[rad/s]`` as markup).
+  the headers (escaped: rich would read ``[rad/s]`` as markup);
+- :func:`warn`: a ``warning: ...`` line on stderr (stdout stays the result).
 
 A missing value (None, NaN) prints as ``—``.
 """
@@ -125,3 +126,10 @@ def fit_quality(result: object) -> str:
         f"R² = {fixed(result.r2)}   noise σ = {number(result.noise_std, 3)}   "
         f"{result.n_samples} samples from {number(start, 3)} s to {number(end, 3)} s"
     )
+
+
+def warn(message: str) -> None:
+    """Print ``warning: message`` on stderr."""
+    import typer
+
+    typer.echo(f"warning: {message}", err=True)

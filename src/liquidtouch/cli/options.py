@@ -1,11 +1,11 @@
 """Options shared by several commands, declared once: flag names, help, choices, defaults.
 
 A command takes e.g. ``loss: options.Loss = options.DEFAULT_LOSS``: the flags and
-the help text live here only, so ``fit``, ``extract`` and ``features`` offer the
-same fit options, and every ``--out``/``--jobs`` has the same short flag. Choices
-are enums, so ``--help`` lists them and typer refuses anything else. Nothing heavy
-is imported (``--help`` stays fast); the choice lists and defaults equal the
-library's (``tests/test_cli_consistency.py`` checks).
+the help text live here only, so ``fit``, ``extract``, ``features`` and
+``predict`` offer the same fit options, and every ``--out``/``--jobs`` has the
+same short flag. Choices are enums, so ``--help`` lists them and typer refuses
+anything else. Nothing heavy is imported (``--help`` stays fast); the choice
+lists and defaults equal the library's (``tests/test_cli_consistency.py`` checks).
 
 Units in help texts are written in words or upper-case brackets ("[Hz]"): rich reads
 a lower-case bracket such as "[rad/s]" as markup and drops it.
@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 if TYPE_CHECKING:
-    from liquidtouch.extraction import FitSettings
+    from liquidtouch.fit_settings import FitSettings
 
 OUT = ("--out", "-o")
 """The flags of every output-file option (``typer.Option(*OUT, help=...)``)."""
@@ -217,11 +217,11 @@ def fit_settings(
     noise: str,
     start: str | float | None,
 ) -> FitSettings:
-    """The :class:`~liquidtouch.extraction.FitSettings` of the fit options (SignalError if bad).
+    """The :class:`~liquidtouch.fit_settings.FitSettings` of the fit options (SignalError if bad).
 
     ``start`` None (not given) is ``auto``.
     """
-    from liquidtouch.extraction import FitSettings
+    from liquidtouch.fit_settings import FitSettings
 
     start = parse_start(start)
     return FitSettings(

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import typer
 
+from liquidtouch.cli import options
+
 simulate_app = typer.Typer(
     help="Simulate sloshing trials (loads, wrist wrench, GelSight videos) and whole datasets.",
     no_args_is_help=True,
@@ -24,7 +26,7 @@ def trial_command(
     ),
     out: Path = typer.Option(
         ...,
-        "--out",
+        *options.OUT,
         file_okay=False,
         help="Trial directory to write: new, empty, or an existing trial (replaced as a whole).",
     ),
@@ -90,9 +92,9 @@ def trial_command(
 def dataset_command(
     preset: str = typer.Option(..., "--preset", help="Preset name (see 'simulate presets')."),
     out: Path = typer.Option(
-        ..., "--out", file_okay=False, help="Dataset directory to write (created if needed)."
+        ..., *options.OUT, file_okay=False, help="Dataset directory to write (created if needed)."
     ),
-    jobs: int = typer.Option(1, "--jobs", min=1, help="Worker processes."),
+    jobs: options.Jobs = 1,
     quick: bool = typer.Option(False, "--quick", help="A small deterministic subset."),
     video: bool = typer.Option(True, "--video/--no-video", help="Render GelSight videos."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object on stdout."),

@@ -17,7 +17,7 @@ from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.utils.validation import check_is_fitted
 
 from liquidtouch.errors import ModelFileError, TableError
-from liquidtouch.models.regressors import check_kernel_rows, single_threaded_blas
+from liquidtouch.models.kernel_limits import check_kernel_rows, single_threaded_blas
 from liquidtouch.models.validation import check_positive, mean_and_scale, validate_X, validate_X_y
 
 MIN_ROWS_PER_CLASS = 3
@@ -35,7 +35,7 @@ class LiquidClassifier(ClassifierMixin, BaseEstimator):
     default to ``None``: choose them by stratified cross-validated accuracy on
     :data:`C_GRID` × :data:`GAMMA_GRID`. Needs at least 2 classes and
     :data:`MIN_ROWS_PER_CLASS` rows of each, and at most
-    :data:`~liquidtouch.models.regressors.MAX_KERNEL_ROWS` rows. Class labels keep their type
+    :data:`~liquidtouch.models.kernel_limits.MAX_KERNEL_ROWS` rows. Class labels keep their type
     (model files store them as strings; ``train_classifier`` converts them).
 
     Fitted attributes: ``classes_``, ``C_``, ``gamma_`` (the values used),

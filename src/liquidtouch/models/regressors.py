@@ -20,7 +20,8 @@ target; ``sklearn.multioutput.MultiOutputRegressor`` does the same and returns (
 
 - :class:`GPRegressor` — Gaussian-process regression with an anisotropic RBF +
   white-noise kernel on standardised inputs and targets (the paper's model).
-- :class:`QuadraticRegressor` — the paper's 6-parameter quadratic in (λ, ω).
+- :class:`~liquidtouch.models.quadratic.QuadraticRegressor` — the paper's
+  6-parameter quadratic in (λ, ω) (:mod:`liquidtouch.models.quadratic`).
 
 Every fitted estimator can be written as a plain dict (``to_state``) holding
 its hyperparameters and training data, and rebuilt exactly from it
@@ -32,7 +33,6 @@ from __future__ import annotations
 
 import numbers
 import warnings
-from itertools import combinations_with_replacement
 from typing import Any
 
 import numpy as np
@@ -40,13 +40,32 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from liquidtouch.errors import ModelFileError, TableError
-from liquidtouch.models.validation import (
-    check_int,
-    mean_and_scale,
-    require_rows,
-    validate_X,
-    validate_X_y,
+from liquidtouch.models.kernel_limits import (
+    MAX_KERNEL_ROWS,
+    MAX_KERNEL_ROWS_TOTAL,
+    check_kernel_rows,
+    single_threaded_blas,
 )
+from liquidtouch.models.quadratic import (
+    MIN_ROWS_QUADRATIC,
+    QuadraticRegressor,
+    n_quadratic_terms,
+)
+from liquidtouch.models.validation import check_int, mean_and_scale, validate_X, validate_X_y
+
+__all__ = [
+    "LENGTH_SCALE_BOUNDS",
+    "MAX_KERNEL_ROWS",
+    "MAX_KERNEL_ROWS_TOTAL",
+    "MIN_ROWS_GPR",
+    "MIN_ROWS_QUADRATIC",
+    "PREDICT_CHUNK_ROWS",
+    "GPRegressor",
+    "QuadraticRegressor",
+    "check_kernel_rows",
+    "n_quadratic_terms",
+    "single_threaded_blas",
+]
 
 MIN_ROWS_GPR = 5
 # RBF length scales in standardised input units. Labels are usually set on a grid
@@ -54,42 +73,8 @@ MIN_ROWS_GPR = 5
 # fit a staircase through the grid levels with zero noise — a higher likelihood
 # but a worse interpolant (3 mm vs 0.2 mm test MAE on the sugar benchmark).
 LENGTH_SCALE_BOUNDS = (0.3, 100.0)
-MIN_ROWS_QUADRATIC = 7  # (λ, ω): six coefficients plus one degree of freedom for the noise
-# A kernel model (GP, SVM) is refit on its stored training rows whenever a model file is
-# loaded: O(n³) time, O(n²) memory. Measured (2 cores, BLAS single-threaded, peak RSS
-# above the 150 MB of the imports): one GP refit takes 0.13 s and +40 MB at 1000 rows,
-# 0.6-1.3 s and +145 MB at 2000, 2.6 s and +225 MB at 3000, 9.6 s and +600 MB at 5000
-# (20 000 rows: 136 s and 9.6 GB); the SVM refit with random labels (every row a support
-# vector, the worst case) 0.4 s at 1000 rows, 2.4 s at 2000, 11 s at 5000.
-#: Most training rows of one kernel model (GP regressor or SVM classifier).
-MAX_KERNEL_ROWS = 2000
-#: Most kernel-model training rows of one model file, summed over its targets.
-MAX_KERNEL_ROWS_TOTAL = 4000
 #: Rows predicted at once by a GP (bounds the (rows × training rows) cross-kernel matrix).
 PREDICT_CHUNK_ROWS = 2048
-
-
-def check_kernel_rows(estimator: Any, n_rows: int) -> None:
-    """:class:`TableError` if a kernel model would have more than :data:`MAX_KERNEL_ROWS` rows."""
-    if n_rows > MAX_KERNEL_ROWS:
-        raise TableError(
-            f"{type(estimator).__name__}: {n_rows} training rows, but a kernel model (GP, SVM) "
-            f"is limited to {MAX_KERNEL_ROWS} rows (a model file refits it on loading, which "
-            "takes O(n³) time and O(n²) memory); subsample the training table, or use the "
-            "quadratic model (--model quadratic)"
-        )
-
-
-def single_threaded_blas() -> Any:
-    """Context limiting BLAS to one thread.
-
-    Our matrices are small (a few hundred rows): BLAS threads only add
-    synchronisation, and on a loaded machine spinning threads made a GP fit
-    10× slower (16 s instead of 1.6 s for 150 points).
-    """
-    from threadpoolctl import threadpool_limits
-
-    return threadpool_limits(limits=1, user_api="blas")
 
 
 def _check_random_state(value: Any) -> None:
@@ -278,91 +263,4 @@ class GPRegressor(RegressorMixin, BaseEstimator):
         k = state["kernel"]
         kernel = self._kernel(k["constant"], k["length_scale"], k["noise_level"], fixed=True)
         self._fit_gp(kernel, optimise=False)
-        return self
-
-
-def n_quadratic_terms(n_features: int) -> int:
-    """Coefficients of a full quadratic in ``n_features`` variables (6 for (λ, ω))."""
-    return (n_features + 1) * (n_features + 2) // 2
-
-
-class QuadraticRegressor(RegressorMixin, BaseEstimator):
-    """The paper's 6-parameter model ``y = a0 + a1 λ + a2 ω + a3 λ² + a4 λω + a5 ω²``.
-
-    Least squares on standardised (λ, ω) for conditioning; the predictive
-    standard deviation is the ordinary-least-squares one,
-    ``s · sqrt(1 + φᵀ (ΦᵀΦ)⁻¹ φ)``. With d features the model is the full
-    quadratic in d variables; fitting needs one row more than coefficients
-    (:data:`MIN_ROWS_QUADRATIC` = 7 for (λ, ω)). No hyperparameters.
-
-    Fitted attributes: ``coef_``, ``noise_variance_``, ``covariance_``,
-    ``X_train_``, ``y_train_``, ``x_mean_``, ``x_scale_``, ``n_features_in_``.
-    """
-
-    model_name = "quadratic"
-
-    @staticmethod
-    def _design(Z: np.ndarray) -> np.ndarray:
-        d = Z.shape[1]
-        linear = [Z[:, i] for i in range(d)]
-        pairs = [Z[:, i] * Z[:, j] for i, j in combinations_with_replacement(range(d), 2)]
-        return np.column_stack([np.ones_like(Z[:, 0]), *linear, *pairs])
-
-    def fit(self, X: Any, y: Any) -> QuadraticRegressor:
-        """Least-squares fit on (n, d) features ``X`` and one target ``y`` (n,); return ``self``."""
-        X, y = validate_X_y(self, X, y)
-        require_rows(self, X.shape[0], n_quadratic_terms(X.shape[1]) + 1)
-        self.X_train_, self.y_train_ = X, y
-        self.x_mean_, self.x_scale_ = mean_and_scale(self.X_train_)
-        design = self._design((self.X_train_ - self.x_mean_) / self.x_scale_)
-        self.coef_, *_ = np.linalg.lstsq(design, self.y_train_, rcond=None)
-        residual = self.y_train_ - design @ self.coef_
-        dof = max(design.shape[0] - design.shape[1], 1)
-        self.noise_variance_ = float(residual @ residual / dof)
-        self.covariance_ = np.linalg.pinv(design.T @ design)
-        return self
-
-    def predict(self, X: Any, return_std: bool = False) -> Any:
-        """Predicted target at ``X``, shape (n,); with ``return_std=True`` also its OLS std."""
-        check_is_fitted(self, "coef_")
-        design = self._design((validate_X(self, X) - self.x_mean_) / self.x_scale_)
-        mean = design @ self.coef_
-        if not return_std:
-            return mean
-        leverage = np.einsum("ij,jk,ik->i", design, self.covariance_, design)
-        return mean, np.sqrt(self.noise_variance_ * (1.0 + leverage))
-
-    def describe(self) -> str:
-        """The fitted coefficients (on standardised features)."""
-        check_is_fitted(self, "coef_")
-        d = self.n_features_in_
-        if d == 2:
-            names = ("1", "λ", "ω", "λ²", "λω", "ω²")
-            where = "standardised (λ, ω)"
-        else:
-            pairs = combinations_with_replacement(range(d), 2)
-            names = ("1", *(f"x{i}" for i in range(d)), *(f"x{i}·x{j}" for i, j in pairs))
-            where = f"{d} standardised features"
-        terms = " ".join(f"{c:+.4g}·{n}" for c, n in zip(self.coef_, names, strict=True))
-        return f"quadratic in {where}: {terms}"
-
-    def to_state(self) -> dict[str, Any]:
-        """Plain-data state: training data (the fit is deterministic) and the coefficients."""
-        check_is_fitted(self, "coef_")
-        return {
-            "model": self.model_name,
-            "coef": self.coef_.tolist(),
-            "X_train": self.X_train_.tolist(),
-            "y_train": self.y_train_.tolist(),
-        }
-
-    @classmethod
-    def from_state(cls, state: dict[str, Any]) -> QuadraticRegressor:
-        """Rebuild by refitting on the stored data; the stored coefficients must agree."""
-        self = cls().fit(state["X_train"], state["y_train"])
-        if not np.allclose(self.coef_, state["coef"], rtol=1e-9, atol=1e-12):
-            raise ModelFileError(
-                "the quadratic model's stored coefficients do not match its training data "
-                "(the model file was edited or is corrupt); retrain it"
-            )
         return self

@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 
 from liquidtouch.errors import TableError
+from liquidtouch.models.kernel_limits import single_threaded_blas
 from liquidtouch.models.property_model import FeatureMap, PropertyModel
-from liquidtouch.models.regressors import single_threaded_blas
 from liquidtouch.models.validation import check_features, check_positive
 
 MIN_TUNE_ROWS = 4  # four parameters (α1, α2, β1, β2)

@@ -11,7 +11,8 @@ calibration are described in :mod:`liquidtouch.sim.variability`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields, replace
 from functools import partial
 
 import numpy as np
@@ -69,6 +70,25 @@ def check_seed(seed: object) -> int:
     return int(seed)
 
 
+def _replace_parameters(params: TrialParameters, values: Mapping[str, float]) -> TrialParameters:
+    """``params`` with the scalar fields in ``values`` replaced; raise if one is bad."""
+    scalars = {
+        f.name for f in fields(TrialParameters) if isinstance(getattr(params, f.name), float)
+    }
+    for name, value in values.items():
+        if name not in scalars:
+            raise LiquidTouchError(
+                f"unknown trial parameter {name!r}; use one of: {', '.join(sorted(scalars))}"
+            )
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise LiquidTouchError(f"trial parameter {name} must be a number, got {value!r}")
+        if not math.isfinite(value):
+            raise LiquidTouchError(f"trial parameter {name} must be finite, got {value!r}")
+    if values.get("push_duration_s", params.push_duration_s) <= 0:
+        raise LiquidTouchError("trial parameter push_duration_s must be positive")
+    return replace(params, **{name: float(v) for name, v in values.items()})
+
+
 @dataclass(frozen=True)
 class SimulatedTrial:
     """A simulated trial: loads on the fingers, wrist wrench, labels and ground truth."""
@@ -113,6 +133,7 @@ def simulate_trial(
     duration_s: float = DURATION_S,
     sample_rate_hz: float = SAMPLE_RATE_HZ,
     variability: Variability | None = None,
+    parameters: Mapping[str, float] | None = None,
 ) -> SimulatedTrial:
     """Simulate one trial: lift, lateral push, hold; return loads, wrench and ground truth.
 
@@ -125,7 +146,10 @@ def simulate_trial(
     ``true_angular_frequency`` [rad/s] are the small-amplitude slow mode of the
     coupled liquid-container-grasp system (eigenvalue of the linearised model).
     ``variability`` sets the calibrated spreads and noise (default
-    :class:`Variability`).
+    :class:`Variability`). ``parameters`` replaces drawn :class:`TrialParameters`
+    fields by name after the draw (the random stream is unchanged, so everything
+    else stays as the seed made it), e.g. ``{"push_distance_mm": 12.0,
+    "push_duration_s": 0.25}`` for a push that a (simulated) arm commanded.
 
     Limits: ``height_mm`` at least 1 mm from empty and from full
     (:data:`FILL_MARGIN_MM`); ``seed`` an integer in 0..2**63-1; ``duration_s`` within
@@ -161,6 +185,8 @@ def simulate_trial(
     params = draw_parameters(rng, height_mm, box.wall_factor, box.contact_line_damping, var)
     if temperature_c is not None:
         params = replace(params, temperature_c=float(temperature_c))
+    if parameters:
+        params = _replace_parameters(params, parameters)
     true_height = float(np.clip(params.true_height_mm, 0.5, box.depth_mm - 0.5))
     true_conc = sugar_concentration
     if liquid == "sugar-water" and sugar_concentration:

@@ -11,10 +11,12 @@ timed without hardware.
 
 One producer thread "captures" frames on the server's schedule: it calls
 ``frame_source()`` once per frame period, at the frame's time, encodes the image
-as JPEG (``cv2.imencode``) and hands it to every connected client. A client that
-reads too slowly misses frames (it always gets the newest one), as with
-mjpg-streamer. Clients connected to ``/stream`` receive only frames captured
-after they connected.
+as JPEG (``cv2.imencode``) and queues it for every connected client. A client
+that reads too slowly gets its frames late rather than not at all (up to
+:data:`CLIENT_QUEUE_S` of frames; mjpg-streamer would skip to the newest frame),
+so a briefly starved server thread does not lose frames in tests: only the
+recorder's own losses show. Clients connected to ``/stream`` receive only frames
+captured after they connected.
 
 Timing (all on :func:`time.monotonic`, seconds): ``sent_timestamps[k]`` is the
 capture time of the k-th frame (the moment just before the k-th
@@ -28,6 +30,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
@@ -40,6 +43,9 @@ BOUNDARY = "liquidtouchframe"
 STREAM_PATH = "/stream"
 CLIENT_TIMEOUT_S = 5.0
 """Socket timeout [s] of a client connection: a stalled client is dropped after this."""
+CLIENT_QUEUE_S = 2.0
+"""A client that falls behind gets every frame late, up to this many seconds of frames [s];
+beyond that its oldest frames are dropped (as a camera's buffer overflows)."""
 _WAIT_S = 0.1  # how often waiting threads check for stop [s]
 
 
@@ -47,7 +53,7 @@ class _Handler(BaseHTTPRequestHandler):
     server: _Server
     timeout = CLIENT_TIMEOUT_S
 
-    def log_message(self, format: str, *args: object) -> None:  # noqa: A002 - stdlib name
+    def log_message(self, format: str, *args: object) -> None:
         """Stay quiet (the stdlib handler logs every request to stderr)."""
 
     def do_GET(self) -> None:
@@ -78,13 +84,13 @@ class _Handler(BaseHTTPRequestHandler):
         self.send_header("Pragma", "no-cache")
         self.send_header("Connection", "close")
         self.end_headers()
-        seen = owner._latest_index()
+        pending = owner._subscribe()
         try:
             while not owner._stopping.is_set():
-                part = owner._next_part(seen)
+                part = owner._next_part(pending)
                 if part is None:
                     continue
-                seen, t_s, jpeg = part
+                _, t_s, jpeg = part
                 head = (
                     f"--{BOUNDARY}\r\nContent-Type: image/jpeg\r\n"
                     f"Content-Length: {len(jpeg)}\r\nX-Timestamp: {t_s:.6f}\r\n\r\n"
@@ -93,6 +99,8 @@ class _Handler(BaseHTTPRequestHandler):
                 self.wfile.flush()
         except (OSError, ValueError):  # the client went away (or the socket timed out)
             return
+        finally:
+            owner._unsubscribe(pending)
 
 
 class _Server(ThreadingHTTPServer):
@@ -140,7 +148,7 @@ class MjpegServer:
         self.error: BaseException | None = None
         self._stopping = threading.Event()
         self._cond = threading.Condition()
-        self._part: tuple[int, float, bytes] | None = None
+        self._clients: list[deque] = []
         self._server: _Server | None = None
         self._threads: list[threading.Thread] = []
 
@@ -238,21 +246,28 @@ class MjpegServer:
                     self._cond.notify_all()
                 return
             self.sent_timestamps.append(t_s)
+            part = (index, t_s, jpeg.tobytes())
             with self._cond:
-                self._part = (index, t_s, jpeg.tobytes())
+                for pending in self._clients:
+                    pending.append(part)
                 self._cond.notify_all()
             index += 1
             due += period
 
-    def _latest_index(self) -> int:
+    def _subscribe(self) -> deque:
+        pending: deque = deque(maxlen=max(2, round(CLIENT_QUEUE_S * self.fps)))
         with self._cond:
-            return self._part[0] if self._part is not None else -1
+            self._clients.append(pending)
+        return pending
 
-    def _next_part(self, seen: int) -> tuple[int, float, bytes] | None:
-        """The newest frame after index ``seen``, or ``None`` after a short wait without one."""
+    def _unsubscribe(self, pending: deque) -> None:
         with self._cond:
-            if self._part is None or self._part[0] <= seen:
+            if pending in self._clients:
+                self._clients.remove(pending)
+
+    def _next_part(self, pending: deque) -> tuple[int, float, bytes] | None:
+        """The client's next frame, or ``None`` after a short wait without one."""
+        with self._cond:
+            if not pending:
                 self._cond.wait(_WAIT_S)
-            if self._part is None or self._part[0] <= seen:
-                return None
-            return self._part
+            return pending.popleft() if pending else None

@@ -1,0 +1,378 @@
+"""One trial on the robot: grasp, lift, record, push, hold, stop, lower, release.
+
+:func:`run_trial` drives a :class:`~liquidtouch.acquire.gripper.Gripper`, an
+:class:`~liquidtouch.acquire.arm.Arm` and the GelSight cameras (through
+:class:`~liquidtouch.acquire.recorder.Recorder`) through the paper's protocol
+(Huang, Guo, Yuan, RSS 2022: the gripper grasps the bottle with about 25 N, the
+arm lifts it, gives it a short lateral push and holds still while the sensors
+record the sloshing), with the parameters of :class:`ProtocolParameters` (a TOML
+file: :func:`load_protocol`):
+
+1. the cameras are opened and warmed up (a camera that does not deliver stops
+   the trial before the robot moves);
+2. ``GRIP`` with ``grasp_force_n`` on a part of ``part_width_mm``; the gripper
+   must report that it holds the part;
+3. lift by ``lift_mm`` (``moveL`` straight up), wait ``settle_s``;
+4. start recording, wait ``pre_push_s``;
+5. push: ``moveL`` by ``push_distance_mm`` along the base ``push_axis`` at
+   ``push_speed_m_s`` / ``push_acceleration_m_s2`` (a trapezoidal speed profile);
+6. hold still ``hold_s`` while recording (the gripper must keep holding; its
+   readings and the arm's pose are logged every ``log_interval_s``);
+7. stop recording, lower by ``lift_mm``, release (``RELEASE`` by ``release_mm``);
+8. write the trial: meta.json (last) gets the parameters, the push's times on
+   the recording's clock, the arm's poses and the gripper's readings.
+
+**Safety.** On any error or Ctrl-C, at any step: the arm is stopped, the gripper
+is left holding (it is never opened, so a lifted bottle is not dropped) and the
+recording is aborted, so no trial directory appears (nothing looks complete).
+Putting the bottle down is then the operator's job.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import sys
+import time
+import tomllib
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from liquidtouch.acquire.arm import Arm, linear_move_duration
+from liquidtouch.acquire.gripper import GRIP_STATES, HOLDING, Gripper
+from liquidtouch.errors import DeviceError, LiquidTouchError
+
+AXES = {"x": 0, "y": 1}
+MAX_PROTOCOL_BYTES = 64 * 1024
+
+
+class ProtocolParameters(BaseModel):
+    """The trial protocol's parameters (units in the names; defaults: the paper's where it
+    gives them: a ~25 N grasp, a short lateral push, 13 s of recording after it).
+
+    The push defaults (15 mm at 0.1 m/s and 1 m/s², i.e. 0.25 s) are those of the
+    simulator's trials (10-20 mm over 0.25-0.35 s), which move the GelSight markers
+    by a few pixels at the push and leave a sub-pixel ring-down.
+    """
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+
+    grasp_force_n: float = Field(25.0, ge=5.0, le=80.0)
+    part_width_mm: float = Field(59.0, ge=0.0, le=110.0)
+    """The bottle's width across the fingers [mm] (GRIP's expected part width)."""
+    grasp_speed_mm_s: float = Field(50.0, gt=0.0, le=420.0)
+    lift_mm: float = Field(50.0, ge=5.0, le=200.0)
+    lift_speed_m_s: float = Field(0.05, gt=0.0, le=0.25)
+    lift_acceleration_m_s2: float = Field(0.5, gt=0.0, le=5.0)
+    settle_s: float = Field(1.0, ge=0.0, le=60.0)
+    """Wait after the lift, before recording [s]."""
+    pre_push_s: float = Field(1.0, ge=0.2, le=30.0)
+    """Recording before the push starts [s]."""
+    push_axis: Literal["x", "y"] = "x"
+    """Base-frame axis of the push: the bottle's length (the slosh direction)."""
+    push_distance_mm: float = Field(15.0, ge=-100.0, le=100.0)
+    """Signed push distance along ``push_axis`` [mm]; at least 1 mm either way."""
+    push_speed_m_s: float = Field(0.1, gt=0.0, le=0.5)
+    push_acceleration_m_s2: float = Field(1.0, gt=0.0, le=5.0)
+    hold_s: float = Field(13.0, ge=2.0, le=600.0)
+    """Recording after the push has ended [s]: the ring-down."""
+    release_mm: float = Field(10.0, gt=0.0, le=110.0)
+    release_speed_mm_s: float = Field(20.0, gt=0.0, le=420.0)
+    log_interval_s: float = Field(1.0, ge=0.1, le=60.0)
+    """How often the gripper's readings and the arm's pose are logged while holding [s]."""
+    camera_profile: str = "raw"
+    """The cameras' sensor profile (``raw``, ``mini``, ``r15``, ``digit``)."""
+    recording_format: Literal["ffv1", "png"] = "ffv1"
+
+    def model_post_init(self, _context: Any) -> None:
+        if abs(self.push_distance_mm) < 1.0:
+            raise ValueError("push_distance_mm must be at least 1 mm either way")
+
+    @property
+    def push_duration_s(self) -> float:
+        """How long the push's ``moveL`` takes [s] (trapezoidal speed profile)."""
+        return linear_move_duration(
+            self.push_distance_mm * 1e-3, self.push_speed_m_s, self.push_acceleration_m_s2
+        )
+
+    @property
+    def recording_s(self) -> float:
+        """Length of the recording [s]: before, during and after the push."""
+        return self.pre_push_s + self.push_duration_s + self.hold_s
+
+
+def _first_error(exc: ValidationError) -> str:
+    first = exc.errors()[0]
+    where = ".".join(str(p) for p in first["loc"]) or "(file)"
+    return f"{where}: {first['msg']}"
+
+
+def protocol_from_mapping(
+    values: Mapping[str, object], source: str = "protocol"
+) -> ProtocolParameters:
+    """Validated :class:`ProtocolParameters`; :class:`LiquidTouchError` names the bad field."""
+    try:
+        return ProtocolParameters.model_validate(dict(values))
+    except ValidationError as exc:
+        raise LiquidTouchError(f"{source}: {_first_error(exc)}") from None
+
+
+def load_protocol(path: str | Path) -> ProtocolParameters:
+    """Read a protocol TOML file: top-level keys of :class:`ProtocolParameters`, all optional.
+
+    ```toml
+    grasp_force_n = 25.0
+    push_distance_mm = 15.0
+    hold_s = 13.0
+    ```
+    """
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+        if size > MAX_PROTOCOL_BYTES:
+            raise LiquidTouchError(
+                f"{path}: a protocol file is at most 64 KiB, this is {size} bytes"
+            )
+        values = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise LiquidTouchError(f"{path} is not valid TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise LiquidTouchError(f"{path} is not UTF-8 text") from None
+    except FileNotFoundError:
+        raise LiquidTouchError(f"protocol file {path} not found") from None
+    except OSError as exc:
+        raise LiquidTouchError(f"cannot read {path}: {exc.strerror or exc}") from None
+    return protocol_from_mapping(values, str(path))
+
+
+@dataclass
+class TrialLog:
+    """What happened, on :func:`time.monotonic` [s]: events, poses, gripper readings."""
+
+    events: list[dict[str, Any]] = field(default_factory=list)
+    poses: dict[str, list[float]] = field(default_factory=dict)
+    arm_log: list[dict[str, Any]] = field(default_factory=list)
+    gripper_readings: list[dict[str, Any]] = field(default_factory=list)
+
+    def event(self, name: str, **data: Any) -> float:
+        t = time.monotonic()
+        self.events.append({"event": name, "t_s": t, **data})
+        return t
+
+    def pose(self, name: str, arm: Arm) -> list[float]:
+        pose = arm.get_pose()
+        self.poses[name] = pose
+        self.arm_log.append({"t_s": time.monotonic(), "pose": pose})
+        return pose
+
+    def gripper(self, gripper: Gripper, when: str) -> dict[str, Any]:
+        reading = {
+            "t_s": time.monotonic(),
+            "when": when,
+            "position_mm": gripper.position_mm(),
+            "force_n": gripper.force_n(),
+            "grip_state": gripper.grip_state(),
+        }
+        self.gripper_readings.append(reading)
+        return reading
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "events": self.events,
+            "poses": self.poses,
+            "arm_log": self.arm_log,
+            "gripper_readings": self.gripper_readings,
+        }
+
+
+@dataclass
+class TrialRun:
+    """A finished trial: its directory, the recording's summary and the log."""
+
+    trial_dir: Path
+    summary: Any
+    log: TrialLog
+    push_start_s: float
+    push_end_s: float
+
+
+def _offset(pose: Sequence[float], axis: int, delta_m: float) -> list[float]:
+    moved = list(pose)
+    moved[axis] += delta_m
+    return moved
+
+
+def _wait(seconds: float, check: Callable[[], None], step_s: float = 0.05) -> None:
+    """Sleep ``seconds`` in short steps, calling ``check()`` between them."""
+    end = time.monotonic() + seconds
+    while True:
+        check()
+        remaining = end - time.monotonic()
+        if remaining <= 0:
+            return
+        time.sleep(min(step_s, remaining))
+
+
+def _make_recorder(camera_sources, out_dir, *, names, params, labels):
+    from liquidtouch.acquire.recorder import Recorder
+
+    return Recorder(
+        camera_sources,
+        out_dir,
+        names=names,
+        profile=params.camera_profile,
+        fmt=params.recording_format,
+        labels=labels,
+    )
+
+
+def _safe(action: Callable[[], object], failures: list[str], what: str) -> None:
+    """Run a clean-up step; a failure (or a second Ctrl-C) is noted, never raised."""
+    try:
+        action()
+    except BaseException as exc:  # clean-up must go on: the next steps matter too
+        failures.append(f"{what}: {type(exc).__name__}: {exc}")
+
+
+def run_trial(
+    gripper: Gripper,
+    arm: Arm,
+    camera_sources: Sequence[str],
+    out_dir: str | Path,
+    params: ProtocolParameters | None = None,
+    labels: Mapping[str, object] | None = None,
+    *,
+    names: Sequence[str] | None = None,
+    extra_meta: Mapping[str, object] | None = None,
+    on_step: Callable[[str], None] | None = None,
+    recorder_factory: Callable[..., Any] = _make_recorder,
+) -> TrialRun:
+    """Run one trial (module docstring: the steps and the safety rules); return it.
+
+    ``camera_sources`` go to the :class:`~liquidtouch.acquire.recorder.Recorder`
+    (``names``: the sensors' names, default ``left``, ``right``); ``labels`` become
+    meta.json labels; ``extra_meta`` adds meta.json fields. ``on_step(name)`` is
+    called as each step begins (for progress output). The trial directory
+    ``out_dir`` appears only when everything succeeded.
+    """
+    params = ProtocolParameters() if params is None else params
+    axis = AXES[params.push_axis]
+    step = on_step or (lambda _name: None)
+    log = TrialLog()
+    recorder = recorder_factory(
+        list(camera_sources), out_dir, names=names, params=params, labels=dict(labels or {})
+    )
+    try:
+        step("cameras")
+        recorder.open()
+        start = log.pose("start", arm)
+
+        step("grasp")
+        log.event("grasp", force_n=params.grasp_force_n, part_width_mm=params.part_width_mm)
+        gripper.grip(params.grasp_force_n, params.part_width_mm, params.grasp_speed_mm_s)
+        log.gripper(gripper, "grasped")
+
+        step("lift")
+        lifted = _offset(start, 2, params.lift_mm * 1e-3)
+        log.event("lift")
+        arm.move_linear(lifted, params.lift_speed_m_s, params.lift_acceleration_m_s2)
+        lifted = log.pose("lifted", arm)
+        _wait(params.settle_s, lambda: None)
+
+        step("record")
+        recorder.start()
+        log.event("recording")
+        _wait(params.pre_push_s, recorder.check)
+
+        step("push")
+        target = _offset(lifted, axis, params.push_distance_mm * 1e-3)
+        push_start = log.event("push", distance_mm=params.push_distance_mm)
+        arm.move_linear(target, params.push_speed_m_s, params.push_acceleration_m_s2)
+        push_end = log.event("pushed")
+        pushed = log.pose("pushed", arm)
+
+        step("hold")
+        hold_end = push_end + params.hold_s
+        while True:
+            recorder.check()
+            reading = log.gripper(gripper, "holding")
+            if reading["grip_state"] != HOLDING:
+                state = reading["grip_state"]
+                raise DeviceError(
+                    f"the gripper stopped holding the bottle during the hold (GRIPSTATE="
+                    f"{state} {GRIP_STATES.get(state, '?')})"
+                )
+            log.pose(f"hold_{len(log.gripper_readings)}", arm)
+            remaining = hold_end - time.monotonic()
+            if remaining <= 0:
+                break
+            _wait(min(params.log_interval_s, remaining), recorder.check)
+
+        step("stop")
+        summary = recorder.stop()
+        log.event("stopped")
+
+        step("lower")
+        arm.move_linear(
+            _offset(pushed, 2, -params.lift_mm * 1e-3),
+            params.lift_speed_m_s,
+            params.lift_acceleration_m_s2,
+        )
+        log.pose("lowered", arm)
+
+        step("release")
+        gripper.release(params.release_mm, params.release_speed_mm_s)
+        log.gripper(gripper, "released")
+        log.event("released")
+
+        step("write")
+        origin = _recording_origin(summary)
+        meta: dict[str, Any] = {
+            "push_start_s": push_start - origin,
+            "push_end_s": push_end - origin,
+            "protocol": params.model_dump(mode="json"),
+            "acquisition": {
+                "clock": "time.monotonic",
+                "origin_t_s": origin,
+                "gripper": getattr(gripper, "url", None),
+                "arm": getattr(arm, "url", None),
+                "cameras": [str(s) for s in camera_sources],
+                **log.to_dict(),
+            },
+            **dict(extra_meta or {}),
+        }
+        trial_dir = recorder.finish(meta)
+    except BaseException:
+        failures: list[str] = []
+        _safe(arm.stop, failures, "stopping the arm")
+        _safe(recorder.abort, failures, "aborting the recording")
+        # the gripper is deliberately left alone: it keeps holding the bottle
+        if failures:
+            with contextlib.suppress(Exception):
+                print(
+                    "warning: clean-up after the failed trial: " + "; ".join(failures),
+                    file=sys.stderr,
+                )
+        raise
+    return TrialRun(
+        trial_dir=Path(trial_dir),
+        summary=summary,
+        log=log,
+        push_start_s=push_start - origin,
+        push_end_s=push_end - origin,
+    )
+
+
+def _recording_origin(summary: Any) -> float:
+    """The recording's time zero [s, monotonic]: its first frame (what extraction's clock
+    starts at), else when capturing started."""
+    starts = [
+        s.start_t_s
+        for s in getattr(summary, "sensors", {}).values()
+        if getattr(s, "start_t_s", None) is not None and math.isfinite(s.start_t_s)
+    ]
+    return min(starts) if starts else float(summary.start_t_s)

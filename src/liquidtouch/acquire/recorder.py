@@ -1,0 +1,679 @@
+"""Record GelSight cameras into a trial directory, losslessly, with every frame's timestamp.
+
+:class:`Recorder` opens every source (:func:`~liquidtouch.acquire.cameras.open_camera`),
+reads each camera on its own thread (one clock, :func:`time.monotonic`) and
+encodes each sensor on its own writer thread while recording, into a temporary
+directory beside ``out_dir``. :meth:`Recorder.finish` completes the trial:
+
+```
+out_dir/
+  left.mkv  right.mkv           fmt="ffv1": FFV1 (lossless) in Matroska; each frame's PTS is
+                                its timestamp (1 ms resolution), so `extract` times it exactly
+  left.timestamps.csv           frame,t_s,duplicate: absolute capture times [s, time.monotonic]
+  left/000000.png ... + left/timestamps.csv       fmt="png": an image folder instead
+  meta.json                     written last: fps (measured), sensors, labels, sensor_start_s, ...
+```
+
+and renames the directory into place; :meth:`Recorder.abort` (or an exception or
+Ctrl-C inside ``with Recorder(...)``) removes everything and leaves no trial.
+
+**Grey by default.** liquidtouch reads the luma of every frame (markers are dark
+on every LED colour), so the recorder stores ``grey=True`` frames (BT.601 luma,
+``cv2.cvtColor``): a third of the data, and FFV1 keeps up with two 640 × 480
+sensors at 30 fps on one core (``benchmarks/record_formats.py``). ``grey=False``
+keeps the BGR colour (FFV1 ``bgr0``, lossless too) for photometric uses.
+
+**Nothing is hidden.** The summary counts dropped frames (timestamp gaps),
+duplicated frames (identical consecutive frames; kept in the recording) and frames
+lost because an encoder fell more than :data:`MAX_BACKLOG_S` behind the camera
+(``backlog_drops``; the frame rate or format is too much for the machine).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import io
+import math
+import queue
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+
+from liquidtouch.acquire.cameras import (
+    DEFAULT_READ_TIMEOUT_S,
+    END,
+    Camera,
+    CaptureSession,
+    Frame,
+    FrameStats,
+    default_names,
+    get_profile,
+    open_camera,
+)
+from liquidtouch.errors import DatasetError, DeviceError, LiquidTouchError, OutputError
+from liquidtouch.io import atomic
+from liquidtouch.io.dataset import META_NAME, TrialMeta
+
+FORMATS = ("ffv1", "png")
+VIDEO_SUFFIX = ".mkv"
+TIMESTAMPS_SUFFIX = ".timestamps.csv"
+PNG_TIMESTAMPS_NAME = "timestamps.csv"  # io.frames.TIMESTAMPS_NAME (not imported: no cv2 pull)
+PTS_RATE_HZ = 1_000_000
+"""Time base of the FFV1 encoder's PTS (µs); Matroska stores them to 1 ms."""
+FFV1_OPTIONS = {"level": "3", "g": "1", "slicecrc": "1"}
+"""FFV1 version 3, every frame a keyframe, a CRC per slice (damage is detected on decoding)."""
+PNG_COMPRESSION = 1
+"""zlib level of PNG frames (1: fast, within ~5 % of the best size for camera images)."""
+MAX_BACKLOG_S = 10.0
+"""Frames waiting for an encoder beyond this many seconds of video are dropped and counted."""
+RESERVED_META = ("format_version", "fps", "sensors", "tracks", "sensor_start_s", "recording")
+"""meta.json fields the recorder writes itself (labels and extra_meta cannot set them)."""
+
+
+@dataclass
+class SensorSummary:
+    """One sensor's recording: frames, measured rate [Hz], drops, duplicates, times [s]."""
+
+    name: str
+    source: str
+    frames: int
+    measured_fps: float | None
+    nominal_fps: float | None
+    drops: int
+    duplicates: int
+    backlog_drops: int
+    start_t_s: float | None
+    end_t_s: float | None
+    file: str | None = None
+
+    @property
+    def lost(self) -> int:
+        """Frames missing from the recording: camera drops plus encoder backlog drops."""
+        return self.drops + self.backlog_drops
+
+
+@dataclass
+class RecordingSummary:
+    """What :meth:`Recorder.stop` recorded; ``trial_dir`` is set by :meth:`Recorder.finish`.
+
+    ``start_t_s`` is when capturing started [s, :func:`time.monotonic`], ``duration_s``
+    how long it ran [s].
+    """
+
+    sensors: dict[str, SensorSummary]
+    start_t_s: float
+    duration_s: float
+    fmt: str
+    profile: str
+    grey: bool
+    trial_dir: Path | None = None
+    errors: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def fps(self) -> float | None:
+        """The measured frame rate over all sensors [Hz] (their mean), for meta.json."""
+        rates = [s.measured_fps for s in self.sensors.values() if s.measured_fps]
+        return float(np.mean(rates)) if rates else None
+
+    def to_dict(self) -> dict[str, object]:
+        out = asdict(self)
+        out["trial_dir"] = str(self.trial_dir) if self.trial_dir else None
+        out["fps"] = self.fps
+        return out
+
+
+# --- writers ----------------------------------------------------------------------------
+
+
+class _Writer:
+    """Encodes one sensor's frames into ``directory`` and keeps their timestamps."""
+
+    def __init__(self, directory: Path, name: str, t0_s: float) -> None:
+        self.directory = directory
+        self.name = name
+        self.t0_s = t0_s
+        self.times: list[float] = []
+        self.duplicates: list[bool] = []
+
+    @property
+    def entry(self) -> str:
+        raise NotImplementedError
+
+    def write(self, frame: Frame, image: np.ndarray) -> None:
+        self._encode(image, len(self.times), frame.t_s)
+        self.times.append(frame.t_s)
+        self.duplicates.append(frame.duplicate)
+
+    def _encode(self, image: np.ndarray, index: int, t_s: float) -> None:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Flush the encoder and write the timestamps file."""
+
+    def timestamps_csv(self) -> str:
+        buffer = io.StringIO()
+        writer = csv.writer(buffer, lineterminator="\n")
+        writer.writerow(["frame", "t_s", "duplicate"])
+        for i, (t, dup) in enumerate(zip(self.times, self.duplicates, strict=True)):
+            writer.writerow([i, f"{t:.6f}", int(dup)])
+        return buffer.getvalue()
+
+
+class _Ffv1Writer(_Writer):
+    """FFV1 (lossless) in Matroska; each frame's PTS is its time since the sensor's first frame."""
+
+    def __init__(self, directory: Path, name: str, t0_s: float, *, threads: int = 1) -> None:
+        super().__init__(directory, name, t0_s)
+        self.path = directory / f"{name}{VIDEO_SUFFIX}"
+        self.threads = threads
+        self._container = None
+        self._stream = None
+        self._last_pts = -1
+        self.fps_hint = 30.0  # the stream's nominal rate (Matroska header only)
+
+    @property
+    def entry(self) -> str:
+        return self.path.name
+
+    def _open(self, image: np.ndarray, fps: float) -> None:
+        import av
+
+        self._container = av.open(str(self.path), mode="w", format="matroska")
+        stream = self._container.add_stream("ffv1", rate=Fraction(fps).limit_denominator(1000))
+        stream.height, stream.width = image.shape[:2]
+        stream.pix_fmt = "gray" if image.ndim == 2 else "bgr0"
+        stream.codec_context.time_base = Fraction(1, PTS_RATE_HZ)
+        stream.codec_context.thread_count = self.threads
+        stream.options = dict(FFV1_OPTIONS)
+        self._stream = stream
+
+    def _encode(self, image: np.ndarray, index: int, t_s: float) -> None:
+        import av
+
+        if self._container is None:
+            self._open(image, self.fps_hint)
+        if not self.times:
+            self.t0_s = t_s  # PTS 0 at the sensor's first frame (absolute: sensor_start_s)
+        pts = max(self._last_pts + 1, round((t_s - self.t0_s) * PTS_RATE_HZ))
+        self._last_pts = pts
+        frame = av.VideoFrame.from_ndarray(image, format="gray" if image.ndim == 2 else "bgr24")
+        frame.pts = pts
+        frame.time_base = Fraction(1, PTS_RATE_HZ)
+        for packet in self._stream.encode(frame):
+            self._container.mux(packet)
+
+    def close(self) -> None:
+        if self._container is not None:
+            try:
+                for packet in self._stream.encode():
+                    self._container.mux(packet)
+            finally:
+                self._container.close()
+                self._container = None
+        (self.directory / f"{self.name}{TIMESTAMPS_SUFFIX}").write_text(
+            self.timestamps_csv(), encoding="utf-8"
+        )
+
+
+class _PngWriter(_Writer):
+    """A folder of PNG images ``000000.png``, ... with ``timestamps.csv`` (absolute t_s)."""
+
+    def __init__(self, directory: Path, name: str, t0_s: float) -> None:
+        super().__init__(directory, name, t0_s)
+        self.folder = directory / name
+        self.folder.mkdir()
+
+    @property
+    def entry(self) -> str:
+        return self.folder.name
+
+    def _encode(self, image: np.ndarray, index: int, t_s: float) -> None:
+        import cv2
+
+        path = self.folder / f"{index:06d}.png"
+        if not cv2.imwrite(str(path), image, [int(cv2.IMWRITE_PNG_COMPRESSION), PNG_COMPRESSION]):
+            raise OutputError(f"cannot write {path} (disk full or not writable?)")
+
+    def close(self) -> None:
+        (self.folder / PNG_TIMESTAMPS_NAME).write_text(self.timestamps_csv(), encoding="utf-8")
+
+
+# --- recorder ---------------------------------------------------------------------------
+
+
+class Recorder:
+    """Record ``sources`` (one per sensor) into the trial directory ``out_dir``.
+
+    Parameters
+    ----------
+    sources : camera sources as :func:`~liquidtouch.acquire.cameras.open_camera` takes them.
+    out_dir : the trial directory to create (it must not exist, or be empty).
+    names : sensor names (file stems); default ``left``, ``right``, ``sensor2``, ...
+    profile : sensor profile (``mini``, ``r15``, ``digit``, ``raw``), for every source.
+    fmt : ``"ffv1"`` (FFV1 in Matroska) or ``"png"`` (image folders); both lossless.
+    labels : meta.json labels (``liquid``, ``container``, ``height_mm``, ... or any other
+        key), validated now (``TrialMeta``).
+    grey : store the luma only (default; what liquidtouch reads) or the BGR colour.
+    warmup_frames : frames discarded after opening each camera (``None``: its default).
+    read_timeout_s : a camera delivering no frame for this long [s] fails the recording.
+
+    Use :meth:`start`, :meth:`stop`, :meth:`finish` (or :meth:`abort`); or as a
+    context manager, which aborts on any exception (Ctrl-C included) and finishes a
+    recording left open on a normal exit. :meth:`open` opens and warms up the
+    cameras ahead of :meth:`start`, so that capturing starts without delay.
+    """
+
+    def __init__(
+        self,
+        sources: Sequence[str],
+        out_dir: str | Path,
+        *,
+        names: Sequence[str] | None = None,
+        profile: str = "raw",
+        fmt: str = "ffv1",
+        labels: dict[str, object] | None = None,
+        grey: bool = True,
+        warmup_frames: int | None = None,
+        read_timeout_s: float = DEFAULT_READ_TIMEOUT_S,
+        speed: float = 1.0,
+    ) -> None:
+        self.sources = [str(s) for s in sources]
+        if not self.sources:
+            raise DeviceError("give at least one camera source to record")
+        self.names = list(names) if names is not None else default_names(len(self.sources))
+        if len(self.names) != len(self.sources):
+            raise DeviceError(f"{len(self.sources)} sources but {len(self.names)} names")
+        for name in self.names:
+            if not name or name != Path(name).name or name.startswith(".") or name == "meta":
+                raise DeviceError(f"sensor name {name!r} must be a plain file name")
+        if len(set(self.names)) != len(self.names):
+            raise DeviceError(f"sensor names must differ: {self.names}")
+        self.profile = get_profile(profile)
+        if fmt not in FORMATS:
+            raise DeviceError(f"unknown recording format {fmt!r}; choose one of {FORMATS}")
+        self.fmt = fmt
+        self.labels = dict(labels or {})
+        _check_meta_fields(self.labels, "label")
+        _validate_meta({"fps": 30.0, **self.labels})
+        self.grey = bool(grey)
+        self.warmup_frames = warmup_frames
+        self.read_timeout_s = float(read_timeout_s)
+        self.speed = float(speed)
+        self.out_dir = atomic.check_directory_target(out_dir)
+        self.cameras: list[Camera] = []
+        self.session: CaptureSession | None = None
+        self.summary: RecordingSummary | None = None
+        self.trial_dir: Path | None = None
+        self._stack: contextlib.ExitStack | None = None
+        self._tmp: Path | None = None
+        self._writers: dict[str, _Writer] = {}
+        self._writer_threads: list[threading.Thread] = []
+        self._writer_errors: dict[str, BaseException] = {}
+        self._backlog_drops: dict[str, int] = dict.fromkeys(self.names, 0)
+        self._state = "new"
+
+    # --- lifecycle ----------------------------------------------------------------------
+
+    def open(self) -> Recorder:
+        """Open and warm up every camera and start reading them, discarding frames until
+        :meth:`start` (done by :meth:`start` if not called before)."""
+        if self.cameras:
+            return self
+        if self._state != "new":
+            raise DeviceError(f"this recorder is {self._state}; make a new one")
+        try:
+            for source in self.sources:
+                self.cameras.append(
+                    open_camera(
+                        source,
+                        profile=self.profile,
+                        warmup_frames=self.warmup_frames,
+                        read_timeout_s=self.read_timeout_s,
+                        speed=self.speed,
+                    )
+                )
+            self.session = CaptureSession(
+                self.cameras, self.names, read_timeout_s=self.read_timeout_s
+            )
+            self.session.prime()
+        except BaseException:
+            if self.session is not None:
+                self.session.stop()
+            self._close_cameras()
+            raise
+        return self
+
+    def start(self) -> Recorder:
+        """Start capturing every sensor on its own thread into the temporary trial directory."""
+        if self._state != "new":
+            raise DeviceError(f"this recorder is already {self._state}")
+        try:
+            self.open()
+            import av  # noqa: F401 - imported now, not by a writer thread while recording
+            import cv2  # noqa: F401
+
+            self._stack = contextlib.ExitStack()
+            self._tmp = self._stack.enter_context(atomic.atomic_directory(self.out_dir))
+            assert self.session is not None
+            t0 = time.monotonic()
+            for camera, name in zip(self.cameras, self.names, strict=True):
+                writer = (
+                    _Ffv1Writer(self._tmp, name, t0)
+                    if self.fmt == "ffv1"
+                    else _PngWriter(self._tmp, name, t0)
+                )
+                if isinstance(writer, _Ffv1Writer):
+                    writer.fps_hint = camera.nominal_fps or 30.0
+                self._writers[name] = writer
+                limit = max(30, math.ceil(MAX_BACKLOG_S * (camera.nominal_fps or 60.0)))
+                self._install_backlog_limit(name, limit)
+                thread = threading.Thread(
+                    target=self._drain, args=(name,), name=f"writer-{name}", daemon=True
+                )
+                self._writer_threads.append(thread)
+                thread.start()
+            self._state = "recording"
+            self.session.start()
+        except BaseException:
+            self.abort()
+            raise
+        return self
+
+    def _install_backlog_limit(self, name: str, limit: int) -> None:
+        assert self.session is not None
+        target = self.session.queues[name]
+        thread = next(t for t in self.session.threads if t.sensor == name)
+
+        def sink(frame: Frame, target: queue.Queue = target) -> None:
+            if target.qsize() >= limit:
+                self._backlog_drops[name] += 1
+                return
+            target.put(frame)
+
+        thread.sink = sink
+
+    def _drain(self, name: str) -> None:
+        """Writer thread: encode the sensor's frames until END (errors kept, frames drained)."""
+        import cv2
+
+        assert self.session is not None
+        source, writer = self.session.queues[name], self._writers[name]
+        failed = False
+        while True:
+            frame = source.get()
+            if frame is END:
+                return
+            if failed:
+                continue
+            try:
+                image = frame.image
+                if self.grey and image.ndim == 3:
+                    image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+                writer.write(frame, image)
+            except BaseException as exc:
+                self._writer_errors[name] = exc
+                failed = True
+
+    def stats(self) -> dict[str, FrameStats]:
+        """Live per-sensor statistics (frames, measured fps, drops, duplicates)."""
+        return self.session.stats if self.session else {}
+
+    def backlog(self) -> dict[str, int]:
+        """Frames waiting for each encoder right now."""
+        return {n: q.qsize() for n, q in self.session.queues.items()} if self.session else {}
+
+    @property
+    def ended(self) -> bool:
+        """Whether every source has ended (replayed files) or failed."""
+        return self.session is not None and self.session.all_ended
+
+    def check(self) -> None:
+        """Raise :class:`DeviceError` if a camera or encoder has failed so far (a live
+        camera or stream that ended, e.g. its server closed it, has failed too)."""
+        if self.session is not None:
+            for name, error in self.session.errors.items():
+                raise DeviceError(f"sensor {name}: {error}") from error
+            for thread in self.session.threads:  # a live camera does not end by itself
+                if thread.end_reason is not None and thread.camera.live:
+                    raise DeviceError(
+                        f"sensor {thread.sensor}: {thread.end_reason} while recording"
+                    ) from thread.end_reason
+        for name, error in self._writer_errors.items():
+            if isinstance(error, LiquidTouchError):
+                raise error
+            raise OutputError(f"sensor {name}: cannot write the recording: {error}") from error
+
+    def stop(self) -> RecordingSummary:
+        """Stop capturing, let the encoders catch up; return the summary.
+
+        Raises :class:`DeviceError` if a camera failed or recorded no frame (the
+        recording stays until :meth:`abort`; the context manager aborts it).
+        """
+        if self._state != "recording":
+            if self.summary is not None:
+                return self.summary
+            raise DeviceError(f"this recorder is {self._state}, not recording")
+        assert self.session is not None
+        self.session.stop()
+        stopped_at = time.monotonic()
+        for thread in self._writer_threads:
+            while thread.is_alive():  # bounded: the queue holds at most MAX_BACKLOG_S of frames
+                thread.join(timeout=1.0)
+        self._close_cameras()
+        errors: dict[str, str] = {}
+        for name, writer in self._writers.items():
+            try:
+                writer.close()
+            except BaseException as exc:
+                self._writer_errors.setdefault(name, exc)
+        self._state = "stopped"
+        stats = self.session.stats
+        sensors = {}
+        for name, source, camera in zip(self.names, self.sources, self.cameras, strict=True):
+            s = stats[name]
+            writer = self._writers[name]
+            sensors[name] = SensorSummary(
+                name=name,
+                source=source,
+                frames=len(writer.times),
+                measured_fps=s.measured_fps,
+                nominal_fps=camera.nominal_fps,
+                drops=s.drops,
+                duplicates=s.duplicates,
+                backlog_drops=self._backlog_drops[name],
+                start_t_s=s.first_t_s,
+                end_t_s=s.last_t_s,
+                file=writer.entry,
+            )
+        for name, error in self.session.errors.items():
+            errors[name] = str(error)
+        for name, error in self._writer_errors.items():
+            errors.setdefault(name, str(error))
+        start = self.session.start_t_s or stopped_at
+        self.summary = RecordingSummary(
+            sensors=sensors,
+            start_t_s=start,
+            duration_s=stopped_at - start,
+            fmt=self.fmt,
+            profile=self.profile.name,
+            grey=self.grey,
+            errors=errors,
+        )
+        self.check()
+        empty = [n for n, s in sensors.items() if s.frames < 2]
+        if empty:
+            raise DeviceError(
+                f"sensor(s) {', '.join(empty)} recorded fewer than 2 frames; is the camera "
+                "delivering (and the recording long enough)?"
+            )
+        return self.summary
+
+    def finish(self, extra_meta: dict[str, object] | None = None) -> Path:
+        """Write meta.json (last) and rename the trial into ``out_dir``; return its path.
+
+        ``extra_meta`` adds fields to meta.json (e.g. the protocol's push time on the
+        same clock); it cannot replace the recorder's own fields (:data:`RESERVED_META`).
+        """
+        if self._state == "recording":
+            self.stop()
+        if self._state != "stopped" or self.summary is None or self._tmp is None:
+            raise DeviceError(f"this recorder is {self._state}; nothing to finish")
+        extra = dict(extra_meta or {})
+        _check_meta_fields(extra, "extra_meta")
+        summary = self.summary
+        sensors = summary.sensors
+        meta = {
+            "format_version": 1,
+            "fps": summary.fps,
+            "sensors": [s.file for s in sensors.values()],
+            **self.labels,
+            "sensor_start_s": {n: s.start_t_s for n, s in sensors.items()},
+            "recording": {
+                "clock": "time.monotonic",
+                "start_t_s": summary.start_t_s,
+                "duration_s": summary.duration_s,
+                "format": self.fmt,
+                "grey": self.grey,
+                "profile": self.profile.name,
+                "timestamps": {
+                    n: (
+                        f"{n}{TIMESTAMPS_SUFFIX}"
+                        if self.fmt == "ffv1"
+                        else f"{n}/{PNG_TIMESTAMPS_NAME}"
+                    )
+                    for n in sensors
+                },
+                "sensors": {
+                    n: {k: v for k, v in asdict(s).items() if k not in ("name", "file")}
+                    for n, s in sensors.items()
+                },
+            },
+            **extra,
+        }
+        if meta["fps"] is None:
+            raise DeviceError("the recording has no measurable frame rate")
+        _validate_meta(meta)
+        atomic.write_json(self._tmp / META_NAME, meta)
+        assert self._stack is not None
+        stack, self._stack = self._stack, None
+        try:
+            stack.close()  # renames the temporary directory into place
+        except BaseException:
+            self._state = "aborted"
+            raise
+        self._state = "finished"
+        self.trial_dir = self.out_dir
+        summary.trial_dir = self.out_dir
+        return self.out_dir
+
+    def abort(self) -> None:
+        """Stop everything and remove the temporary directory: no trial is left."""
+        if self._state in ("aborted", "finished"):
+            return
+        with contextlib.suppress(BaseException):
+            if self.session is not None:
+                self.session.stop()
+        for thread in self._writer_threads:
+            thread.join(timeout=5.0)
+        for writer in self._writers.values():
+            with contextlib.suppress(BaseException):
+                if isinstance(writer, _Ffv1Writer) and writer._container is not None:
+                    writer._container.close()
+                    writer._container = None
+        self._close_cameras()
+        self._state = "aborted"
+        if self._stack is not None:
+            stack, self._stack = self._stack, None
+            error = _Aborted()
+            stack.__exit__(type(error), error, None)  # removes the temporary directory
+
+    def _close_cameras(self) -> None:
+        for camera in self.cameras:
+            with contextlib.suppress(BaseException):
+                camera.close()
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is not None:
+            self.abort()
+            return
+        try:
+            if self._state in ("recording", "stopped"):
+                self.finish()
+        except BaseException:
+            self.abort()
+            raise
+
+
+class _Aborted(Exception):
+    """Thrown into the temporary directory's context to remove it."""
+
+
+def _check_meta_fields(fields: dict[str, object], what: str) -> None:
+    clash = [k for k in fields if k in RESERVED_META]
+    if clash:
+        raise DatasetError(
+            f"{what} cannot set {', '.join(clash)}: the recorder writes these meta.json fields"
+        )
+
+
+def _validate_meta(meta: dict[str, object]) -> None:
+    from pydantic import ValidationError
+
+    try:
+        TrialMeta.model_validate(meta)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first["loc"]) or "(root)"
+        raise DatasetError(f"meta.json field {where}: {first['msg']}") from None
+
+
+def record(
+    sources: Sequence[str],
+    seconds: float | None,
+    out_dir: str | Path,
+    *,
+    on_progress: Callable[[Recorder, float], None] | None = None,
+    progress_interval_s: float = 0.25,
+    extra_meta: dict[str, object] | None = None,
+    **kwargs: object,
+) -> RecordingSummary:
+    """Record ``sources`` for ``seconds`` (``None``: until every source ends) into ``out_dir``.
+
+    ``kwargs`` go to :class:`Recorder` (``names``, ``profile``, ``fmt``, ``labels``,
+    ``grey``, ...). ``on_progress(recorder, elapsed_s)`` is called about every
+    ``progress_interval_s`` seconds (``recorder.stats()`` has the live numbers).
+    Returns the summary, with ``trial_dir`` set. On any error or Ctrl-C nothing is
+    left in ``out_dir``.
+    """
+    if seconds is not None and not 0 < float(seconds) < math.inf:
+        raise DeviceError(f"the recording length must be a positive number of seconds: {seconds}")
+    with Recorder(sources, out_dir, **kwargs) as recorder:  # type: ignore[arg-type]
+        recorder.start()
+        start = time.monotonic()
+        while True:
+            elapsed = time.monotonic() - start
+            if seconds is not None and elapsed >= seconds:
+                break
+            if recorder.ended:
+                break
+            recorder.check()
+            if on_progress is not None:
+                on_progress(recorder, elapsed)
+            wait = progress_interval_s
+            if seconds is not None:
+                wait = min(wait, max(0.0, seconds - elapsed))
+            time.sleep(wait)
+        summary = recorder.stop()
+        if on_progress is not None:
+            on_progress(recorder, time.monotonic() - start)
+        recorder.finish(extra_meta)
+    return summary

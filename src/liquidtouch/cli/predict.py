@@ -1,0 +1,124 @@
+"""``liquidtouch predict``: a model's predictions for a features CSV, dataset, trial or video.
+
+Anything but a features CSV is run through the feature extraction first
+(:func:`~liquidtouch.batch.inputs.read_prediction_input`), with the extraction and
+fit options of ``features`` declared once in :mod:`liquidtouch.cli.options`.
+Registered by :func:`liquidtouch.cli.models.register`.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from liquidtouch.cli import options
+from liquidtouch.cli.format import warn
+
+
+def predict(
+    model_file: Path = typer.Argument(
+        ..., help="Model file from train, classify or transfer.", show_default=False
+    ),
+    input_path: Path = typer.Argument(
+        ...,
+        metavar="INPUT",
+        help="Features CSV, dataset directory, trial directory or video.",
+        show_default=False,
+    ),
+    out: Path | None = typer.Option(
+        None,
+        *options.OUT,
+        help="Predictions CSV to write (default: print the CSV, or with --json put the "
+        "rows in the JSON object).",
+        show_default=False,
+    ),
+    as_json: options.Json = False,
+    jobs: options.Jobs = 1,
+    dask: options.Dask = None,
+    lowpass_hz: options.Lowpass = options.DEFAULT_LOWPASS_HZ,
+    n_markers: options.Markers = options.DEFAULT_MARKERS,
+    sensor: options.Sensor = None,
+    loss: options.Loss = options.DEFAULT_LOSS,
+    model: options.FitModel = options.DEFAULT_FIT_MODEL,
+    band_low_hz: options.BandLow = options.DEFAULT_BAND_LOW_HZ,
+    band_high_hz: options.BandHigh = options.DEFAULT_BAND_HIGH_HZ,
+    noise: options.Noise = options.DEFAULT_NOISE,
+    start: options.Start = None,
+) -> None:
+    """Predict properties (mean and std) or the liquid (with probabilities) for each row.
+
+    A dataset, trial or video is first run through the feature extraction with the
+    options of 'features' (--jobs and --dask: a dataset's trials; --model is the
+    oscillation fit's); they do not change a features CSV. Rows whose feature
+    extraction failed are kept with empty predictions (a warning per row); rows
+    outside the model's training domain are flagged in the ``out_of_domain``
+    column (and a warning): their predictions are extrapolations. --json prints
+    the counts, the output path (or the rows) as one JSON object.
+    """
+    import numpy as np
+
+    from liquidtouch.batch.inputs import read_prediction_input
+    from liquidtouch.io import atomic
+    from liquidtouch.io.tables import feature_matrix
+    from liquidtouch.models.feature_rows import error_messages, failed_rows, row_list
+    from liquidtouch.models.modelfile import load_model
+
+    settings = options.fit_settings(loss, model, band_low_hz, band_high_hz, noise, start)
+    fitted = load_model(model_file)
+    table = read_prediction_input(
+        input_path,
+        jobs=jobs,
+        dask_address=dask,
+        lowpass_hz=lowpass_hz,
+        n_markers=n_markers,
+        sensors=sensor or None,
+        fit_settings=settings,
+    )
+    failed = failed_rows(table)
+    if failed is None:
+        failed = np.zeros(len(table), dtype=bool)
+    else:
+        messages = error_messages(table)
+        for i in np.flatnonzero(failed):
+            who = f"trial {table['trial'].iloc[i]}" if "trial" in table.columns else f"row {i + 1}"
+            warn(f"{who}: {messages.iloc[i] or 'empty decay_rate or angular_frequency'}")
+    good = table[~failed]
+    predicted = fitted.predict_table(good)
+    result = table.copy()
+    for column in predicted.columns:
+        if column not in table.columns or column.startswith(("predicted_", "probability_")):
+            result[column] = predicted[column].reindex(table.index)
+    outside = np.zeros(len(table), dtype=bool)
+    outside[np.flatnonzero(~failed)] = ~fitted.in_domain(feature_matrix(good))
+    result["out_of_domain"] = outside
+    if outside.any():
+        warn(
+            f"{int(outside.sum())} row(s) outside the training domain "
+            f"({fitted.describe_domain()}): rows {row_list(outside)}"
+        )
+    if out is not None:
+        atomic.write_text(out, result.to_csv(index=False))
+    if as_json:
+        summary: dict[str, Any] = {
+            "out": None if out is None else str(out),
+            "model": str(model_file),
+            "kind": fitted.kind,
+            "targets": fitted.targets,
+            "n_rows": len(table),
+            "n_predicted": int((~failed).sum()),
+            "n_failed": int(failed.sum()),
+            "n_out_of_domain": int(outside.sum()),
+            "failed_rows": [int(i) + 1 for i in np.flatnonzero(failed)],
+        }
+        if out is None:  # the predictions themselves, NaN as null
+            records = json.loads(result.to_json(orient="records", double_precision=15))
+            summary["rows"] = records
+        typer.echo(json.dumps(summary, ensure_ascii=False))
+    elif out is None:
+        typer.echo(result.to_csv(index=False), nl=False)
+    else:
+        extra = f", {int(failed.sum())} without features" if failed.any() else ""
+        typer.echo(f"wrote {out} ({len(table)} rows{extra}; predicted {', '.join(fitted.targets)})")

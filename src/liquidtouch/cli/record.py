@@ -1,0 +1,203 @@
+"""``liquidtouch record``: record GelSight cameras into a trial directory (the lab path).
+
+Live progress (frames, measured fps, drops per sensor) goes to stderr when it is a
+terminal. Ctrl-C stops the recording and removes it: no trial is left (exit 130,
+``error: interrupted``). A camera that cannot be opened or stops delivering is
+one line ``error: ...`` and exit status 2, again with nothing left behind.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from enum import StrEnum
+from pathlib import Path
+
+import typer
+
+
+class ProfileChoice(StrEnum):
+    """``record --sensor`` (``acquire.cameras.PROFILES``)."""
+
+    raw = "raw"
+    mini = "mini"
+    r15 = "r15"
+    digit = "digit"
+
+
+class FormatChoice(StrEnum):
+    """``record --format`` (``acquire.recorder.FORMATS``)."""
+
+    ffv1 = "ffv1"
+    png = "png"
+
+
+def register(app: typer.Typer) -> None:
+    """Register this module's commands on ``app``."""
+    app.command("record")(record)
+
+
+def parse_labels(items: list[str]) -> dict[str, object]:
+    """``KEY=VALUE`` pairs → a dict; numbers become numbers, ``null`` None, the rest text."""
+    from liquidtouch.errors import DatasetError
+
+    labels: dict[str, object] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise DatasetError(f"--label must be KEY=VALUE (e.g. liquid=water), got {item!r}")
+        if key in labels:
+            raise DatasetError(f"--label {key} is given twice")
+        text = value.strip()
+        parsed: object = text
+        if text.lower() in ("null", "none", ""):
+            parsed = None
+        else:
+            try:
+                number = float(text)
+            except ValueError:
+                pass
+            else:
+                if not math.isfinite(number):
+                    raise DatasetError(f"--label {key}: {text!r} is not a finite number")
+                parsed = int(number) if number.is_integer() and "." not in text else number
+        labels[key] = parsed
+    return labels
+
+
+def record(
+    sources: list[str] = typer.Argument(
+        ...,
+        metavar="SRC",
+        help="One camera source per sensor: a device index (0), /dev/videoN, "
+        "name:GelSight Mini (matched in /sys/class/video4linux), an http/rtsp URL "
+        "(e.g. a GelSight R1.5: http://HOST:8080/?action=stream) or a video file "
+        "(replayed in real time).",
+        show_default=False,
+    ),
+    seconds: float = typer.Option(
+        ...,
+        "--seconds",
+        "-s",
+        help="Recording length [s] (a replayed file may end sooner).",
+        show_default=False,
+    ),
+    out: Path = typer.Option(
+        ...,
+        "--out",
+        "-o",
+        file_okay=False,
+        help="Trial directory to create (new, or an empty directory).",
+        show_default=False,
+    ),
+    sensor: ProfileChoice = typer.Option(
+        ProfileChoice.raw,
+        "--sensor",
+        help="Sensor profile: mini (MJPG 3280x2464 at 25 fps, 1/7 border cropped, "
+        "320x240), r15 (640x480, 30 fps), digit (320x240, 60 fps), raw (as the camera "
+        "gives them).",
+    ),
+    fmt: FormatChoice = typer.Option(
+        FormatChoice.ffv1,
+        "--format",
+        help="ffv1: lossless FFV1 video in Matroska (.mkv), its PTS the frame times; "
+        "png: a folder of PNG images with timestamps.csv.",
+    ),
+    label: list[str] = typer.Option(
+        [],
+        "--label",
+        help="A meta.json label KEY=VALUE (repeatable): liquid=water, height_mm=25, ...",
+        show_default=False,
+    ),
+    name: list[str] = typer.Option(
+        [],
+        "--name",
+        help="Sensor names, one per source, in order (default left, right, sensor2, ...).",
+        show_default=False,
+    ),
+    colour: bool = typer.Option(
+        False, "--colour", help="Keep the colour (BGR) frames instead of grey (luma)."
+    ),
+    as_json: bool = typer.Option(
+        False, "--json", help="Print one JSON object on stdout (the recording summary)."
+    ),
+) -> None:
+    """Record GelSight cameras (or streams, or replayed videos) into a trial directory.
+
+    All sensors are read at once, each on its own thread, with one clock
+    (time.monotonic); every frame's time is kept (the video's PTS, and
+    NAME.timestamps.csv). meta.json gets the measured fps, the labels and each
+    sensor's start time; dropped and duplicated frames are counted and printed.
+    """
+    from liquidtouch.acquire.recorder import record as run_record
+    from liquidtouch.errors import DeviceError
+    from liquidtouch.progress import on_terminal
+
+    if not 0 < seconds <= 3600 or not math.isfinite(seconds):
+        raise DeviceError(f"--seconds must be in (0, 3600], got {seconds:g}")
+    labels = parse_labels(label)
+    with _live_progress(enabled=on_terminal()) as on_progress:
+        summary = run_record(
+            sources,
+            seconds,
+            out,
+            names=name or None,
+            profile=str(sensor),
+            fmt=str(fmt),
+            labels=labels,
+            grey=not colour,
+            on_progress=on_progress,
+        )
+    if as_json:
+        typer.echo(json.dumps(summary.to_dict()))
+        return
+    for s in summary.sensors.values():
+        fps = f"{s.measured_fps:.2f}" if s.measured_fps else "—"
+        typer.echo(
+            f"{s.name}: {s.frames} frames at {fps} fps, {s.drops} dropped, "
+            f"{s.duplicates} duplicated, {s.backlog_drops} lost by the encoder ({s.source})"
+        )
+    typer.echo(f"wrote {summary.trial_dir}")
+
+
+class _live_progress:
+    """A rich live table on stderr: frames, fps, drops per sensor (a no-op when disabled)."""
+
+    def __init__(self, *, enabled: bool) -> None:
+        self.enabled = enabled
+        self._live = None
+
+    def __enter__(self):
+        if not self.enabled:
+            return None
+        from rich.console import Console
+        from rich.live import Live
+
+        self._live = Live(console=Console(stderr=True), transient=True, refresh_per_second=4)
+        self._live.__enter__()
+        return self.update
+
+    def update(self, recorder, elapsed_s: float) -> None:
+        from rich.table import Table
+
+        table = Table(title=f"recording {elapsed_s:5.1f} s")
+        for column in ("sensor", "frames", "fps", "dropped", "duplicated", "backlog"):
+            table.add_column(column, justify="right")
+        backlog = recorder.backlog()
+        for name, stats in recorder.stats().items():
+            fps = stats.measured_fps
+            table.add_row(
+                name,
+                str(stats.frames),
+                f"{fps:.1f}" if fps else "—",
+                str(stats.drops),
+                str(stats.duplicates),
+                str(backlog.get(name, 0)),
+            )
+        assert self._live is not None
+        self._live.update(table)
+
+    def __exit__(self, *exc: object) -> None:
+        if self._live is not None:
+            self._live.__exit__(*exc)

@@ -1,0 +1,128 @@
+"""How a tactile signal is fitted: :class:`FitSettings` (the fit's options, where it starts).
+
+Shared by ``extract``, ``features`` and ``fit``: the options of
+:func:`~liquidtouch.fit.oscillation.fit_oscillation` (loss, model, band [Hz],
+noise) and the start of the fitted window (:func:`fit_window`: ``"auto"``, the
+free decay after the push, or a time [s] on the signal's clock).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from liquidtouch.tracking.detect import as_number
+
+AUTO = "auto"
+"""``FitSettings.start`` value: fit from the start of the free decay (:func:`free_decay`)."""
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    """How a signal is fitted: the options of ``fit_oscillation`` and where the fit starts.
+
+    ``loss``, ``model``, ``band_hz`` [Hz] and ``noise`` are passed to
+    :func:`~liquidtouch.fit.oscillation.fit_oscillation`. ``start`` is ``"auto"``
+    (the free decay after the push: :func:`~liquidtouch.segment.free_decay`) or a
+    time [s] on the signal's clock: the samples from then on are fitted. The
+    defaults are what ``extract``, ``features`` and ``fit`` use. Raises
+    :class:`~liquidtouch.errors.SignalError` for a bad option.
+    """
+
+    loss: str = "paper"
+    model: str = "two-mode"
+    band_hz: tuple[float, float] = (0.3, 5.0)
+    noise: str = "white"
+    start: float | str = AUTO
+
+    def __post_init__(self) -> None:
+        from liquidtouch.errors import SignalError
+        from liquidtouch.fit.oscillation import LOSSES, MODELS, NOISE_MODELS
+
+        for name, value, choices in (
+            ("loss", self.loss, LOSSES),
+            ("model", self.model, MODELS),
+            ("noise", self.noise, NOISE_MODELS),
+        ):
+            if value not in choices:
+                raise SignalError(f"unknown {name} {value!r}; choose one of {', '.join(choices)}")
+        try:
+            low, high = (as_number(v) for v in self.band_hz)
+        except (TypeError, ValueError):
+            raise SignalError(
+                f"band_hz must be a pair (low, high) in Hz, got {self.band_hz!r}"
+            ) from None
+        if not 0 < low < high < math.inf:
+            raise SignalError(
+                f"the frequency band must satisfy 0 < low < high in Hz, got {low:g}–{high:g} Hz"
+            )
+        object.__setattr__(self, "band_hz", (float(low), float(high)))
+        if self.start != AUTO:
+            start = as_number(self.start)
+            if not -math.inf < start < math.inf:
+                raise SignalError(
+                    f"the fit start must be 'auto' or a time in seconds, got {self.start!r}"
+                )
+            object.__setattr__(self, "start", float(start))
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready: ``loss``, ``model``, ``band_hz`` [low, high], ``noise``, ``start``."""
+        return {
+            "loss": self.loss,
+            "model": self.model,
+            "band_hz": list(self.band_hz),
+            "noise": self.noise,
+            "start": self.start,
+        }
+
+    def window(self, t: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The samples to fit: from ``start`` on (see :func:`fit_window`)."""
+        return fit_window(t, u, self.start)
+
+    def fit_options(self) -> dict[str, object]:
+        """Keyword arguments of ``fit_oscillation``: ``loss``, ``model``, ``band_hz``, ``noise``."""
+        return {
+            "loss": self.loss,
+            "model": self.model,
+            "band_hz": self.band_hz,
+            "noise": self.noise,
+        }
+
+    def fit(self, t: np.ndarray, u: np.ndarray) -> object:
+        """:func:`~liquidtouch.fit.oscillation.fit_oscillation` of :meth:`window` of ``(t, u)``."""
+        from liquidtouch.fit.oscillation import fit_oscillation
+
+        return fit_oscillation(*self.window(t, u), **self.fit_options())
+
+
+def fit_window(
+    t: np.ndarray, u: np.ndarray, start: float | str = AUTO
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(t, u)`` from ``start`` on; time stays absolute [s].
+
+    The whole signal is first checked as a fit input (finite, strictly increasing
+    time, long enough, not flat, at most ``MAX_SAMPLES``), so a bad signal is named
+    for what it is. ``start="auto"``: the free decay
+    (:func:`~liquidtouch.segment.free_decay`, what ``extract`` fits); a number: the
+    samples at ``t >= start`` (before the first sample: all of them), at least
+    ``MIN_DURATION_S`` of them.
+    """
+    from liquidtouch.errors import SignalError
+    from liquidtouch.fit.oscillation import MIN_DURATION_S, _validate
+    from liquidtouch.segment import free_decay
+
+    t, u = _validate(t, u)
+    if start == AUTO:
+        return free_decay(t, u)
+    start = as_number(start)
+    if not -math.inf < start < math.inf:
+        raise SignalError(f"the fit start must be 'auto' or a time in seconds, got {start!r}")
+    if t[-1] - max(start, t[0]) < MIN_DURATION_S:
+        raise SignalError(
+            f"the fit start {start:g} s leaves {max(t[-1] - start, 0.0):.3g} s of the signal "
+            f"({t[0]:.3g}–{t[-1]:.3g} s); the fit needs at least {MIN_DURATION_S:g} s"
+        )
+    keep = t >= start
+    return t[keep], u[keep]

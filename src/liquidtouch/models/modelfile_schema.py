@@ -1,0 +1,181 @@
+"""The schema of a model file (pydantic): what a valid liquidtouch model file holds.
+
+A model file is one JSON document (small arrays — training data, scaling —
+are embedded as lists; JSON floats round-trip exactly)::
+
+    {"format": "liquidtouch-model", "format_version": 2,
+     "kind": "regression" | "classification", "created_by": "liquidtouch 0.1.0",
+     "provenance": {"liquidtouch": ..., "scikit_learn": ..., "numpy": ..., "python": ...,
+                    "training_sha256": ...},
+     "features": ["decay_rate", "angular_frequency"], "targets": [...],
+     "feature_map": {"alpha": [α1, α2], "beta": [β1, β2]},
+     "domain": {"decay_rate": [min, max], "angular_frequency": [min, max], "margin": 0.1},
+     "regressors": {target: {"model": "gpr" | "physics-gpr" | "quadratic", ...}},
+     "classifier": {"model": "svm", "C": ..., "gamma": ..., ...} | null,
+     "sha256": ...}
+
+Each estimator stores its hyperparameters (GP kernel: constant, RBF length
+scales, white-noise level; SVM: C, gamma; physics prior: wavenumber and
+coefficients), its feature/target scaling and its training data. Features are
+λ [1/s] and ω [rad/s]. The format is described in ``docs/formats.md``.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from liquidtouch.io.tables import FEATURE_COLUMNS
+
+FORMAT_NAME = "liquidtouch-model"
+#: Version 2 adds ``sha256``, ``provenance`` and ``domain``; version 1 files still load.
+FORMAT_VERSION = 2
+
+PositiveFloat = Annotated[float, Field(gt=0)]
+Sha256 = Annotated[str, Field(pattern=r"^[0-9a-f]{64}$")]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+class _TrainingData(_Strict):
+    X_train: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(min_length=1)
+
+    def _check_length(self, other: list[Any], name: str) -> None:
+        if len(other) != len(self.X_train):
+            raise ValueError(
+                f"{name} has {len(other)} values but X_train has {len(self.X_train)} rows"
+            )
+
+
+class KernelState(_Strict):
+    constant: PositiveFloat
+    length_scale: list[PositiveFloat] = Field(min_length=2, max_length=3)
+    noise_level: PositiveFloat
+
+
+class PriorState(_Strict):
+    kind: Literal["height", "viscosity"]
+    wavenumber: float = Field(ge=0)
+    coef: list[float] = Field(min_length=2, max_length=2)
+
+
+class GPRState(_TrainingData):
+    model: Literal["gpr", "physics-gpr"]
+    n_restarts: int = Field(ge=0)
+    random_state: int
+    kernel: KernelState
+    prior: PriorState | None
+    x_mean: list[float]
+    x_scale: list[PositiveFloat]
+    y_mean: float
+    y_scale: PositiveFloat
+    y_train: list[float]
+
+    @model_validator(mode="after")
+    def _consistent(self) -> GPRState:
+        self._check_length(self.y_train, "y_train")
+        viscosity_prior = self.prior is not None and self.prior.kind == "viscosity"
+        n_inputs = 3 if viscosity_prior else 2
+        if (self.prior is None) != (self.model == "gpr"):
+            raise ValueError("a physics-gpr needs a prior and a plain gpr must not have one")
+        for name in ("x_mean", "x_scale"):
+            if len(getattr(self, name)) != n_inputs:
+                raise ValueError(f"{name} must have {n_inputs} values")
+        if len(self.kernel.length_scale) != n_inputs:
+            raise ValueError(f"kernel.length_scale must have {n_inputs} values")
+        if self.prior is not None and self.prior.kind == "height" and self.prior.wavenumber <= 0:
+            raise ValueError("prior.wavenumber must be > 0 for a height prior")
+        return self
+
+
+class QuadraticState(_TrainingData):
+    model: Literal["quadratic"]
+    coef: list[float] = Field(min_length=6, max_length=6)
+    y_train: list[float]
+
+    @model_validator(mode="after")
+    def _consistent(self) -> QuadraticState:
+        self._check_length(self.y_train, "y_train")
+        return self
+
+
+class SVMState(_TrainingData):
+    model: Literal["svm"]
+    C: PositiveFloat
+    gamma: PositiveFloat
+    labels_train: list[str]
+
+    @model_validator(mode="after")
+    def _consistent(self) -> SVMState:
+        self._check_length(self.labels_train, "labels_train")
+        return self
+
+
+class FeatureMapState(_Strict):
+    alpha: tuple[float, float] = (1.0, 0.0)
+    beta: tuple[float, float] = (1.0, 0.0)
+
+
+class DomainState(_Strict):
+    decay_rate: tuple[float, float]
+    angular_frequency: tuple[float, float]
+    margin: float = Field(ge=0)
+
+    @model_validator(mode="after")
+    def _ordered(self) -> DomainState:
+        for name in ("decay_rate", "angular_frequency"):
+            low, high = getattr(self, name)
+            if low > high:
+                raise ValueError(f"{name}: the minimum {low} exceeds the maximum {high}")
+        return self
+
+
+class ProvenanceState(_Strict):
+    liquidtouch: str
+    scikit_learn: str
+    numpy: str
+    python: str
+    training_sha256: Sha256
+
+
+RegressorState = Annotated[GPRState | QuadraticState, Field(discriminator="model")]
+
+
+class ModelFile(_Strict):
+    """The validated contents of a model file."""
+
+    format: Literal["liquidtouch-model"]
+    format_version: int = Field(ge=1)
+    kind: Literal["regression", "classification"]
+    created_by: str = ""
+    provenance: ProvenanceState | None = None
+    features: list[str]
+    targets: list[str] = Field(min_length=1)
+    label: str | None = None
+    feature_map: FeatureMapState = FeatureMapState()
+    domain: DomainState | None = None
+    regressors: dict[str, RegressorState] = {}
+    classifier: SVMState | None = None
+    sha256: Sha256 | None = None
+
+    @model_validator(mode="after")
+    def _consistent(self) -> ModelFile:
+        if tuple(self.features) != FEATURE_COLUMNS:
+            raise ValueError(f"features must be {list(FEATURE_COLUMNS)}")
+        if self.kind == "regression":
+            if self.classifier is not None or set(self.regressors) != set(self.targets):
+                raise ValueError(
+                    "a regression model needs one regressor per target and no classifier"
+                )
+        elif self.classifier is None or self.regressors:
+            raise ValueError("a classification model needs a classifier and no regressors")
+        if self.format_version >= 2:
+            missing = [n for n in ("provenance", "sha256") if getattr(self, n) is None]
+            if missing:
+                raise ValueError(
+                    f"format version {self.format_version} needs {' and '.join(missing)}"
+                )
+        return self

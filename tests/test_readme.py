@@ -1,0 +1,190 @@
+"""The README runs as written.
+
+Every fenced block preceded by ``<!-- runnable -->`` is run, in README order, in one
+fresh directory: the bash blocks with ``bash -euo pipefail`` (each ``liquidtouch`` call
+under a timeout), the python blocks with this interpreter. The files the tour says it
+writes must exist afterwards. Every ``liquidtouch <command>`` the README mentions, in a
+code block or an inline code span, must exist (``--help`` exits 0).
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import re
+import shlex
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+BIN = Path(sys.executable).parent  # the venv's bin: liquidtouch, python
+COMMAND_TIMEOUT_S = 150  # one liquidtouch call of the tour
+BLOCK_TIMEOUT_S = 400  # one whole block (the dataset loop)
+
+FENCE = re.compile(r"^```(\w*)\n(.*?)^```\s*$", re.DOTALL | re.MULTILINE)
+RUNNABLE = re.compile(
+    r"<!--\s*runnable\s*-->\s*\n```(\w+)\n(.*?)^```\s*$", re.DOTALL | re.MULTILINE
+)
+INLINE_CODE = re.compile(r"`([^`\n]+)`")
+MENTION = re.compile(r"(?<![\w/.-])liquidtouch((?:[ \t]+[a-z][a-z0-9-]*){1,2})")
+OUTPUT_OPTIONS = {"--out", "-o", "--signal-out", "--tracks-out", "--plot"}
+
+# What the tour says it writes (besides every --out/-o/--signal-out/--tracks-out/--plot path).
+TOUR_FILES = [
+    "trial/meta.json",
+    "trial/force.csv",
+    "trial/wrench.csv",
+    "trial/left.mp4",
+    "trial/right.mp4",
+    "trial/truth_tracks.npz",
+    "trial/loads.png",
+    "mine/.liquidtouch-dataset",
+    "mine/manifest.csv",
+    "mine/features.csv",
+    "mine/water/h25/meta.json",
+]
+
+# A shell function in front of the console script: each call gets a timeout.
+PREAMBLE = f"""
+liquidtouch() {{ timeout {COMMAND_TIMEOUT_S} {shlex.quote(str(BIN / "liquidtouch"))} "$@"; }}
+"""
+
+
+def readme_text() -> str:
+    return README.read_text(encoding="utf-8")
+
+
+def runnable_blocks(text: str) -> list[tuple[str, str]]:
+    """(language, code) of every block marked runnable, in README order."""
+    return [(lang, code) for lang, code in RUNNABLE.findall(text)]
+
+
+def logical_lines(code: str) -> list[str]:
+    """The shell lines of a block: continuations joined, comments and blanks dropped."""
+    joined = re.sub(r"\\\n", " ", code)
+    lines = []
+    for line in joined.splitlines():
+        try:
+            tokens = shlex.split(line, comments=True)
+        except ValueError:
+            continue
+        if tokens:
+            lines.append(shlex.join(tokens))
+    return lines
+
+
+def declared_outputs(code: str) -> list[str]:
+    """The paths given to output options in a bash block (not those built from $variables)."""
+    outputs = []
+    for line in logical_lines(code):
+        tokens = shlex.split(line)
+        for option, value in itertools.pairwise(tokens):
+            if option in OUTPUT_OPTIONS and not value.startswith("-") and "$" not in value:
+                outputs.append(value)
+    return outputs
+
+
+def mentioned_commands(text: str) -> set[tuple[str, ...]]:
+    """Every ``liquidtouch <command> [<subcommand>]`` in the README's code (not its prose).
+
+    Code is the bash and unlabelled fenced blocks and the inline code spans; python blocks
+    are left out (``import liquidtouch as lt``).
+    """
+    code_parts = [code for lang, code in FENCE.findall(text) if lang in ("", "bash", "sh")]
+    prose = FENCE.sub("", text)
+    code_parts += INLINE_CODE.findall(prose)
+    found = set()
+    for part in code_parts:
+        for match in MENTION.finditer(part):
+            found.add(tuple(match.group(1).split()))
+    return found
+
+
+def _env() -> dict[str, str]:
+    env = dict(os.environ)
+    env["PATH"] = f"{BIN}{os.pathsep}{env.get('PATH', '')}"
+    env["PYTHONUNBUFFERED"] = "1"
+    env.pop("PYTHONPATH", None)
+    return env
+
+
+def _help(args: list[str]) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [str(BIN / "liquidtouch"), *args, "--help"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=_env(),
+    )
+
+
+def test_the_readme_marks_runnable_blocks() -> None:
+    blocks = runnable_blocks(readme_text())
+    languages = {lang for lang, _ in blocks}
+    assert languages == {"bash", "python"}, languages
+    for _, code in blocks:
+        assert "[--" not in code and "..." not in code, (
+            f"a placeholder in a runnable block:\n{code}"
+        )
+
+
+def test_every_mentioned_command_exists() -> None:
+    mentions = mentioned_commands(readme_text())
+    assert ("simulate", "trial") in mentions and ("features",) in {m[:1] for m in mentions}
+    helps: dict[tuple[str, ...], subprocess.CompletedProcess[str]] = {}
+
+    def help_of(command: tuple[str, ...]) -> subprocess.CompletedProcess[str]:
+        if command not in helps:
+            helps[command] = _help(list(command))
+        return helps[command]
+
+    missing = set()
+    for mention in sorted(mentions):
+        top = help_of(mention[:1])
+        if top.returncode != 0:
+            missing.add(f"liquidtouch {mention[0]}: {top.stderr.strip() or top.stdout.strip()}")
+        elif len(mention) == 2 and "Commands:" in top.stdout:  # a group: its subcommand too
+            sub = help_of(mention)
+            if sub.returncode != 0:
+                missing.add(f"liquidtouch {' '.join(mention)}: {sub.stderr.strip()}")
+    assert not missing, "README mentions commands that do not exist:\n" + "\n".join(sorted(missing))
+
+
+@pytest.mark.slow
+def test_the_readme_tour_runs_as_written(tmp_path: Path) -> None:
+    blocks = runnable_blocks(readme_text())
+    expected = list(TOUR_FILES)
+    timings = []
+    for index, (lang, code) in enumerate(blocks):
+        start = time.monotonic()
+        if lang == "bash":
+            expected += declared_outputs(code)
+            command = ["bash", "-euo", "pipefail", "-c", PREAMBLE + code]
+        elif lang == "python":
+            command = [sys.executable, "-c", code]
+        else:
+            pytest.fail(f"runnable block {index} has no runner for language {lang!r}")
+        try:
+            result = subprocess.run(
+                command,
+                cwd=tmp_path,
+                capture_output=True,
+                text=True,
+                timeout=BLOCK_TIMEOUT_S,
+                env=_env(),
+            )
+        except subprocess.TimeoutExpired as exc:
+            pytest.fail(f"runnable block {index} ({lang}) timed out:\n{code}\n{exc.stderr}")
+        timings.append(f"block {index} ({lang}): {time.monotonic() - start:.1f} s")
+        assert result.returncode == 0, (
+            f"runnable block {index} ({lang}) failed with exit status {result.returncode}:\n"
+            f"{code}\n--- stdout (end)\n{result.stdout[-3000:]}\n--- stderr (end)\n"
+            f"{result.stderr[-3000:]}"
+        )
+    print("\n".join(timings))
+    missing = [path for path in expected if not (tmp_path / path).exists()]
+    assert not missing, f"the README tour said it writes these, but they are missing: {missing}"
