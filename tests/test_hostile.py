@@ -177,3 +177,12 @@ def test_a_recording_far_longer_than_a_trial_is_refused(monkeypatch: pytest.Monk
     with pytest.raises(VideoError, match="more than 5 frames"):
         tracks.track_markers(frames)
     assert tracks.track_markers((k / 30.0, image) for k in range(5)).positions.shape[0] == 5
+
+
+def test_simulate_dataset_checks_the_sensor_before_writing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "data"
+    argv = ["simulate", "dataset", "--preset", "sugar", "--quick", "--sensor", "bogus"]
+    status, err = _run(capsys, *argv, "-o", str(out))
+    assert status == 2 and err.startswith("error: unknown sensor 'bogus'") and not out.exists()

@@ -199,7 +199,7 @@ class URArm:
                 now = self.get_pose()
                 if not running and math.dist(now[:3], target[:3]) <= POSITION_TOLERANCE_M:
                     return now
-                if not running and elapsed > duration + 1.0:
+                if not running and elapsed > duration + 0.5:
                     self._check_safety()
                     raise DeviceError(
                         f"the UR arm stopped {math.dist(now[:3], target[:3]) * 1e3:.1f} mm "

@@ -72,6 +72,8 @@ PNG_COMPRESSION = 1
 """zlib level of PNG frames (1: fast, within ~5 % of the best size for camera images)."""
 MAX_BACKLOG_S = 10.0
 """Frames waiting for an encoder beyond this many seconds of video are dropped and counted."""
+WRITER_FINISH_S = 120.0
+"""How long :meth:`Recorder.stop` waits for the encoders to catch up [s]."""
 RESERVED_META = ("format_version", "fps", "sensors", "tracks", "sensor_start_s", "recording")
 """meta.json fields the recorder writes itself (labels and extra_meta cannot set them)."""
 
@@ -462,12 +464,20 @@ class Recorder:
         assert self.session is not None
         self.session.stop()
         stopped_at = time.monotonic()
-        for thread in self._writer_threads:
-            while thread.is_alive():  # bounded: the queue holds at most MAX_BACKLOG_S of frames
-                thread.join(timeout=1.0)
+        deadline = time.monotonic() + WRITER_FINISH_S
+        for thread in self._writer_threads:  # the queues hold at most MAX_BACKLOG_S of frames
+            thread.join(timeout=max(0.0, deadline - time.monotonic()))
+            if thread.is_alive():
+                self._writer_errors.setdefault(
+                    thread.name.removeprefix("writer-"),
+                    OutputError(f"the encoder did not finish within {WRITER_FINISH_S:g} s"),
+                )
         self._close_cameras()
         errors: dict[str, str] = {}
+        busy = {t.name.removeprefix("writer-") for t in self._writer_threads if t.is_alive()}
         for name, writer in self._writers.items():
+            if name in busy:  # still encoding: failed above, removed by abort()
+                continue
             try:
                 writer.close()
             except BaseException as exc:

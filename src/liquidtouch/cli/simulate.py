@@ -97,6 +97,7 @@ def dataset_command(
     jobs: options.Jobs = 1,
     quick: bool = typer.Option(False, "--quick", help="A small deterministic subset."),
     video: bool = typer.Option(True, "--video/--no-video", help="Render GelSight videos."),
+    sensor: str = typer.Option("default", "--sensor", help="GelSight sensor profile name."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object on stdout."),
 ) -> None:
     """Simulate every trial of a preset (a dataset of the paper) and write manifest.csv.
@@ -108,7 +109,9 @@ def dataset_command(
     from liquidtouch.sim.presets import simulate_dataset
 
     progress = not as_json and sys.stderr.isatty()  # a bar only where it can be redrawn
-    result = simulate_dataset(preset, out, jobs=jobs, video=video, quick=quick, progress=progress)
+    result = simulate_dataset(
+        preset, out, jobs=jobs, video=video, quick=quick, progress=progress, sensor=sensor
+    )
     summary = {
         "root": str(result.root),
         "manifest": str(result.manifest),
