@@ -32,18 +32,13 @@ lost because an encoder fell more than :data:`MAX_BACKLOG_S` behind the camera
 from __future__ import annotations
 
 import contextlib
-import csv
-import io
 import math
 import queue
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
-from fractions import Fraction
+from dataclasses import asdict
 from pathlib import Path
-
-import numpy as np
 
 from liquidtouch.acquire.cameras import (
     DEFAULT_READ_TIMEOUT_S,
@@ -56,194 +51,46 @@ from liquidtouch.acquire.cameras import (
     get_profile,
     open_camera,
 )
+from liquidtouch.acquire.frame_writers import (
+    FFV1_OPTIONS,
+    PNG_COMPRESSION,
+    PNG_TIMESTAMPS_NAME,
+    PTS_RATE_HZ,
+    TIMESTAMPS_SUFFIX,
+    VIDEO_SUFFIX,
+    _Ffv1Writer,
+    _PngWriter,
+    _Writer,
+)
+from liquidtouch.acquire.recording_summary import RecordingSummary, SensorSummary
 from liquidtouch.errors import DatasetError, DeviceError, LiquidTouchError, OutputError
 from liquidtouch.io import atomic
 from liquidtouch.io.dataset import META_NAME, TrialMeta
 
+__all__ = [
+    "FFV1_OPTIONS",
+    "FORMATS",
+    "MAX_BACKLOG_S",
+    "PNG_COMPRESSION",
+    "PNG_TIMESTAMPS_NAME",
+    "PTS_RATE_HZ",
+    "RESERVED_META",
+    "TIMESTAMPS_SUFFIX",
+    "VIDEO_SUFFIX",
+    "WRITER_FINISH_S",
+    "Recorder",
+    "RecordingSummary",
+    "SensorSummary",
+    "record",
+]
+
 FORMATS = ("ffv1", "png")
-VIDEO_SUFFIX = ".mkv"
-TIMESTAMPS_SUFFIX = ".timestamps.csv"
-PNG_TIMESTAMPS_NAME = "timestamps.csv"  # io.frames.TIMESTAMPS_NAME (not imported: no cv2 pull)
-PTS_RATE_HZ = 1_000_000
-"""Time base of the FFV1 encoder's PTS (µs); Matroska stores them to 1 ms."""
-FFV1_OPTIONS = {"level": "3", "g": "1", "slicecrc": "1"}
-"""FFV1 version 3, every frame a keyframe, a CRC per slice (damage is detected on decoding)."""
-PNG_COMPRESSION = 1
-"""zlib level of PNG frames (1: fast, within ~5 % of the best size for camera images)."""
 MAX_BACKLOG_S = 10.0
 """Frames waiting for an encoder beyond this many seconds of video are dropped and counted."""
 WRITER_FINISH_S = 120.0
 """How long :meth:`Recorder.stop` waits for the encoders to catch up [s]."""
 RESERVED_META = ("format_version", "fps", "sensors", "tracks", "sensor_start_s", "recording")
 """meta.json fields the recorder writes itself (labels and extra_meta cannot set them)."""
-
-
-@dataclass
-class SensorSummary:
-    """One sensor's recording: frames, measured rate [Hz], drops, duplicates, times [s]."""
-
-    name: str
-    source: str
-    frames: int
-    measured_fps: float | None
-    nominal_fps: float | None
-    drops: int
-    duplicates: int
-    backlog_drops: int
-    start_t_s: float | None
-    end_t_s: float | None
-    file: str | None = None
-
-    @property
-    def lost(self) -> int:
-        """Frames missing from the recording: camera drops plus encoder backlog drops."""
-        return self.drops + self.backlog_drops
-
-
-@dataclass
-class RecordingSummary:
-    """What :meth:`Recorder.stop` recorded; ``trial_dir`` is set by :meth:`Recorder.finish`.
-
-    ``start_t_s`` is when capturing started [s, :func:`time.monotonic`], ``duration_s``
-    how long it ran [s].
-    """
-
-    sensors: dict[str, SensorSummary]
-    start_t_s: float
-    duration_s: float
-    fmt: str
-    profile: str
-    grey: bool
-    trial_dir: Path | None = None
-    errors: dict[str, str] = field(default_factory=dict)
-
-    @property
-    def fps(self) -> float | None:
-        """The measured frame rate over all sensors [Hz] (their mean), for meta.json."""
-        rates = [s.measured_fps for s in self.sensors.values() if s.measured_fps]
-        return float(np.mean(rates)) if rates else None
-
-    def to_dict(self) -> dict[str, object]:
-        out = asdict(self)
-        out["trial_dir"] = str(self.trial_dir) if self.trial_dir else None
-        out["fps"] = self.fps
-        return out
-
-
-# --- writers ----------------------------------------------------------------------------
-
-
-class _Writer:
-    """Encodes one sensor's frames into ``directory`` and keeps their timestamps."""
-
-    def __init__(self, directory: Path, name: str, t0_s: float) -> None:
-        self.directory = directory
-        self.name = name
-        self.t0_s = t0_s
-        self.times: list[float] = []
-        self.duplicates: list[bool] = []
-
-    @property
-    def entry(self) -> str:
-        raise NotImplementedError
-
-    def write(self, frame: Frame, image: np.ndarray) -> None:
-        self._encode(image, len(self.times), frame.t_s)
-        self.times.append(frame.t_s)
-        self.duplicates.append(frame.duplicate)
-
-    def _encode(self, image: np.ndarray, index: int, t_s: float) -> None:
-        raise NotImplementedError
-
-    def close(self) -> None:
-        """Flush the encoder and write the timestamps file."""
-
-    def timestamps_csv(self) -> str:
-        buffer = io.StringIO()
-        writer = csv.writer(buffer, lineterminator="\n")
-        writer.writerow(["frame", "t_s", "duplicate"])
-        for i, (t, dup) in enumerate(zip(self.times, self.duplicates, strict=True)):
-            writer.writerow([i, f"{t:.6f}", int(dup)])
-        return buffer.getvalue()
-
-
-class _Ffv1Writer(_Writer):
-    """FFV1 (lossless) in Matroska; each frame's PTS is its time since the sensor's first frame."""
-
-    def __init__(self, directory: Path, name: str, t0_s: float, *, threads: int = 1) -> None:
-        super().__init__(directory, name, t0_s)
-        self.path = directory / f"{name}{VIDEO_SUFFIX}"
-        self.threads = threads
-        self._container = None
-        self._stream = None
-        self._last_pts = -1
-        self.fps_hint = 30.0  # the stream's nominal rate (Matroska header only)
-
-    @property
-    def entry(self) -> str:
-        return self.path.name
-
-    def _open(self, image: np.ndarray, fps: float) -> None:
-        import av
-
-        self._container = av.open(str(self.path), mode="w", format="matroska")
-        stream = self._container.add_stream("ffv1", rate=Fraction(fps).limit_denominator(1000))
-        stream.height, stream.width = image.shape[:2]
-        stream.pix_fmt = "gray" if image.ndim == 2 else "bgr0"
-        stream.codec_context.time_base = Fraction(1, PTS_RATE_HZ)
-        stream.codec_context.thread_count = self.threads
-        stream.options = dict(FFV1_OPTIONS)
-        self._stream = stream
-
-    def _encode(self, image: np.ndarray, index: int, t_s: float) -> None:
-        import av
-
-        if self._container is None:
-            self._open(image, self.fps_hint)
-        if not self.times:
-            self.t0_s = t_s  # PTS 0 at the sensor's first frame (absolute: sensor_start_s)
-        pts = max(self._last_pts + 1, round((t_s - self.t0_s) * PTS_RATE_HZ))
-        self._last_pts = pts
-        frame = av.VideoFrame.from_ndarray(image, format="gray" if image.ndim == 2 else "bgr24")
-        frame.pts = pts
-        frame.time_base = Fraction(1, PTS_RATE_HZ)
-        for packet in self._stream.encode(frame):
-            self._container.mux(packet)
-
-    def close(self) -> None:
-        if self._container is not None:
-            try:
-                for packet in self._stream.encode():
-                    self._container.mux(packet)
-            finally:
-                self._container.close()
-                self._container = None
-        (self.directory / f"{self.name}{TIMESTAMPS_SUFFIX}").write_text(
-            self.timestamps_csv(), encoding="utf-8"
-        )
-
-
-class _PngWriter(_Writer):
-    """A folder of PNG images ``000000.png``, ... with ``timestamps.csv`` (absolute t_s)."""
-
-    def __init__(self, directory: Path, name: str, t0_s: float) -> None:
-        super().__init__(directory, name, t0_s)
-        self.folder = directory / name
-        self.folder.mkdir()
-
-    @property
-    def entry(self) -> str:
-        return self.folder.name
-
-    def _encode(self, image: np.ndarray, index: int, t_s: float) -> None:
-        import cv2
-
-        path = self.folder / f"{index:06d}.png"
-        if not cv2.imwrite(str(path), image, [int(cv2.IMWRITE_PNG_COMPRESSION), PNG_COMPRESSION]):
-            raise OutputError(f"cannot write {path} (disk full or not writable?)")
-
-    def close(self) -> None:
-        (self.folder / PNG_TIMESTAMPS_NAME).write_text(self.timestamps_csv(), encoding="utf-8")
 
 
 # --- recorder ---------------------------------------------------------------------------

@@ -29,6 +29,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
+from liquidtouch.sim.rig.line_server import LineServer
+
 PROTOCOL = 1
 SERVER_NAME = "liquidtouch-rig-arm"
 MAX_LINE = 65536
@@ -178,61 +180,19 @@ class _Connection:
                 self.move = None
 
 
-class ArmServer:
+class ArmServer(LineServer):
     """Serve ``model`` on ``host:port`` (``port=0``: any free port); ``port`` set by ``start()``."""
 
+    thread_name = "rig-arm"
+    model: ArmModel
+
     def __init__(self, model: ArmModel, *, host: str = "127.0.0.1", port: int = 0):
-        self.model, self.host, self.port = model, host, port
-        self.stopping = threading.Event()
-        self._sock: socket.socket | None = None
-        self._thread: threading.Thread | None = None
-        self._connections: list[_Connection] = []
-        self._lock = threading.Lock()
+        super().__init__(model, host=host, port=port)
 
     @property
     def url(self) -> str:
         """``sim://host:port``, what ``liquidtouch.acquire.arm.open_arm`` takes."""
         return f"sim://{self.host}:{self.port}"
 
-    def start(self) -> ArmServer:
-        sock = socket.create_server((self.host, self.port))
-        sock.settimeout(0.2)
-        self._sock, self.port = sock, sock.getsockname()[1]
-        self._thread = threading.Thread(target=self._accept, name="rig-arm", daemon=True)
-        self._thread.start()
-        return self
-
-    def _accept(self) -> None:
-        assert self._sock is not None
-        while not self.stopping.is_set():
-            try:
-                client, _ = self._sock.accept()
-            except TimeoutError:
-                continue
-            except OSError:
-                break
-            client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            connection = _Connection(self, client)
-            with self._lock:
-                self._connections = [c for c in self._connections if c.sock.fileno() >= 0]
-                self._connections.append(connection)
-            threading.Thread(target=connection.serve, name="rig-arm-client", daemon=True).start()
-
-    def stop(self) -> None:
-        self.stopping.set()
-        if self._sock is not None:
-            with contextlib.suppress(OSError):
-                self._sock.close()
-        with self._lock:
-            for connection in self._connections:
-                connection.cancelled.set()
-                with contextlib.suppress(OSError):
-                    connection.sock.shutdown(socket.SHUT_RDWR)
-        if self._thread is not None:
-            self._thread.join(timeout=2.0)
-
-    def __enter__(self) -> ArmServer:
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
+    def _connection(self, client: socket.socket) -> _Connection:
+        return _Connection(self, client)

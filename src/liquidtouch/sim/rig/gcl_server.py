@@ -31,6 +31,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
+from liquidtouch.sim.rig.line_server import LineServer
+
 MOTIONS = ("HOME", "GRIP", "RELEASE", "MOVE")
 QUERIES = ("POS", "FORCE", "SPEED", "GRIPSTATE")
 MAX_LINE = 1024
@@ -214,65 +216,23 @@ class _Connection:
                 self.motion = None
 
 
-class GclServer:
+class GclServer(LineServer):
     """Serve ``model`` over the GCL on ``host:port`` (``port=0``: any free port).
 
     ``start()`` binds and starts the accept thread; ``stop()`` closes everything.
     ``port`` holds the bound port after ``start()``.
     """
 
+    thread_name = "rig-gcl"
+    model: GripperModel
+
     def __init__(self, model: GripperModel, *, host: str = "127.0.0.1", port: int = 0):
-        self.model, self.host, self.port = model, host, port
-        self.stopping = threading.Event()
-        self._sock: socket.socket | None = None
-        self._thread: threading.Thread | None = None
-        self._connections: list[_Connection] = []
-        self._lock = threading.Lock()
+        super().__init__(model, host=host, port=port)
 
     @property
     def url(self) -> str:
         """``wsg50://host:port``, what ``liquidtouch.acquire.gripper.open_gripper`` takes."""
         return f"wsg50://{self.host}:{self.port}"
 
-    def start(self) -> GclServer:
-        sock = socket.create_server((self.host, self.port))
-        sock.settimeout(0.2)
-        self._sock, self.port = sock, sock.getsockname()[1]
-        self._thread = threading.Thread(target=self._accept, name="rig-gcl", daemon=True)
-        self._thread.start()
-        return self
-
-    def _accept(self) -> None:
-        assert self._sock is not None
-        while not self.stopping.is_set():
-            try:
-                client, _ = self._sock.accept()
-            except TimeoutError:
-                continue
-            except OSError:
-                break
-            client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            connection = _Connection(self, client)
-            with self._lock:
-                self._connections = [c for c in self._connections if c.sock.fileno() >= 0]
-                self._connections.append(connection)
-            threading.Thread(target=connection.serve, name="rig-gcl-client", daemon=True).start()
-
-    def stop(self) -> None:
-        self.stopping.set()
-        if self._sock is not None:
-            with contextlib.suppress(OSError):
-                self._sock.close()
-        with self._lock:
-            for connection in self._connections:
-                connection.cancelled.set()
-                with contextlib.suppress(OSError):
-                    connection.sock.shutdown(socket.SHUT_RDWR)
-        if self._thread is not None:
-            self._thread.join(timeout=2.0)
-
-    def __enter__(self) -> GclServer:
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
+    def _connection(self, client: socket.socket) -> _Connection:
+        return _Connection(self, client)

@@ -1,0 +1,60 @@
+"""What a recording produced: per-sensor and whole-recording summaries."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+
+@dataclass
+class SensorSummary:
+    """One sensor's recording: frames, measured rate [Hz], drops, duplicates, times [s]."""
+
+    name: str
+    source: str
+    frames: int
+    measured_fps: float | None
+    nominal_fps: float | None
+    drops: int
+    duplicates: int
+    backlog_drops: int
+    start_t_s: float | None
+    end_t_s: float | None
+    file: str | None = None
+
+    @property
+    def lost(self) -> int:
+        """Frames missing from the recording: camera drops plus encoder backlog drops."""
+        return self.drops + self.backlog_drops
+
+
+@dataclass
+class RecordingSummary:
+    """What :meth:`Recorder.stop` recorded; ``trial_dir`` is set by :meth:`Recorder.finish`.
+
+    ``start_t_s`` is when capturing started [s, :func:`time.monotonic`], ``duration_s``
+    how long it ran [s].
+    """
+
+    sensors: dict[str, SensorSummary]
+    start_t_s: float
+    duration_s: float
+    fmt: str
+    profile: str
+    grey: bool
+    trial_dir: Path | None = None
+    errors: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def fps(self) -> float | None:
+        """The measured frame rate over all sensors [Hz] (their mean), for meta.json."""
+        rates = [s.measured_fps for s in self.sensors.values() if s.measured_fps]
+        return float(np.mean(rates)) if rates else None
+
+    def to_dict(self) -> dict[str, object]:
+        out = asdict(self)
+        out["trial_dir"] = str(self.trial_dir) if self.trial_dir else None
+        out["fps"] = self.fps
+        return out
