@@ -28,7 +28,7 @@ def progress_bar(
     ``advance`` takes and ignores any arguments, so it can be passed straight
     as a per-item callback (``on_frame``, ``progress(target)``).
     """
-    if not enabled:
+    if not enabled or not on_terminal():  # a redirected stderr would get blank lines only
         yield lambda *_: None
         return
     from rich.console import Console
