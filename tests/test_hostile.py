@@ -186,3 +186,11 @@ def test_simulate_dataset_checks_the_sensor_before_writing(
     argv = ["simulate", "dataset", "--preset", "sugar", "--quick", "--sensor", "bogus"]
     status, err = _run(capsys, *argv, "-o", str(out))
     assert status == 2 and err.startswith("error: unknown sensor 'bogus'") and not out.exists()
+
+
+def test_a_folder_without_images_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "data" / "sub").mkdir(parents=True)
+    status, err = _run(capsys, "extract", str(tmp_path / "data"))
+    assert status == 2 and "holds no images" in err

@@ -77,7 +77,7 @@ def resolve_sources(
     same file given twice (two names, a link) is refused: it is one sensor, not two.
     """
     from liquidtouch.io.dataset import META_NAME, read_trial_meta
-    from liquidtouch.io.frames import TIMESTAMPS_NAME
+    from liquidtouch.io.frames import TIMESTAMPS_NAME, image_files
 
     items = [paths] if isinstance(paths, str | os.PathLike) else list(paths)
     if not items:
@@ -106,6 +106,7 @@ def resolve_sources(
     _refuse_duplicates(sources)
     for path in sources:
         if rate is None and path.is_dir() and not (path / TIMESTAMPS_NAME).exists():
+            image_files(path)  # a folder with no images (e.g. a dataset) says so first
             raise VideoError(
                 f"image folder {path} has no frame rate: pass --fps (the camera's frame rate) "
                 f"or add {path / TIMESTAMPS_NAME} with a t_s column, one row per image"
