@@ -32,20 +32,14 @@ lost because an encoder fell more than :data:`MAX_BACKLOG_S` behind the camera
 from __future__ import annotations
 
 import contextlib
-import math
-import queue
-import threading
 import time
-from collections.abc import Callable, Sequence
-from dataclasses import asdict
+from collections.abc import Sequence
 from pathlib import Path
 
 from liquidtouch.acquire.cameras import (
     DEFAULT_READ_TIMEOUT_S,
-    END,
     Camera,
     CaptureSession,
-    Frame,
     FrameStats,
     default_names,
     get_profile,
@@ -62,10 +56,18 @@ from liquidtouch.acquire.frame_writers import (
     _PngWriter,
     _Writer,
 )
+from liquidtouch.acquire.recording_meta import (
+    RESERVED_META,
+    _check_meta_fields,
+    _validate_meta,
+    build_meta,
+)
+from liquidtouch.acquire.recording_run import record
 from liquidtouch.acquire.recording_summary import RecordingSummary, SensorSummary
-from liquidtouch.errors import DatasetError, DeviceError, LiquidTouchError, OutputError
+from liquidtouch.acquire.writer_pool import MAX_BACKLOG_S, WRITER_FINISH_S, WriterPool
+from liquidtouch.errors import DeviceError, LiquidTouchError, OutputError
 from liquidtouch.io import atomic
-from liquidtouch.io.dataset import META_NAME, TrialMeta
+from liquidtouch.io.dataset import META_NAME
 
 __all__ = [
     "FFV1_OPTIONS",
@@ -81,16 +83,13 @@ __all__ = [
     "Recorder",
     "RecordingSummary",
     "SensorSummary",
+    "_Ffv1Writer",
+    "_PngWriter",
+    "_Writer",
     "record",
 ]
 
 FORMATS = ("ffv1", "png")
-MAX_BACKLOG_S = 10.0
-"""Frames waiting for an encoder beyond this many seconds of video are dropped and counted."""
-WRITER_FINISH_S = 120.0
-"""How long :meth:`Recorder.stop` waits for the encoders to catch up [s]."""
-RESERVED_META = ("format_version", "fps", "sensors", "tracks", "sensor_start_s", "recording")
-"""meta.json fields the recorder writes itself (labels and extra_meta cannot set them)."""
 
 
 # --- recorder ---------------------------------------------------------------------------
@@ -161,10 +160,7 @@ class Recorder:
         self.trial_dir: Path | None = None
         self._stack: contextlib.ExitStack | None = None
         self._tmp: Path | None = None
-        self._writers: dict[str, _Writer] = {}
-        self._writer_threads: list[threading.Thread] = []
-        self._writer_errors: dict[str, BaseException] = {}
-        self._backlog_drops: dict[str, int] = dict.fromkeys(self.names, 0)
+        self._pool = WriterPool(self.names, grey=self.grey)
         self._state = "new"
 
     # --- lifecycle ----------------------------------------------------------------------
@@ -211,63 +207,13 @@ class Recorder:
             self._tmp = self._stack.enter_context(atomic.atomic_directory(self.out_dir))
             assert self.session is not None
             t0 = time.monotonic()
-            for camera, name in zip(self.cameras, self.names, strict=True):
-                writer = (
-                    _Ffv1Writer(self._tmp, name, t0)
-                    if self.fmt == "ffv1"
-                    else _PngWriter(self._tmp, name, t0)
-                )
-                if isinstance(writer, _Ffv1Writer):
-                    writer.fps_hint = camera.nominal_fps or 30.0
-                self._writers[name] = writer
-                limit = max(30, math.ceil(MAX_BACKLOG_S * (camera.nominal_fps or 60.0)))
-                self._install_backlog_limit(name, limit)
-                thread = threading.Thread(
-                    target=self._drain, args=(name,), name=f"writer-{name}", daemon=True
-                )
-                self._writer_threads.append(thread)
-                thread.start()
+            self._pool.start(self.session, self.cameras, self.names, self._tmp, self.fmt, t0)
             self._state = "recording"
             self.session.start()
         except BaseException:
             self.abort()
             raise
         return self
-
-    def _install_backlog_limit(self, name: str, limit: int) -> None:
-        assert self.session is not None
-        target = self.session.queues[name]
-        thread = next(t for t in self.session.threads if t.sensor == name)
-
-        def sink(frame: Frame, target: queue.Queue = target) -> None:
-            if target.qsize() >= limit:
-                self._backlog_drops[name] += 1
-                return
-            target.put(frame)
-
-        thread.sink = sink
-
-    def _drain(self, name: str) -> None:
-        """Writer thread: encode the sensor's frames until END (errors kept, frames drained)."""
-        import cv2
-
-        assert self.session is not None
-        source, writer = self.session.queues[name], self._writers[name]
-        failed = False
-        while True:
-            frame = source.get()
-            if frame is END:
-                return
-            if failed:
-                continue
-            try:
-                image = frame.image
-                if self.grey and image.ndim == 3:
-                    image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-                writer.write(frame, image)
-            except BaseException as exc:
-                self._writer_errors[name] = exc
-                failed = True
 
     def stats(self) -> dict[str, FrameStats]:
         """Live per-sensor statistics (frames, measured fps, drops, duplicates)."""
@@ -293,7 +239,7 @@ class Recorder:
                     raise DeviceError(
                         f"sensor {thread.sensor}: {thread.end_reason} while recording"
                     ) from thread.end_reason
-        for name, error in self._writer_errors.items():
+        for name, error in self._pool.errors.items():
             if isinstance(error, LiquidTouchError):
                 raise error
             raise OutputError(f"sensor {name}: cannot write the recording: {error}") from error
@@ -311,30 +257,16 @@ class Recorder:
         assert self.session is not None
         self.session.stop()
         stopped_at = time.monotonic()
-        deadline = time.monotonic() + WRITER_FINISH_S
-        for thread in self._writer_threads:  # the queues hold at most MAX_BACKLOG_S of frames
-            thread.join(timeout=max(0.0, deadline - time.monotonic()))
-            if thread.is_alive():
-                self._writer_errors.setdefault(
-                    thread.name.removeprefix("writer-"),
-                    OutputError(f"the encoder did not finish within {WRITER_FINISH_S:g} s"),
-                )
+        self._pool.join()
         self._close_cameras()
         errors: dict[str, str] = {}
-        busy = {t.name.removeprefix("writer-") for t in self._writer_threads if t.is_alive()}
-        for name, writer in self._writers.items():
-            if name in busy:  # still encoding: failed above, removed by abort()
-                continue
-            try:
-                writer.close()
-            except BaseException as exc:
-                self._writer_errors.setdefault(name, exc)
+        self._pool.close()
         self._state = "stopped"
         stats = self.session.stats
         sensors = {}
         for name, source, camera in zip(self.names, self.sources, self.cameras, strict=True):
             s = stats[name]
-            writer = self._writers[name]
+            writer = self._pool.writers[name]
             sensors[name] = SensorSummary(
                 name=name,
                 source=source,
@@ -343,14 +275,14 @@ class Recorder:
                 nominal_fps=camera.nominal_fps,
                 drops=s.drops,
                 duplicates=s.duplicates,
-                backlog_drops=self._backlog_drops[name],
+                backlog_drops=self._pool.backlog_drops[name],
                 start_t_s=s.first_t_s,
                 end_t_s=s.last_t_s,
                 file=writer.entry,
             )
         for name, error in self.session.errors.items():
             errors[name] = str(error)
-        for name, error in self._writer_errors.items():
+        for name, error in self._pool.errors.items():
             errors.setdefault(name, str(error))
         start = self.session.start_t_s or stopped_at
         self.summary = RecordingSummary(
@@ -381,41 +313,15 @@ class Recorder:
             self.stop()
         if self._state != "stopped" or self.summary is None or self._tmp is None:
             raise DeviceError(f"this recorder is {self._state}; nothing to finish")
-        extra = dict(extra_meta or {})
-        _check_meta_fields(extra, "extra_meta")
         summary = self.summary
-        sensors = summary.sensors
-        meta = {
-            "format_version": 1,
-            "fps": summary.fps,
-            "sensors": [s.file for s in sensors.values()],
-            **self.labels,
-            "sensor_start_s": {n: s.start_t_s for n, s in sensors.items()},
-            "recording": {
-                "clock": "time.monotonic",
-                "start_t_s": summary.start_t_s,
-                "duration_s": summary.duration_s,
-                "format": self.fmt,
-                "grey": self.grey,
-                "profile": self.profile.name,
-                "timestamps": {
-                    n: (
-                        f"{n}{TIMESTAMPS_SUFFIX}"
-                        if self.fmt == "ffv1"
-                        else f"{n}/{PNG_TIMESTAMPS_NAME}"
-                    )
-                    for n in sensors
-                },
-                "sensors": {
-                    n: {k: v for k, v in asdict(s).items() if k not in ("name", "file")}
-                    for n, s in sensors.items()
-                },
-            },
-            **extra,
-        }
-        if meta["fps"] is None:
-            raise DeviceError("the recording has no measurable frame rate")
-        _validate_meta(meta)
+        meta = build_meta(
+            summary,
+            self.labels,
+            extra_meta,
+            fmt=self.fmt,
+            grey=self.grey,
+            profile=self.profile.name,
+        )
         atomic.write_json(self._tmp / META_NAME, meta)
         assert self._stack is not None
         stack, self._stack = self._stack, None
@@ -436,13 +342,7 @@ class Recorder:
         with contextlib.suppress(BaseException):
             if self.session is not None:
                 self.session.stop()
-        for thread in self._writer_threads:
-            thread.join(timeout=5.0)
-        for writer in self._writers.values():
-            with contextlib.suppress(BaseException):
-                if isinstance(writer, _Ffv1Writer) and writer._container is not None:
-                    writer._container.close()
-                    writer._container = None
+        self._pool.abort()
         self._close_cameras()
         self._state = "aborted"
         if self._stack is not None:
@@ -472,65 +372,3 @@ class Recorder:
 
 class _Aborted(Exception):
     """Thrown into the temporary directory's context to remove it."""
-
-
-def _check_meta_fields(fields: dict[str, object], what: str) -> None:
-    clash = [k for k in fields if k in RESERVED_META]
-    if clash:
-        raise DatasetError(
-            f"{what} cannot set {', '.join(clash)}: the recorder writes these meta.json fields"
-        )
-
-
-def _validate_meta(meta: dict[str, object]) -> None:
-    from pydantic import ValidationError
-
-    try:
-        TrialMeta.model_validate(meta)
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        where = ".".join(str(p) for p in first["loc"]) or "(root)"
-        raise DatasetError(f"meta.json field {where}: {first['msg']}") from None
-
-
-def record(
-    sources: Sequence[str],
-    seconds: float | None,
-    out_dir: str | Path,
-    *,
-    on_progress: Callable[[Recorder, float], None] | None = None,
-    progress_interval_s: float = 0.25,
-    extra_meta: dict[str, object] | None = None,
-    **kwargs: object,
-) -> RecordingSummary:
-    """Record ``sources`` for ``seconds`` (``None``: until every source ends) into ``out_dir``.
-
-    ``kwargs`` go to :class:`Recorder` (``names``, ``profile``, ``fmt``, ``labels``,
-    ``grey``, ...). ``on_progress(recorder, elapsed_s)`` is called about every
-    ``progress_interval_s`` seconds (``recorder.stats()`` has the live numbers).
-    Returns the summary, with ``trial_dir`` set. On any error or Ctrl-C nothing is
-    left in ``out_dir``.
-    """
-    if seconds is not None and not 0 < float(seconds) < math.inf:
-        raise DeviceError(f"the recording length must be a positive number of seconds: {seconds}")
-    with Recorder(sources, out_dir, **kwargs) as recorder:  # type: ignore[arg-type]
-        recorder.start()
-        start = time.monotonic()
-        while True:
-            elapsed = time.monotonic() - start
-            if seconds is not None and elapsed >= seconds:
-                break
-            if recorder.ended:
-                break
-            recorder.check()
-            if on_progress is not None:
-                on_progress(recorder, elapsed)
-            wait = progress_interval_s
-            if seconds is not None:
-                wait = min(wait, max(0.0, seconds - elapsed))
-            time.sleep(wait)
-        summary = recorder.stop()
-        if on_progress is not None:
-            on_progress(recorder, time.monotonic() - start)
-        recorder.finish(extra_meta)
-    return summary

@@ -7,7 +7,6 @@ this module sits above the pipeline; the model layer never imports it.
 from __future__ import annotations
 
 import os
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -63,7 +62,7 @@ def read_prediction_input(
         table = extract_features(
             path,
             write=False,
-            progress=sys.stderr.isatty(),
+            progress=True,
             jobs=jobs,
             dask_address=dask_address,
             **settings,

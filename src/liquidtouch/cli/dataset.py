@@ -138,7 +138,6 @@ def add_command(
     """
     from liquidtouch.cli.format import warn
     from liquidtouch.io.recordings import add_trial, parse_label_options
-    from liquidtouch.progress import on_terminal
 
     added = add_trial(
         directory,
@@ -153,7 +152,7 @@ def add_command(
         link=link,
         sensor_names=sensor_name or None,
         time_source=time_source.value,
-        progress=not as_json and on_terminal(),
+        progress=not as_json,
     )
     for warning in added.warnings:
         warn(warning)

@@ -77,7 +77,6 @@ def extract(
     """
     from liquidtouch.errors import SignalError
     from liquidtouch.extraction import extract as run_extract
-    from liquidtouch.progress import on_terminal
 
     if n_markers < 1:
         raise SignalError(f"--markers must be at least 1, got {n_markers}")
@@ -88,7 +87,7 @@ def extract(
         lowpass_hz=lowpass_hz,
         n_markers=n_markers,
         fps=fps,
-        progress=on_terminal(),
+        progress=True,
         fit_settings=settings,
         sensors=sensor or None,
     )
@@ -156,7 +155,6 @@ def features(
     from liquidtouch import __version__
     from liquidtouch.batch.features import extract_features
     from liquidtouch.io.dataset import FEATURES_NAME
-    from liquidtouch.progress import on_terminal
 
     settings = options.fit_settings(loss, model, band_low_hz, band_high_hz, noise, start)
     table = extract_features(
@@ -165,7 +163,7 @@ def features(
         jobs=jobs,
         dask_address=dask,
         source=str(source),
-        progress=on_terminal(),
+        progress=True,
         lowpass_hz=lowpass_hz,
         n_markers=n_markers,
         sensors=sensor or None,

@@ -100,13 +100,13 @@ def train(
     from liquidtouch.models.held_out import regression_errors, selection_summary, split_rows
     from liquidtouch.models.modelfile import save_model
     from liquidtouch.models.property_model import train_regression
-    from liquidtouch.progress import on_terminal, progress_bar
+    from liquidtouch.progress import progress_bar
 
     kind = str(model)
     table, X, skipped = _read_training_table(features)
     table, X, rest, chosen = split_rows(table, X, split, where, features)
     targets = {t: numeric_column(table, t) for t in dict.fromkeys(target)}
-    with progress_bar(f"training {kind}", len(targets), enabled=on_terminal()) as advance:
+    with progress_bar(f"training {kind}", len(targets)) as advance:
         fitted = train_regression(X, targets, kind, advance)
     held_out = None if rest is None else regression_errors(fitted, rest, list(targets))
     save_model(fitted, out)

@@ -71,6 +71,14 @@ Json = Annotated[
         "--json", help="Print one JSON object on stdout (warnings and progress go to stderr)."
     ),
 ]
+Labels = Annotated[
+    list[str],
+    typer.Option(
+        "--label",
+        help="A meta.json label KEY=VALUE (repeatable): liquid=water, height_mm=25, ...",
+        show_default=False,
+    ),
+]
 Jobs = Annotated[
     int,
     typer.Option(

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import typer
 
+from liquidtouch.cli import options
+
 
 class ProfileChoice(StrEnum):
     """``record --sensor`` (``acquire.cameras.PROFILES``)."""
@@ -35,35 +37,6 @@ class FormatChoice(StrEnum):
 def register(app: typer.Typer) -> None:
     """Register this module's commands on ``app``."""
     app.command("record")(record)
-
-
-def parse_labels(items: list[str]) -> dict[str, object]:
-    """``KEY=VALUE`` pairs → a dict; numbers become numbers, ``null`` None, the rest text."""
-    from liquidtouch.errors import DatasetError
-
-    labels: dict[str, object] = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        key = key.strip()
-        if not sep or not key:
-            raise DatasetError(f"--label must be KEY=VALUE (e.g. liquid=water), got {item!r}")
-        if key in labels:
-            raise DatasetError(f"--label {key} is given twice")
-        text = value.strip()
-        parsed: object = text
-        if text.lower() in ("null", "none", ""):
-            parsed = None
-        else:
-            try:
-                number = float(text)
-            except ValueError:
-                pass
-            else:
-                if not math.isfinite(number):
-                    raise DatasetError(f"--label {key}: {text!r} is not a finite number")
-                parsed = int(number) if number.is_integer() and "." not in text else number
-        labels[key] = parsed
-    return labels
 
 
 def record(
@@ -104,12 +77,7 @@ def record(
         help="ffv1: lossless FFV1 video in Matroska (.mkv), its PTS the frame times; "
         "png: a folder of PNG images with timestamps.csv.",
     ),
-    label: list[str] = typer.Option(
-        [],
-        "--label",
-        help="A meta.json label KEY=VALUE (repeatable): liquid=water, height_mm=25, ...",
-        show_default=False,
-    ),
+    label: options.Labels = [],  # noqa: B006 - typer reads the default, never mutates it
     name: list[str] = typer.Option(
         [],
         "--name",
@@ -132,11 +100,12 @@ def record(
     """
     from liquidtouch.acquire.recorder import record as run_record
     from liquidtouch.errors import DeviceError
+    from liquidtouch.io.labels import typed_labels
     from liquidtouch.progress import on_terminal
 
     if not 0 < seconds <= 3600 or not math.isfinite(seconds):
         raise DeviceError(f"--seconds must be in (0, 3600], got {seconds:g}")
-    labels = parse_labels(label)
+    labels = typed_labels(label)
     with _live_progress(enabled=on_terminal()) as on_progress:
         summary = run_record(
             sources,

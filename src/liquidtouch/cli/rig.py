@@ -22,6 +22,8 @@ from pathlib import Path
 
 import typer
 
+from liquidtouch.cli import options
+
 rig_app = typer.Typer(
     help="The simulated lab rig: gripper, arm and GelSight cameras on the network.",
     no_args_is_help=True,
@@ -163,12 +165,7 @@ def run_trial_command(
         dir_okay=False,
         help="Protocol TOML file (grasp force, lift, push, hold, ...); default: the paper's.",
     ),
-    label: list[str] = typer.Option(
-        [],
-        "--label",
-        help="A meta.json label KEY=VALUE (repeatable): liquid=water, height_mm=25, ...",
-        show_default=False,
-    ),
+    label: options.Labels = [],  # noqa: B006 - typer reads the default, never mutates it
     name: list[str] = typer.Option(
         [],
         "--name",
@@ -198,8 +195,8 @@ def run_trial_command(
         protocol_from_mapping,
         run_trial,
     )
-    from liquidtouch.cli.record import parse_labels
     from liquidtouch.errors import LiquidTouchError
+    from liquidtouch.io.labels import typed_labels
     from liquidtouch.progress import on_terminal
 
     params = load_protocol(protocol) if protocol is not None else ProtocolParameters()
@@ -207,7 +204,7 @@ def run_trial_command(
         if not math.isfinite(seconds):
             raise LiquidTouchError(f"--seconds must be a finite number, got {seconds}")
         params = protocol_from_mapping({**params.model_dump(), "hold_s": seconds}, "--seconds")
-    labels = {k: v for k, v in parse_labels(label).items() if v is not None}
+    labels = {k: v for k, v in typed_labels(label).items() if v is not None}
     if name and len(name) != len(camera):
         raise LiquidTouchError(f"{len(camera)} --camera but {len(name)} --name")
     verbose = on_terminal() and not as_json

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import typer
@@ -108,7 +107,7 @@ def dataset_command(
     """
     from liquidtouch.sim.presets import simulate_dataset
 
-    progress = not as_json and sys.stderr.isatty()  # a bar only where it can be redrawn
+    progress = not as_json  # progress_bar itself draws only on a terminal
     result = simulate_dataset(
         preset, out, jobs=jobs, video=video, quick=quick, progress=progress, sensor=sensor
     )

@@ -63,10 +63,8 @@ MODELS = ("two-mode", "single-mode")
 NOISE_MODELS = ("white", "correlated")
 DEFAULT_DELTA_REL = 1.0
 MIN_SAMPLES = 20
-#: most samples a fit takes. Time and memory grow linearly with the samples (the start
-#: search is thinned to a few thousand samples): 200 000 samples took 23 s of CPU and
-#: 270 MB peak RSS, 1 000 000 took 160 s and 850 MB (before: 7.8 KB per sample). A 3 Hz
-#: low-passed slosh needs no more than ~30 samples per second: resample longer signals
+#: most samples a fit takes: time and memory grow linearly (200 000 samples: 23 s CPU,
+#: 270 MB peak; 1 000 000: 160 s, 850 MB). A 3 Hz slosh needs ~30 samples/s: resample
 MAX_SAMPLES = 200_000
 MIN_DURATION_S = 2.0
 #: u varying by less than this fraction of its magnitude is flat (float precision)

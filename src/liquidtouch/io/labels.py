@@ -42,6 +42,27 @@ def parse_label_options(items: Sequence[str]) -> dict[str, str]:
     return labels
 
 
+def typed_labels(items: Sequence[str]) -> dict[str, object]:
+    """``KEY=VALUE`` options → a dict: numbers become numbers, ``null``/``none``/empty None.
+
+    Unlike :func:`check_labels` any key is kept (a recording may carry extra fields).
+    """
+    labels: dict[str, object] = {}
+    for key, text in parse_label_options(items).items():
+        if text.lower() in ("null", "none", ""):
+            labels[key] = None
+            continue
+        try:
+            number = float(text)
+        except ValueError:
+            labels[key] = text
+            continue
+        if not math.isfinite(number):
+            raise DatasetError(f"--label {key}: {text!r} is not a finite number")
+        labels[key] = int(number) if number.is_integer() and "." not in text else number
+    return labels
+
+
 def _normal(name: str) -> str:
     return re.sub(r"[\s_-]+", "-", name.strip().lower())
 

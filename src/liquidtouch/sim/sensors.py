@@ -7,7 +7,7 @@ Two profiles ship:
   (57.6 px), radius 5.5 px (blob area ≈ 95 px): an 11 × 9 grid in view.
 - ``"mini"``: a GelSight Mini, 320 × 240 px at 25 fps over 19.2 × 14.4 mm,
   i.e. 0.06 mm/px; markers at 1.8 mm pitch (30 px), radius 5.9 px (area ≈ 110 px,
-  as in the real Mini recording in ``../shared/data/real``).
+  as in the real Mini recording described in ``docs/real_data.md``).
 
 Compliances are chosen inside the realistic range 3–40 px/N, so that a 0.1 N
 slosh force moves the markers at the contact centre by ~0.5–1.2 px.
@@ -87,7 +87,7 @@ class SensorProfile:
 
 # LED lobes fitted (non-negative least squares, vignetting included) to the
 # marker-free background of the real GelSight Mini recording in
-# ../shared/data/real (gsrobotics mini_example.avi): teal top, magenta centre,
+# docs/real_data.md (gsrobotics mini_example.avi): teal top, magenta centre,
 # warm bottom. Residual 5.5 grey levels rms against a background std of 32.
 _FITTED_BASE_RGB = (0.0, 38.9, 19.7)
 _FITTED_LEDS = tuple(

@@ -1,0 +1,121 @@
+"""The client of the simulated rig's arm endpoint (protocol: :mod:`liquidtouch.acquire.arm`)."""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import json
+import threading
+import time
+from collections.abc import Sequence
+from typing import Any
+
+from liquidtouch.acquire.arm_motion import check_move, check_pose, linear_move_duration
+from liquidtouch.acquire.device_link import LineConnection
+from liquidtouch.errors import DeviceError
+
+RIG_ARM_PROTOCOL = 1
+
+
+class RigArm:
+    """The simulated rig's arm endpoint, ``sim://HOST:PORT`` (protocol: :mod:`.arm`)."""
+
+    def __init__(
+        self,
+        host: str,
+        port: int,
+        *,
+        connect_timeout_s: float = 5.0,
+        reply_timeout_s: float = 5.0,
+    ):
+        self.url = f"sim://{host}:{port}"
+        self.reply_timeout_s = float(reply_timeout_s)
+        self._ids = itertools.count(1)
+        self._lock = threading.RLock()
+        self._conn = LineConnection(
+            host, port, connect_timeout_s=connect_timeout_s, what=f"rig arm at {host}:{port}"
+        )
+        try:
+            hello = self._read_json(self.reply_timeout_s, "the rig arm's greeting")
+            if hello.get("server") != "liquidtouch-rig-arm":
+                raise DeviceError(f"{host}:{port} is not a liquidtouch rig arm (said {hello!r})")
+            if hello.get("protocol") != RIG_ARM_PROTOCOL:
+                raise DeviceError(
+                    f"the rig arm speaks protocol {hello.get('protocol')!r}, this liquidtouch "
+                    f"{RIG_ARM_PROTOCOL}; run the same liquidtouch version on both sides"
+                )
+        except BaseException:
+            self._conn.close()
+            raise
+
+    def _read_json(self, timeout_s: float, waiting_for: str) -> dict[str, Any]:
+        line = self._conn.read_line(timeout_s, waiting_for)
+        try:
+            message = json.loads(line)
+        except json.JSONDecodeError:
+            message = None
+        if not isinstance(message, dict):
+            self._conn.close()
+            raise DeviceError(f"the rig arm sent a line that is not a JSON object: {line[:80]!r}")
+        return message
+
+    def request(self, cmd: str, timeout_s: float | None = None, **fields: Any) -> dict[str, Any]:
+        """Send one request; return its reply (replies to older requests are skipped)."""
+        timeout_s = self.reply_timeout_s if timeout_s is None else timeout_s
+        with self._lock:
+            ident = next(self._ids)
+            self._conn.send_line(json.dumps({"id": ident, "cmd": cmd, **fields}))
+            deadline = time.monotonic() + timeout_s
+            while True:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    raise DeviceError(f"the rig arm did not answer {cmd} within {timeout_s:g} s")
+                reply = self._read_json(remaining, f"the reply to {cmd}")
+                if reply.get("id") == ident:
+                    break
+        if not reply.get("ok"):
+            raise DeviceError(f"the rig arm refused {cmd}: {reply.get('error', 'no reason given')}")
+        return reply
+
+    def get_pose(self) -> list[float]:
+        return check_pose(self.request("get_pose")["pose"], "arm's reported pose")
+
+    def move_linear(
+        self, pose: Sequence[float], speed_m_s: float, acceleration_m_s2: float
+    ) -> list[float]:
+        start = self.get_pose()
+        target, distance = check_move(start, pose, speed_m_s, acceleration_m_s2)
+        duration = linear_move_duration(distance, speed_m_s, acceleration_m_s2)
+        try:
+            reply = self.request(
+                "moveL",
+                timeout_s=2.0 * duration + self.reply_timeout_s,
+                pose=target,
+                speed=float(speed_m_s),
+                acceleration=float(acceleration_m_s2),
+            )
+        except BaseException:
+            with contextlib.suppress(DeviceError):
+                self.stop()
+            raise
+        return check_pose(reply["pose"], "arm's reported pose")
+
+    def stop(self, deceleration_m_s2: float = 2.0) -> None:
+        self.request("stop", acceleration=float(deceleration_m_s2))
+
+    def truth(self) -> dict[str, Any]:
+        """The simulated liquid's ground truth (λ, ω) and labels."""
+        return self.request("truth")["truth"]
+
+    def status(self) -> dict[str, Any]:
+        """The rig's state (gripper, arm, trial clock)."""
+        return self.request("status")["status"]
+
+    def close(self) -> None:
+        self._conn.close()
+
+    def __enter__(self) -> RigArm:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

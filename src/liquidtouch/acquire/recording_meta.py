@@ -1,0 +1,81 @@
+"""A recording's meta.json: assembled from the summary, labels and extra fields, validated.
+
+Used by :class:`liquidtouch.acquire.recorder.Recorder` (see its module docstring).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+
+from liquidtouch.acquire.frame_writers import PNG_TIMESTAMPS_NAME, TIMESTAMPS_SUFFIX
+from liquidtouch.acquire.recording_summary import RecordingSummary
+from liquidtouch.errors import DatasetError, DeviceError
+from liquidtouch.io.dataset import TrialMeta
+
+__all__ = ["RESERVED_META", "build_meta"]
+
+RESERVED_META = ("format_version", "fps", "sensors", "tracks", "sensor_start_s", "recording")
+"""meta.json fields the recorder writes itself (labels and extra_meta cannot set them)."""
+
+
+def _check_meta_fields(fields: dict[str, object], what: str) -> None:
+    clash = [k for k in fields if k in RESERVED_META]
+    if clash:
+        raise DatasetError(
+            f"{what} cannot set {', '.join(clash)}: the recorder writes these meta.json fields"
+        )
+
+
+def _validate_meta(meta: dict[str, object]) -> None:
+    from pydantic import ValidationError
+
+    try:
+        TrialMeta.model_validate(meta)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first["loc"]) or "(root)"
+        raise DatasetError(f"meta.json field {where}: {first['msg']}") from None
+
+
+def build_meta(
+    summary: RecordingSummary,
+    labels: dict[str, object],
+    extra_meta: dict[str, object] | None,
+    *,
+    fmt: str,
+    grey: bool,
+    profile: str,
+) -> dict[str, object]:
+    """The validated meta.json of a stopped recording (``extra_meta`` cannot set
+    :data:`RESERVED_META`)."""
+    extra = dict(extra_meta or {})
+    _check_meta_fields(extra, "extra_meta")
+    sensors = summary.sensors
+    meta = {
+        "format_version": 1,
+        "fps": summary.fps,
+        "sensors": [s.file for s in sensors.values()],
+        **labels,
+        "sensor_start_s": {n: s.start_t_s for n, s in sensors.items()},
+        "recording": {
+            "clock": "time.monotonic",
+            "start_t_s": summary.start_t_s,
+            "duration_s": summary.duration_s,
+            "format": fmt,
+            "grey": grey,
+            "profile": profile,
+            "timestamps": {
+                n: (f"{n}{TIMESTAMPS_SUFFIX}" if fmt == "ffv1" else f"{n}/{PNG_TIMESTAMPS_NAME}")
+                for n in sensors
+            },
+            "sensors": {
+                n: {k: v for k, v in asdict(s).items() if k not in ("name", "file")}
+                for n, s in sensors.items()
+            },
+        },
+        **extra,
+    }
+    if meta["fps"] is None:
+        raise DeviceError("the recording has no measurable frame rate")
+    _validate_meta(meta)
+    return meta

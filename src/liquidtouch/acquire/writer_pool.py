@@ -1,0 +1,127 @@
+"""The recorder's encoders: one writer thread per sensor, with a bounded backlog.
+
+Used by :class:`liquidtouch.acquire.recorder.Recorder` (see its module docstring).
+Each sensor's frames go from its capture thread into a queue that a writer thread
+drains into a :class:`~liquidtouch.acquire.frame_writers._Writer`; frames beyond
+:data:`MAX_BACKLOG_S` of video waiting for an encoder are dropped and counted.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import queue
+import threading
+import time
+from pathlib import Path
+
+from liquidtouch.acquire.cameras import END, Camera, CaptureSession, Frame
+from liquidtouch.acquire.frame_writers import _Ffv1Writer, _PngWriter, _Writer
+from liquidtouch.errors import OutputError
+
+__all__ = ["MAX_BACKLOG_S", "WRITER_FINISH_S", "WriterPool"]
+
+MAX_BACKLOG_S = 10.0
+"""Frames waiting for an encoder beyond this many seconds of video are dropped and counted."""
+WRITER_FINISH_S = 120.0
+"""How long :meth:`Recorder.stop` waits for the encoders to catch up [s]."""
+
+
+class WriterPool:
+    """Writers, writer threads, their errors and backlog drops, for every sensor."""
+
+    def __init__(self, names: list[str], *, grey: bool) -> None:
+        self.grey = grey
+        self.writers: dict[str, _Writer] = {}
+        self.threads: list[threading.Thread] = []
+        self.errors: dict[str, BaseException] = {}
+        self.backlog_drops: dict[str, int] = dict.fromkeys(names, 0)
+
+    def start(
+        self,
+        session: CaptureSession,
+        cameras: list[Camera],
+        names: list[str],
+        tmp: Path,
+        fmt: str,
+        t0: float,
+    ) -> None:
+        """Make each sensor's writer, bound its backlog and start its writer thread."""
+        for camera, name in zip(cameras, names, strict=True):
+            writer = _Ffv1Writer(tmp, name, t0) if fmt == "ffv1" else _PngWriter(tmp, name, t0)
+            if isinstance(writer, _Ffv1Writer):
+                writer.fps_hint = camera.nominal_fps or 30.0
+            self.writers[name] = writer
+            limit = max(30, math.ceil(MAX_BACKLOG_S * (camera.nominal_fps or 60.0)))
+            self._install_backlog_limit(session, name, limit)
+            thread = threading.Thread(
+                target=self._drain, args=(session, name), name=f"writer-{name}", daemon=True
+            )
+            self.threads.append(thread)
+            thread.start()
+
+    def _install_backlog_limit(self, session: CaptureSession, name: str, limit: int) -> None:
+        target = session.queues[name]
+        thread = next(t for t in session.threads if t.sensor == name)
+
+        def sink(frame: Frame, target: queue.Queue = target) -> None:
+            if target.qsize() >= limit:
+                self.backlog_drops[name] += 1
+                return
+            target.put(frame)
+
+        thread.sink = sink
+
+    def _drain(self, session: CaptureSession, name: str) -> None:
+        """Writer thread: encode the sensor's frames until END (errors kept, frames drained)."""
+        import cv2
+
+        source, writer = session.queues[name], self.writers[name]
+        failed = False
+        while True:
+            frame = source.get()
+            if frame is END:
+                return
+            if failed:
+                continue
+            try:
+                image = frame.image
+                if self.grey and image.ndim == 3:
+                    image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+                writer.write(frame, image)
+            except BaseException as exc:
+                self.errors[name] = exc
+                failed = True
+
+    def join(self) -> None:
+        """Wait for the writer threads (at most :data:`WRITER_FINISH_S` in all); a thread
+        still encoding then is an error."""
+        deadline = time.monotonic() + WRITER_FINISH_S
+        for thread in self.threads:  # the queues hold at most MAX_BACKLOG_S of frames
+            thread.join(timeout=max(0.0, deadline - time.monotonic()))
+            if thread.is_alive():
+                self.errors.setdefault(
+                    thread.name.removeprefix("writer-"),
+                    OutputError(f"the encoder did not finish within {WRITER_FINISH_S:g} s"),
+                )
+
+    def close(self) -> None:
+        """Close every writer whose thread has finished (errors kept)."""
+        busy = {t.name.removeprefix("writer-") for t in self.threads if t.is_alive()}
+        for name, writer in self.writers.items():
+            if name in busy:  # still encoding: failed in join(), removed by abort()
+                continue
+            try:
+                writer.close()
+            except BaseException as exc:
+                self.errors.setdefault(name, exc)
+
+    def abort(self) -> None:
+        """Wait briefly for the writer threads and close any open container, ignoring errors."""
+        for thread in self.threads:
+            thread.join(timeout=5.0)
+        for writer in self.writers.values():
+            with contextlib.suppress(BaseException):
+                if isinstance(writer, _Ffv1Writer) and writer._container is not None:
+                    writer._container.close()
+                    writer._container = None
