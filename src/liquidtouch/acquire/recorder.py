@@ -63,7 +63,7 @@ from liquidtouch.acquire.recording_meta import (
     build_meta,
 )
 from liquidtouch.acquire.recording_run import record
-from liquidtouch.acquire.recording_summary import RecordingSummary, SensorSummary
+from liquidtouch.acquire.recording_summary import RecordingSummary, SensorSummary, summarise
 from liquidtouch.acquire.writer_pool import MAX_BACKLOG_S, WRITER_FINISH_S, WriterPool
 from liquidtouch.errors import DeviceError, LiquidTouchError, OutputError
 from liquidtouch.io import atomic
@@ -259,43 +259,19 @@ class Recorder:
         stopped_at = time.monotonic()
         self._pool.join()
         self._close_cameras()
-        errors: dict[str, str] = {}
         self._pool.close()
         self._state = "stopped"
-        stats = self.session.stats
-        sensors = {}
-        for name, source, camera in zip(self.names, self.sources, self.cameras, strict=True):
-            s = stats[name]
-            writer = self._pool.writers[name]
-            sensors[name] = SensorSummary(
-                name=name,
-                source=source,
-                frames=len(writer.times),
-                measured_fps=s.measured_fps,
-                nominal_fps=camera.nominal_fps,
-                drops=s.drops,
-                duplicates=s.duplicates,
-                backlog_drops=self._pool.backlog_drops[name],
-                start_t_s=s.first_t_s,
-                end_t_s=s.last_t_s,
-                file=writer.entry,
-            )
-        for name, error in self.session.errors.items():
-            errors[name] = str(error)
-        for name, error in self._pool.errors.items():
-            errors.setdefault(name, str(error))
-        start = self.session.start_t_s or stopped_at
-        self.summary = RecordingSummary(
-            sensors=sensors,
-            start_t_s=start,
-            duration_s=stopped_at - start,
+        self.summary = summarise(
+            self.session,
+            self._pool,
+            zip(self.names, self.sources, self.cameras, strict=True),
+            stopped_at=stopped_at,
             fmt=self.fmt,
             profile=self.profile.name,
             grey=self.grey,
-            errors=errors,
         )
         self.check()
-        empty = [n for n, s in sensors.items() if s.frames < 2]
+        empty = [n for n, s in self.summary.sensors.items() if s.frames < 2]
         if empty:
             raise DeviceError(
                 f"sensor(s) {', '.join(empty)} recorded fewer than 2 frames; is the camera "

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -58,3 +60,51 @@ class RecordingSummary:
         out["trial_dir"] = str(self.trial_dir) if self.trial_dir else None
         out["fps"] = self.fps
         return out
+
+
+def summarise(
+    session: Any,
+    pool: Any,
+    sensors: Iterable[tuple[str, str, Any]],
+    *,
+    stopped_at: float,
+    fmt: str,
+    profile: str,
+    grey: bool,
+) -> RecordingSummary:
+    """The summary of a stopped recording from its capture session and writer pool.
+
+    ``sensors``: ``(name, source, camera)`` per sensor; ``stopped_at``: when capture
+    stopped [s, ``time.monotonic``].
+    """
+    stats = session.stats
+    summaries = {}
+    for name, source, camera in sensors:
+        s = stats[name]
+        writer = pool.writers[name]
+        summaries[name] = SensorSummary(
+            name=name,
+            source=source,
+            frames=len(writer.times),
+            measured_fps=s.measured_fps,
+            nominal_fps=camera.nominal_fps,
+            drops=s.drops,
+            duplicates=s.duplicates,
+            backlog_drops=pool.backlog_drops[name],
+            start_t_s=s.first_t_s,
+            end_t_s=s.last_t_s,
+            file=writer.entry,
+        )
+    errors = {name: str(error) for name, error in session.errors.items()}
+    for name, error in pool.errors.items():
+        errors.setdefault(name, str(error))
+    start = session.start_t_s or stopped_at
+    return RecordingSummary(
+        sensors=summaries,
+        start_t_s=start,
+        duration_s=stopped_at - start,
+        fmt=fmt,
+        profile=profile,
+        grey=grey,
+        errors=errors,
+    )
