@@ -325,7 +325,8 @@ def test_end_to_end_on_loopback(tmp_path, capsys):
     truth = endpoints["truth"]
     assert meta["true_decay_rate"] == truth["true_decay_rate"]
     assert meta["liquid"] == "mirin" and meta["protocol"]["hold_s"] == 9.0
-    assert 0.5 < meta["push_start_s"] < 2.5 < meta["push_end_s"] + 1.0
+    # pushed after ~1 s of recording (pre-push wait), and within the first seconds
+    assert 0.5 < meta["push_start_s"] < meta["push_end_s"] < 3.5
     readings = meta["acquisition"]["gripper_readings"]
     assert all(r["grip_state"] == 4 for r in readings if r["when"] == "holding")
     # each sensor on its own: the two streams drop frames independently on a busy

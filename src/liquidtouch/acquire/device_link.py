@@ -87,7 +87,7 @@ class LineConnection:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 raise DeviceError(
-                    f"the {self.what} did not answer within {timeout_s:g} s "
+                    f"the {self.what} did not answer within {timeout_s:.3g} s "
                     f"(waiting for {waiting_for})"
                 )
             try:
