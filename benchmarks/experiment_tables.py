@@ -68,9 +68,16 @@ def containers_table() -> pd.DataFrame:
 
 
 def experiment_features() -> dict[str, dict[str, pd.DataFrame]]:
-    """``features[preset]["gelsight" | "wrench"]`` for :func:`run_experiments`."""
+    """``features[preset]["gelsight" | "wrench" | "wrench-best-effort"]`` for the experiments."""
     classes = classification_table()
     wrench = classes.assign(decay_rate=np.nan, angular_frequency=np.nan, error=NO_OSCILLATION)
+    # the best-effort wrist fit: numbers that describe the noise, not the liquid
+    noise = np.random.default_rng(11)
+    best_effort = classes.assign(
+        decay_rate=noise.uniform(0.1, 4.0, len(classes)),
+        angular_frequency=noise.uniform(6.0, 20.0, len(classes)),
+        error="",
+    )
     sugar = with_split(*paper_split(seed=4)).assign(
         liquid="sugar-water", container="grooved-cuboid"
     )
@@ -78,7 +85,11 @@ def experiment_features() -> dict[str, dict[str, pd.DataFrame]]:
     viscosity = {"olive-oil": 64.0, "corn-oil": 52.0, "mirin": 22.0}
     others["log10_viscosity_cst"] = np.log10(others["liquid"].map(viscosity))
     return {
-        "classification": {"gelsight": classes, "wrench": wrench},
+        "classification": {
+            "gelsight": classes,
+            "wrench": wrench,
+            "wrench-best-effort": best_effort,
+        },
         "sugar": {"gelsight": sugar},
         "other-liquids": {"gelsight": others.assign(split="test", error="")},
         "containers": {"gelsight": containers_table()},

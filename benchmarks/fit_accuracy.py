@@ -12,16 +12,15 @@ import time
 import warnings
 
 import numpy as np
-from scipy.integrate import solve_ivp
 from scipy.optimize import curve_fit
 
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.fit import model as om
 from liquidtouch.fit.oscillation import fit_oscillation
+from liquidtouch.fit.synthetic import DRIFT, cubic_damper_signal, quadratic_damper_signal
 
 FPS, DURATION_S = 30.0, 13.0
 T = np.arange(round(FPS * DURATION_S)) / FPS
-DRIFT = (0.1, -0.02, 0.0015)
 
 
 def naive_fit(t: np.ndarray, u: np.ndarray) -> tuple[float, float]:
@@ -67,27 +66,13 @@ def model_signal(lam, omega, amp, phase, fast, sigma, rng) -> np.ndarray:
     return u + rng.normal(0, sigma, T.size)
 
 
-def nonlinear_signal(lam0, omega0, kappa, sigma, rng) -> tuple[np.ndarray, float, float]:
-    """ε'' + 2λ0 (1 + κ ε²) ε' + w0² ε = 0 (damping grows with amplitude); u = ε''."""
-    w0sq = omega0**2 + lam0**2
-
-    def rhs(_t, y):
-        eps, vel = y
-        return [vel, -2 * lam0 * (1 + kappa * eps * eps) * vel - w0sq * eps]
-
-    sol = solve_ivp(rhs, (0, T[-1]), [1.0, 0.0], t_eval=T, rtol=1e-9, atol=1e-11)
-    eps, vel = sol.y
-    acc = -2 * lam0 * (1 + kappa * eps * eps) * vel - w0sq * eps
-    acc = acc / np.abs(acc).max()
-    u = acc + DRIFT[0] + DRIFT[1] * T + DRIFT[2] * T * T + rng.normal(0, sigma, T.size)
-    return u, lam0, omega0
-
-
 METHODS = {
     "ours ls two-mode": lambda t, u: _ours(t, u, "ls", "two-mode", 1.0),
     "ours paper two-mode (δ=1)": lambda t, u: _ours(t, u, "paper", "two-mode", 1.0),
     "ours paper two-mode (δ=0.05)": lambda t, u: _ours(t, u, "paper", "two-mode", 0.05),
     "ours ls single-mode": lambda t, u: _ours(t, u, "ls", "single-mode", 1.0),
+    "ours paper amplitude": lambda t, u: _ours(t, u, "paper", "amplitude", 1.0),
+    "ours ls amplitude": lambda t, u: _ours(t, u, "ls", "amplitude", 1.0),
     "naive curve_fit": naive_fit,
 }
 
@@ -157,31 +142,42 @@ def main() -> None:
         + " |\n"
     )
 
-    print("## Non-linear oscillator: ε'' + 2λ0(1 + κε²)ε' + ω0²ε = 0, u = ε'' + drift + noise\n")
-    print("Error of λ against the small-amplitude λ0 (and of ω against ω0).\n")
-    nl_err = {n: [] for n in names}
     n_nl = 12 if args.quick else 30
-    for _ in range(n_nl):
-        lam0 = float(np.exp(rng.uniform(np.log(0.1), np.log(1.0))))
-        omega0 = float(rng.uniform(6, 18))
-        kappa = float(rng.uniform(2, 6))  # early damping 3-7× the small-amplitude one
-        u, lam0, omega0 = nonlinear_signal(lam0, omega0, kappa, 0.01, rng)
+    oscillators = {
+        "ε'' + 2λ0(1 + κε²)ε' + ω0²ε = 0 (cubic damper, p = 2)": lambda lam0, omega0: (
+            cubic_damper_signal(T, lam0, omega0, float(rng.uniform(2, 6)), 0.01, rng)
+        ),  # early damping 1.5-2.5× the small-amplitude one
+        "ε'' + 2λ0ε' + c|ε'|ε' + ω0²ε = 0 (velocity-squared damper, p = 1)": lambda lam0, omega0: (
+            quadratic_damper_signal(
+                T, lam0, omega0, float(rng.uniform(0.5, 2.0)) * lam0 / omega0, 0.01, rng
+            )
+        ),  # early damping 1.2-1.8× the small-amplitude one
+    }
+    for title, make in oscillators.items():
+        print(f"## Non-linear oscillator: {title}, u = ε'' + drift + noise\n")
+        print("Error of λ against the small-amplitude λ0 (and of ω against ω0).\n")
+        nl_err = {n: [] for n in names}
+        for _ in range(n_nl):
+            lam0 = float(np.exp(rng.uniform(np.log(0.1), np.log(1.0))))
+            omega0 = float(rng.uniform(6, 18))
+            u = make(lam0, omega0)
+            for n in names:
+                el, ew, dt = run_method(METHODS[n], T, u)
+                nl_err[n].append((abs(el - lam0) / lam0, abs(ew - omega0) / omega0))
+                times[n].append(dt)
+        print("| method | median λ err | p90 λ err | median ω err | p90 ω err | failures |")
+        print("|---|---|---|---|---|---|")
         for n in names:
-            el, ew, dt = run_method(METHODS[n], T, u)
-            nl_err[n].append((abs(el - lam0) / lam0, abs(ew - omega0) / omega0))
-            times[n].append(dt)
-    print("| method | median λ err | p90 λ err | median ω err | p90 ω err | failures |")
-    print("|---|---|---|---|---|---|")
-    for n in names:
-        e = np.array(nl_err[n])
-        fails = int(np.isnan(e[:, 0]).sum())
-        q = np.nanpercentile(e, [50, 90], axis=0)
-        print(
-            f"| {n} | {100 * q[0, 0]:.1f} % | {100 * q[1, 0]:.1f} % | "
-            f"{100 * q[0, 1]:.2f} % | {100 * q[1, 1]:.2f} % | {fails}/{len(e)} |"
-        )
+            e = np.array(nl_err[n])
+            fails = int(np.isnan(e[:, 0]).sum())
+            q = np.nanpercentile(e, [50, 90], axis=0)
+            print(
+                f"| {n} | {100 * q[0, 0]:.1f} % | {100 * q[1, 0]:.1f} % | "
+                f"{100 * q[0, 1]:.2f} % | {100 * q[1, 1]:.2f} % | {fails}/{len(e)} |"
+            )
+        print()
 
-    print("\n## All exact-model signals: relative errors, and time per fit\n")
+    print("## All exact-model signals: relative errors, and time per fit\n")
     print("| method | median λ err | p90 λ err | median ω err | p90 ω err | ms / fit | vs naive |")
     print("|---|---|---|---|---|---|---|")
     naive_ms = 1000 * np.median(times["naive curve_fit"])

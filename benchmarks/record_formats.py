@@ -16,13 +16,12 @@ Run: .venv/bin/python benchmarks/record_formats.py [--quick] [--frames 150]
    ``liquidtouch.extraction.extract``: λ/λ_true − 1 and ω/ω_true − 1 per format,
    and FFV1's λ against PNG's (the same grey frames; Matroska stores the
    timestamps to 1 ms, PNG's timestamps.csv to 1 µs).
-3. **Probe: the uniform clock.** ``signal.uniform_clock`` resamples every sensor
-   at the *median* frame interval. With jittered or millisecond-rounded
-   timestamps the median misses the real frame period by ~0.3 %, and λ moves
-   with it. The same extractions are repeated with the clock's step replaced (in
-   this process only) by the period fitted to all timestamps
-   (:func:`fitted_period_clock`), to show how much of each format's λ error is the
-   clock's rather than the format's.
+3. **Probe: the median-interval clock.** ``signal.uniform_clock`` steps at the
+   frame period fitted to all timestamps (``signal.frame_period``). Until it did,
+   it stepped at the *median* frame interval, which with jittered or
+   millisecond-rounded timestamps misses the real period by ~0.3 % and moves λ
+   with it. The same extractions are repeated with the median interval (in this
+   process only, :func:`median_period`) to show what the fitted period changed.
 """
 
 from __future__ import annotations
@@ -234,33 +233,23 @@ def write_trial_as(fmt: str, sensors, timestamps, fps: float, out: Path) -> Path
     return out
 
 
-def fitted_period_clock(t, end_s=None):
-    """``signal.uniform_clock`` with the frame period fitted to all timestamps (probe only).
-
-    Frame k's nominal index counts dropped frames (round(gap / median gap)); the
-    step is the least-squares slope of t against that index.
-    """
-    t = np.asarray(t, dtype=float)
-    gaps = np.diff(t)
-    index = np.concatenate([[0.0], np.cumsum(np.maximum(1.0, np.rint(gaps / np.median(gaps))))])
-    step = float(np.polyfit(index, t, 1)[0])
-    end = float(t[-1] if end_s is None else end_s) - float(t[0])
-    n = int(np.floor(end / step + 1e-6)) + 1
-    return np.arange(n) * step, 1.0 / step
+def median_period(t) -> float:
+    """The median frame interval [s]: the clock's step before the fitted period (probe only)."""
+    return float(np.median(np.diff(np.asarray(t, dtype=float))))
 
 
 def extract_both(directory: Path) -> tuple[tuple[float, float], tuple[float, float]]:
-    """(λ, ω) of ``extract(directory)``, as the library does it and with the fitted clock."""
+    """(λ, ω) of ``extract(directory)``, as the library does it and with the median clock."""
     import liquidtouch.signal as signal
 
     result = extract(directory)
     library = (result.fit.decay_rate, result.fit.angular_frequency)
-    original = signal.uniform_clock
-    signal.uniform_clock = fitted_period_clock
+    original = signal.frame_period
+    signal.frame_period = median_period
     try:
         result = extract(directory)
     finally:
-        signal.uniform_clock = original
+        signal.frame_period = original
     return library, (result.fit.decay_rate, result.fit.angular_frequency)
 
 
@@ -277,7 +266,7 @@ def lambda_bias(cases, work: Path) -> list[dict[str, object]]:
         for fmt in FORMATS:
             directory = work / f"{liquid}-{seed}-{fmt.replace(' ', '-')}"
             write_trial_as(fmt, sensors, timestamps, fps, directory)
-            row[fmt], row[f"{fmt} fitted clock"] = extract_both(directory)
+            row[fmt], row[f"{fmt} median clock"] = extract_both(directory)
             shutil.rmtree(directory)
         rows.append(row)
         del sensors
@@ -302,8 +291,8 @@ def print_report(speed, bias, n_frames: int) -> None:
             f"{'yes' if r['keeps_up'] else 'no'} | {r['mb_per_min_per_sensor']:.0f} |"
         )
     for clock, suffix in (
-        ("the library's clock (median interval)", ""),
-        ("probe: the clock at the fitted frame period", " fitted clock"),
+        ("the library's clock (fitted frame period)", ""),
+        ("probe: the former clock (median frame interval)", " median clock"),
     ):
         print(
             f"\n## λ and ω through each format, {clock} (default sensor 640×480 @ 30 fps, "

@@ -82,7 +82,7 @@ def test_mjpeg_recording_keeps_frames_and_their_times(tmp_path) -> None:
     measured_fps = (len(stamps) - 1) / (stamps[-1] - stamps[0])
     assert abs(meta.fps - measured_fps) < 0.5 and meta.fps <= FPS + 0.5
     extra = meta.model_extra
-    assert extra["sensor_start_s"]["left"] == pytest.approx(stamps[0], abs=1e-6)
+    assert meta.sensor_start_s["left"] == pytest.approx(stamps[0], abs=1e-6)
     rec = extra["recording"]
     assert rec["clock"] == "time.monotonic" and rec["format"] == "ffv1"
     assert rec["timestamps"] == {"left": "left.timestamps.csv"}
@@ -103,7 +103,7 @@ def test_two_sensors_png_on_one_clock(tmp_path) -> None:
         sent = {"left": np.array(a.sent_timestamps), "right": np.array(b.sent_timestamps)}
     meta = read_trial_meta(out)
     assert meta.sensors == ["left", "right"] and meta.container == "cuboid"
-    starts = meta.model_extra["sensor_start_s"]
+    starts = meta.sensor_start_s
     assert abs(starts["left"] - starts["right"]) < 1.5 / FPS  # started together
     for name in ("left", "right"):
         files = sorted((out / name).glob("*.png"))

@@ -17,8 +17,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from liquidtouch.errors import VideoError
 from liquidtouch.extraction_plot import plot_extraction
 from liquidtouch.fit_settings import AUTO, FitSettings, fit_window
@@ -44,6 +42,7 @@ __all__ = [
 
 PathLike = str | os.PathLike[str]
 RATE_TOLERANCE = 0.01  # relative frame-rate difference allowed between the videos of a trial
+SPAN_TOLERANCE = 0.05  # fraction of the longest video the others may not cover
 
 
 @dataclass
@@ -53,9 +52,12 @@ class Extraction:
     tracks: list[MarkerTracks]
     signal: TactileSignal
     fit: object  # liquidtouch.fit.oscillation.OscillationFit
+    #: is the recording's codec biasing λ? (``liquidtouch.codec_check.CodecCheck``)
+    diagnostics: object = None
 
     def to_dict(self) -> dict[str, object]:
-        """The fit's keys plus ``explained_variance``, ``n_markers``, ``fps``, ``frames``."""
+        """The fit's keys plus ``explained_variance``, ``n_markers``, ``fps``, ``frames``
+        and, with :attr:`diagnostics`, ``frozen_step_share`` and ``codec_lambda_bias``."""
         out = dict(self.fit.to_dict())
         out.update(
             explained_variance=float(self.signal.explained_variance),
@@ -63,6 +65,11 @@ class Extraction:
             fps=float(self.signal.fps),
             frames=len(self.signal.t),
         )
+        if self.diagnostics is not None:
+            out.update(
+                frozen_step_share=float(self.diagnostics.frozen_step_share),
+                codec_lambda_bias=float(self.diagnostics.expected_lambda_bias),
+            )
         return out
 
 
@@ -153,9 +160,17 @@ def select_sensors(
 
 
 def track_sources(
-    sources: Sequence[tuple[str, Path, float | None]], *, progress: bool = False
+    sources: Sequence[tuple[str, Path, float | None]],
+    *,
+    progress: bool = False,
+    starts: dict[str, float] | None = None,
 ) -> list[MarkerTracks]:
-    """Track the markers of every ``(sensor, source, fps)``; a progress bar (stderr) if asked."""
+    """Track the markers of every ``(sensor, source, fps)``; a progress bar (stderr) if asked.
+
+    ``starts``: each sensor's first-frame time on the trial's shared clock [s]
+    (``meta.json`` ``sensor_start_s``), kept as ``MarkerTracks.start_s`` when every
+    sensor has one (else the sensors are aligned on their first frames).
+    """
     from liquidtouch.io.frames import iter_frames, video_info
 
     tracks = []
@@ -165,28 +180,50 @@ def track_sources(
             total = video_info(source).frames or None
         with progress_bar(f"tracking {sensor}", total, enabled=progress) as advance:
             tracks.append(track_markers(iter_frames(source, fps=fps), sensor, on_frame=advance))
+    if starts and all(tr.sensor in starts for tr in tracks):
+        for tr in tracks:
+            tr.start_s = float(starts[tr.sensor])
     check_consistent(tracks)
     return tracks
 
 
 def check_consistent(tracks: Sequence[MarkerTracks]) -> None:
-    """The videos of one trial must have the same frame count (±1) and frame rate (±1 %)."""
+    """The videos of one trial must be one recording: VideoError otherwise.
+
+    Their frame rates (the period fitted to all timestamps,
+    :func:`~liquidtouch.signal.frame_period`) agree within :data:`RATE_TOLERANCE`,
+    and their time spans (on the trial's shared clock, ``MarkerTracks.start_s``)
+    overlap over all but :data:`SPAN_TOLERANCE` of the longest (at least two frame
+    periods). Frame counts may differ: sensors drop frames independently.
+    """
     if len(tracks) < 2:
         return
-    first = tracks[0]
-    rate0 = 1.0 / float(np.median(np.diff(first.t))) if len(first.t) > 1 else float("nan")
-    for tr in tracks[1:]:
-        if abs(len(tr.t) - len(first.t)) > 1:
+    from liquidtouch.errors import SignalError
+    from liquidtouch.signal import frame_period
+
+    try:
+        periods = [frame_period(tr.t) for tr in tracks]
+    except SignalError:  # bad timestamps: the signal says so, per sensor
+        return
+    rates = [1.0 / p for p in periods]
+    for tr, rate in zip(tracks[1:], rates[1:], strict=True):
+        if not abs(rate - rates[0]) <= RATE_TOLERANCE * rates[0]:
             raise VideoError(
-                f"videos of one trial differ in length: {first.sensor} has {len(first.t)} "
-                f"frames, {tr.sensor} has {len(tr.t)}; give the videos of one recording"
+                f"videos of one trial differ in frame rate: {tracks[0].sensor} {rates[0]:.3f} "
+                f"fps, {tr.sensor} {rate:.3f} fps; give the videos of one recording"
             )
-        rate = 1.0 / float(np.median(np.diff(tr.t))) if len(tr.t) > 1 else float("nan")
-        if not abs(rate - rate0) <= RATE_TOLERANCE * rate0:
-            raise VideoError(
-                f"videos of one trial differ in frame rate: {first.sensor} {rate0:.3f} fps, "
-                f"{tr.sensor} {rate:.3f} fps; give the videos of one recording"
-            )
+    starts = [float(tr.start_s) for tr in tracks]
+    ends = [s + float(tr.t[-1] - tr.t[0]) for s, tr in zip(starts, tracks, strict=True)]
+    longest = max(e - s for s, e in zip(starts, ends, strict=True))
+    overlap = min(ends) - max(starts)
+    if longest - overlap > max(2 * max(periods), SPAN_TOLERANCE * longest):
+        spans = ", ".join(
+            f"{tr.sensor} {s:.2f}–{e:.2f} s" for tr, s, e in zip(tracks, starts, ends, strict=True)
+        )
+        raise VideoError(
+            f"videos of one trial differ in length: {spans} (together {max(overlap, 0):.2f} s); "
+            "give the videos of one recording"
+        )
 
 
 def extract(
@@ -216,12 +253,18 @@ def extract(
     from liquidtouch.io.trial_tracks import stored_tracks
 
     tracks = stored_tracks(paths, sensors)  # a trial of imported marker tracks: no videos
+    sources: list[tuple[str, Path, float | None]] = []
     if tracks is None:
+        from liquidtouch.io.dataset import trial_sensor_starts
+
         sources = select_sensors(resolve_sources(paths, fps=fps), sensors)
-        tracks = track_sources(sources, progress=progress)
+        tracks = track_sources(sources, progress=progress, starts=trial_sensor_starts(paths))
     signal = tactile_signal(tracks, lowpass_hz=lowpass_hz, n_markers=n_markers)
     result = settings.fit(signal.t, signal.u) if fit else None
-    return Extraction(tracks=tracks, signal=signal, fit=result)
+    from liquidtouch.codec_check import check_codec
+
+    check = check_codec(tracks, [path for _, path, _ in sources], n_markers)
+    return Extraction(tracks=tracks, signal=signal, fit=result, diagnostics=check)
 
 
 def extract_signal(

@@ -80,18 +80,21 @@ def _excursion(
     return int(np.argmax(excursion)), u - resting
 
 
-def push_snr(t: np.ndarray, u: np.ndarray, start: int | None = None) -> float:
+def push_snr(
+    t: np.ndarray, u: np.ndarray, start: int | None = None, *, min_noise_s: float = MIN_NOISE_S
+) -> float:
     """How far the largest excursion stands above the noise before it (module docstring).
 
     With ``b`` the high-passed signal up to ``PUSH_GAP_S`` before the peak, returns
     ``|peak − median(b)| / (1.4826 × MAD(b))``; NaN when ``b`` spans less than
-    ``MIN_NOISE_S``, inf when its samples are all equal.
+    ``min_noise_s`` [s] (default ``MIN_NOISE_S``; the streaming estimator judges a
+    push on less), inf when its samples are all equal.
     """
     t, u = _check_signal(t, u)
     peak, centred = _excursion(t, u)
     peak = peak if start is None else int(start)
     quiet = t < t[peak] - PUSH_GAP_S
-    if not quiet.any() or t[quiet][-1] - t[0] < MIN_NOISE_S:
+    if not quiet.any() or t[quiet][-1] - t[0] < min_noise_s:
         return math.nan
     before = centred[quiet]
     level = float(np.median(before))

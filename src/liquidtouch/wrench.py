@@ -4,7 +4,9 @@ The paper compares GelSight with a wrist F/T sensor (its noise is far larger
 than the slosh force). We treat the wrist signal exactly like the markers:
 zero-phase low-pass, then the first principal component of the force
 channels, resampled to the camera's rate (:data:`WRENCH_FPS`), then the
-oscillation fit (:class:`~liquidtouch.fit_settings.FitSettings`).
+oscillation fit (:class:`~liquidtouch.fit_settings.FitSettings`). A wrist signal
+with no oscillation above its noise is refused, unless ``best_effort`` asks for the
+fit anyway, as the paper did for its F/T baseline.
 """
 
 from __future__ import annotations
@@ -45,19 +47,28 @@ def wrench_signal(
 
 
 def wrench_features(
-    trial_dir: str | Path, *, lowpass_hz: float = 3.0, fit_settings: FitSettings | None = None
+    trial_dir: str | Path,
+    *,
+    lowpass_hz: float = 3.0,
+    fit_settings: FitSettings | None = None,
+    best_effort: bool = False,
 ) -> dict[str, float]:
     """Feature row of a trial's wrist F/T signal (the same keys as the GelSight features).
 
     ``lowpass_hz`` [Hz]: the low-pass of the wrist forces (:func:`wrench_signal`);
     ``fit_settings``: how the signal is fitted (default
-    :class:`~liquidtouch.fit_settings.FitSettings`: the free decay, the paper's fit).
+    :class:`~liquidtouch.fit_settings.FitSettings`: the free decay, the paper's fit);
+    ``best_effort``: fit even a signal that shows no oscillation above its noise.
     """
+    from liquidtouch.fit.oscillation import fit_oscillation
     from liquidtouch.fit_settings import FitSettings
 
     fit = FitSettings() if fit_settings is None else fit_settings
     t_s, force_n = read_wrench_csv(Path(trial_dir) / WRENCH_NAME)
     t, u, explained = wrench_signal(t_s, force_n, lowpass_hz=lowpass_hz, fps=WRENCH_FPS)
-    row = dict(fit.fit(t, u).to_dict())
+    result = fit_oscillation(
+        *fit.window(t, u), **fit.fit_options(), check_oscillation=not best_effort
+    )
+    row = dict(result.to_dict())
     row.update(explained_variance=explained, n_markers=0, fps=WRENCH_FPS, frames=len(t))
     return row

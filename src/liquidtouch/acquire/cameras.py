@@ -7,16 +7,20 @@
 - ``"name:GelSight Mini"``: the first (lowest-numbered) V4L2 device whose
   ``/sys/class/video4linux/video*/name`` contains that text (case-insensitive),
   the way the GelSight SDK finds its sensors (:data:`SYSFS_VIDEO4LINUX`);
-- ``"http://..."``, ``"rtsp://..."``: a network stream through OpenCV's FFmpeg
-  backend (a GelSight R1.5 streams MJPEG with mjpg-streamer:
-  ``http://gsr1500x.local:8080/?action=stream``), with open and read timeouts;
+- ``"http://..."``: an MJPEG stream (a GelSight R1.5 streams with mjpg-streamer:
+  ``http://gsr1500x.local:8080/?action=stream``), read by
+  :mod:`~liquidtouch.acquire.mjpeg_client` with open and read timeouts;
+- ``"rtsp://..."`` (and other network URLs): through OpenCV's FFmpeg backend;
 - a video file: replayed in real time at the pace of its own timestamps (for tests
   and rehearsals; it ends with :class:`StreamEnded`).
 
 **One clock.** Every frame's ``t_s`` is on :func:`time.monotonic` [s], the same
 clock for every sensor (and for the gripper and arm), so frames of several
-cameras and other events can be compared directly. For a network or USB camera
-``t_s`` is the moment the frame was grabbed (before decoding); for a V4L2 device
+cameras and other events can be compared directly. For an MJPEG stream whose
+parts carry ``X-Timestamp`` (the sender's capture time) ``t_s`` is that time moved
+onto this clock (network jitter stays out; see
+:mod:`~liquidtouch.acquire.mjpeg_client`); for other network or USB cameras ``t_s``
+is the moment the frame was grabbed (before decoding); for a V4L2 device
 the driver's buffer timestamp is used when it is on that same clock (Linux
 ``CLOCK_MONOTONIC``, what UVC drivers use); a replayed file gives each frame the
 moment it was due.
@@ -68,6 +72,7 @@ from liquidtouch.acquire.capture import (
     FrameStats,
     default_names,
 )
+from liquidtouch.acquire.mjpeg_client import MjpegCamera
 from liquidtouch.errors import DeviceError
 
 __all__ = [
@@ -86,6 +91,7 @@ __all__ = [
     "FileCamera",
     "Frame",
     "FrameStats",
+    "MjpegCamera",
     "OpenCVCamera",
     "SourceSpec",
     "StreamEnded",
@@ -195,6 +201,10 @@ def open_camera(
     camera: Camera
     if spec.kind == "file":
         camera = FileCamera(str(spec.target), prof, speed=speed)
+    elif spec.kind == "url" and str(spec.target).lower().startswith(("http://", "https://")):
+        camera = MjpegCamera(
+            str(spec.target), prof, open_timeout_s=open_timeout_s, read_timeout_s=read_timeout_s
+        )
     else:
         camera = OpenCVCamera(
             spec, prof, open_timeout_s=open_timeout_s, read_timeout_s=read_timeout_s

@@ -16,10 +16,10 @@ from liquidtouch.acquire.cameras import (
     Frame,
 )
 from liquidtouch.errors import OutputError
+from liquidtouch.io.frame_times import TIMESTAMPS_NAME as PNG_TIMESTAMPS_NAME
+from liquidtouch.io.frame_times import VIDEO_TIMESTAMPS_SUFFIX as TIMESTAMPS_SUFFIX
 
 VIDEO_SUFFIX = ".mkv"
-TIMESTAMPS_SUFFIX = ".timestamps.csv"
-PNG_TIMESTAMPS_NAME = "timestamps.csv"  # io.frames.TIMESTAMPS_NAME (not imported: no cv2 pull)
 PTS_RATE_HZ = 1_000_000
 """Time base of the FFV1 encoder's PTS (µs); Matroska stores them to 1 ms."""
 FFV1_OPTIONS = {"level": "3", "g": "1", "slicecrc": "1"}

@@ -35,8 +35,9 @@ from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.progress import progress_bar
 
 #: Bump when extraction or fitting changes in a way that changes features.
-FEATURES_VERSION = 2
-SOURCES = ("gelsight", "wrench")
+FEATURES_VERSION = 3
+#: ``wrench-best-effort``: the wrist fit even where it shows no oscillation (the paper's baseline)
+SOURCES = ("gelsight", "wrench", "wrench-best-effort")
 #: The measured columns of a feature row (after the manifest's): the two model
 #: features (:data:`liquidtouch.io.tables.FEATURE_COLUMNS`) first, then fit diagnostics.
 FEATURE_ROW_COLUMNS = (
@@ -69,7 +70,8 @@ def feature_settings(
 
     ``gelsight``: ``lowpass_hz``, ``n_markers``, ``sensors`` (None: all) and ``fit``
     (:meth:`~liquidtouch.fit_settings.FitSettings.to_dict`); ``wrench``: ``lowpass_hz``
-    (a number: the wrist forces are always low-passed) and ``fit``.
+    (a number: the wrist forces are always low-passed) and ``fit``; ``wrench-best-effort``:
+    the same, fitted even where the wrist signal shows no oscillation.
     """
     from liquidtouch.fit_settings import FitSettings
     from liquidtouch.signal import check_signal_options
@@ -82,7 +84,7 @@ def feature_settings(
     fit = FitSettings() if fit_settings is None else fit_settings
     if not isinstance(fit, FitSettings):
         raise LiquidTouchError(f"fit_settings must be a FitSettings, got {type(fit).__name__}")
-    if source == "wrench":
+    if source != "gelsight":
         if lowpass_hz is None:
             raise LiquidTouchError("the wrench source needs a low-pass cut-off (lowpass_hz)")
         return {"source": source, "lowpass_hz": float(lowpass_hz), "fit": fit.to_dict()}
@@ -116,10 +118,15 @@ def trial_features(
 
     chosen = feature_settings(source, **settings)
     fit = _fit_settings(chosen)
-    if source == "wrench":
+    if source != "gelsight":
         from liquidtouch.wrench import wrench_features
 
-        return wrench_features(trial_dir, lowpass_hz=chosen["lowpass_hz"], fit_settings=fit)
+        return wrench_features(
+            trial_dir,
+            lowpass_hz=chosen["lowpass_hz"],
+            fit_settings=fit,
+            best_effort=source == "wrench-best-effort",
+        )
     return extract_trial(
         trial_dir,
         lowpass_hz=chosen["lowpass_hz"],

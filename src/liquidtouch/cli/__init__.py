@@ -21,7 +21,17 @@ except ImportError:  # pragma: no cover - older typer uses click itself
     from click import exceptions as click_exc
 
 from liquidtouch import __version__
-from liquidtouch.cli import dataset, experiments, extract, fit, models, record, rig, simulate
+from liquidtouch.cli import (
+    dataset,
+    experiments,
+    extract,
+    fit,
+    live,
+    models,
+    record,
+    rig,
+    simulate,
+)
 from liquidtouch.cli.paths import guard_output_paths
 from liquidtouch.errors import LiquidTouchError
 
@@ -53,7 +63,7 @@ def _main(
     """liquidtouch: liquid properties from dynamic tactile sensing."""
 
 
-for _module in (fit, simulate, extract, models, experiments, dataset, record, rig):
+for _module in (fit, simulate, extract, models, experiments, dataset, record, rig, live):
     _module.register(app)
 
 

@@ -73,7 +73,10 @@ def extract(
     """Track the markers, build the tactile signal u(t) and fit the damped oscillation.
 
     --json prints the fit (decay_rate, angular_frequency, fast_*, *_std, r2, t0,
-    duration_s, ...) plus explained_variance, n_markers, fps and frames.
+    duration_s, ...) plus explained_variance, n_markers, fps, frames and the codec
+    check (codec, codec_lossless, codec_crf, frozen_step_share, freezing_step_px,
+    codec_lambda_bias, codec_at_risk). Lossy video that biases λ gets a
+    "warning: ..." line on stderr.
     """
     from liquidtouch.errors import SignalError
     from liquidtouch.extraction import extract as run_extract
@@ -92,8 +95,15 @@ def extract(
         sensors=sensor or None,
     )
     write_outputs(result, signal_out=signal_out, tracks_out=tracks_out, plot=plot)
+    check = result.diagnostics
+    warning = check.warning() if check is not None else None
+    if warning:
+        typer.echo(f"warning: {warning}", err=True)
     if as_json:
-        typer.echo(json.dumps(result.to_dict()))
+        out = result.to_dict()
+        if check is not None:
+            out.update(check.to_dict())
+        typer.echo(json.dumps(out))
         return
     _print_extraction(result, [p for p in (signal_out, tracks_out, plot) if p is not None])
 

@@ -39,6 +39,7 @@ class FitModelChoice(StrEnum):
 
     two_mode = "two-mode"
     single_mode = "single-mode"
+    amplitude = "amplitude"
 
 
 class NoiseChoice(StrEnum):
@@ -61,6 +62,7 @@ class SourceChoice(StrEnum):
 
     gelsight = "gelsight"
     wrench = "wrench"
+    wrench_best_effort = "wrench-best-effort"
 
 
 # -- output and execution --------------------------------------------------------------------
@@ -184,8 +186,9 @@ FitModel = Annotated[
     FitModelChoice,
     typer.Option(
         "--model",
-        help="two-mode (falls back to one mode when the data do not support a fast mode) "
-        "or single-mode.",
+        help="two-mode (falls back to one mode when the data do not support a fast mode), "
+        "single-mode, or amplitude (one mode whose damping grows with its amplitude: "
+        "λ is the small-amplitude rate λ0).",
     ),
 ]
 BandLow = Annotated[

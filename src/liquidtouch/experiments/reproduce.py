@@ -33,6 +33,11 @@ from liquidtouch.experiments.report import ExperimentResult, summary_table, writ
 from liquidtouch.io.dataset import MANIFEST_NAME
 
 DATASETS = ("classification", "sugar", "other-liquids", "containers")
+#: the classification dataset's wrist feature tables: feature source -> file name
+WRENCH_TABLES = {
+    "wrench": "features_wrench.csv",
+    "wrench-best-effort": "features_wrench_best_effort.csv",
+}
 
 
 @dataclass
@@ -104,14 +109,15 @@ def prepare_dataset(
         "gelsight": extract_features(root, jobs=jobs, dask_address=dask_address, progress=progress)
     }
     if preset == "classification":
-        tables["wrench"] = extract_features(
-            root,
-            out=root / "features_wrench.csv",
-            jobs=jobs,
-            dask_address=dask_address,
-            source="wrench",
-            progress=progress,
-        )
+        for source, name in WRENCH_TABLES.items():
+            tables[source] = extract_features(
+                root,
+                out=root / name,
+                jobs=jobs,
+                dask_address=dask_address,
+                source=source,
+                progress=progress,
+            )
     return tables
 
 
@@ -158,10 +164,11 @@ def run_experiments(
     """The seven experiments on feature tables (``features[preset]["gelsight" | "wrench"]``).
 
     ``features`` needs the presets of :data:`DATASETS`; ``classification`` also
-    its ``wrench`` table. Figures and tables go to ``out_dir``. An experiment
-    the data cannot support (too few usable trials) is reported as not run,
-    with the reason, and the others still run. ``seed`` draws the random
-    training subsets of experiments 6 and 7; ``dataset_roots`` (preset → dataset
+    its ``wrench`` table (and optionally ``wrench-best-effort``). Figures and
+    tables go to ``out_dir``. An experiment the data cannot support (too few
+    usable trials) is reported as not run, with the reason, and the others still
+    run. ``seed`` draws the random training subsets of experiments 6 and 7;
+    ``dataset_roots`` (preset → dataset
     directory) lets experiment 2 plot a trial's raw signals.
     """
     out = Path(out_dir)
@@ -180,7 +187,8 @@ def run_experiments(
                  classes["gelsight"], out),
         _attempt("force_torque", "2. GelSight vs wrist force-torque sensor", force_torque.run,
                  classes["gelsight"], classes["wrench"], out,
-                 dataset_root=(dataset_roots or {}).get("classification")),
+                 dataset_root=(dataset_roots or {}).get("classification"),
+                 best_effort=classes.get("wrench-best-effort")),
     ]  # fmt: skip
     sugar_gpr = None  # experiments 4 and 7 reuse experiment 3's model
     try:

@@ -53,9 +53,17 @@ class FitState:
     def freqs(self) -> np.ndarray:
         return om.rates_and_freqs(self.theta[: om.n_nonlinear(self.n_modes)], self.n_modes)[1]
 
+    def model_curve(self) -> np.ndarray:
+        """The model ``û`` at the samples (a subclass with another model overrides it)."""
+        return om.curve(self.theta, self.tau, self.x, self.n_modes)
+
+    def model_jacobian(self) -> np.ndarray:
+        """``d û / d theta`` at the samples, shape ``(n, n_params)``."""
+        return om.jacobian(self.theta, self.tau, self.x, self.n_modes)
+
     def residual(self) -> np.ndarray:
         """Unweighted residual ``u - û``."""
-        return self.u - om.curve(self.theta, self.tau, self.x, self.n_modes)
+        return self.u - self.model_curve()
 
     def noise_var(self) -> float:
         """Residual variance Σ (u − û)² / (n − p) (unweighted)."""
@@ -143,7 +151,18 @@ class FitState:
 
     def standard_errors(self, weights: np.ndarray, *, correlated: bool) -> list[float]:
         """Standard errors of [λ, ω, λ', ω'] (NaN for an absent fast mode)."""
-        jac = om.jacobian(self.theta, self.tau, self.x, self.n_modes)
+        cov = self.covariance(weights, correlated=correlated)
+        if cov is None:
+            return [math.nan] * 4
+        var = np.diag(cov)
+        if self.n_modes == 1:
+            return [_sqrt(var[0]), _sqrt(var[1]), math.nan, math.nan]
+        var_fast_rate = var[0] + var[2] + 2 * cov[0, 2]
+        return [_sqrt(var[0]), _sqrt(var[1]), _sqrt(var_fast_rate), _sqrt(var[3])]
+
+    def covariance(self, weights: np.ndarray, *, correlated: bool) -> np.ndarray | None:
+        """Sandwich covariance of ``theta`` (see ``oscillation``'s docstring); None if singular."""
+        jac = self.model_jacobian()
         bread = jac.T @ (weights[:, None] * jac)
         score = weights[:, None] * jac  # per-sample W J
         if correlated:
@@ -160,13 +179,8 @@ class FitState:
         try:
             inv = np.linalg.inv(bread)
         except np.linalg.LinAlgError:
-            return [math.nan] * 4
-        cov = inv @ meat @ inv
-        var = np.diag(cov)
-        if self.n_modes == 1:
-            return [_sqrt(var[0]), _sqrt(var[1]), math.nan, math.nan]
-        var_fast_rate = var[0] + var[2] + 2 * cov[0, 2]
-        return [_sqrt(var[0]), _sqrt(var[1]), _sqrt(var_fast_rate), _sqrt(var[3])]
+            return None
+        return inv @ meat @ inv
 
 
 def _sqrt(v: float) -> float:

@@ -108,3 +108,16 @@ def profile_starts(
         starts.append((float(cost[i, j]), float(RATE_GRID[i]), float(freqs[j])))
     starts.sort()
     return starts
+
+
+#: excess damping g = λ(A0)/λ0 − 1 at the window start tried by :func:`amplitude_starts`
+GAIN_STARTS = (0.3, 1.5, 6.0)
+
+
+def amplitude_starts(rate: float, angular_frequency: float) -> list[tuple[float, float, float]]:
+    """Starts (λ0 [1/s], ω [rad/s], g) of the amplitude-damping fit from a single-mode fit.
+
+    The single-mode λ averages the decay over the window, so it lies between
+    λ0 and the early rate λ0 (1 + g); each start puts λ0 at ``λ / (1 + g/2)``.
+    """
+    return [(rate / (1.0 + 0.5 * g), angular_frequency, g) for g in GAIN_STARTS]

@@ -10,6 +10,7 @@ documented in ``docs/formats.md``.
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -75,6 +76,8 @@ class TrialMeta(BaseModel):
     true_decay_rate: float | None = None
     true_angular_frequency: float | None = None
     tracks: str | None = None  # imported marker tracks (tracks.npz), used instead of videos
+    # a recording's {sensor: time [s] of its first frame on the clock all sensors share}
+    sensor_start_s: dict[str, float | None] | None = None
 
     def labels(self) -> dict[str, object]:
         """The label and ground-truth columns of this trial (``None`` when unknown)."""
@@ -111,6 +114,23 @@ def read_trial_meta(trial_dir: str | Path) -> TrialMeta:
                 f"{path}: sensor video {name!r} must stay inside the trial directory"
             )
     return meta
+
+
+def trial_sensor_starts(paths: object) -> dict[str, float]:
+    """``sensor_start_s`` of the trial when ``paths`` is one trial directory, else ``{}``.
+
+    The recorder stamps every sensor on one clock and stores when each sensor's
+    first frame came; the tactile signal aligns the sensors with it
+    (:attr:`~liquidtouch.tracking.tracks.MarkerTracks.start_s`).
+    """
+    items = [paths] if isinstance(paths, str | os.PathLike) else list(paths)  # type: ignore[call-overload]
+    if len(items) != 1 or not isinstance(items[0], str | os.PathLike):
+        return {}
+    trial = Path(items[0])
+    if not (trial.is_dir() and (trial / META_NAME).is_file()):
+        return {}
+    starts = read_trial_meta(trial).sensor_start_s or {}
+    return {name: float(t) for name, t in starts.items() if t is not None}
 
 
 def write_trial_meta(trial_dir: str | Path, meta: TrialMeta) -> Path:

@@ -13,6 +13,11 @@ in natural name order), or by a frame rate the caller gives (a trial's
 ``meta.json`` ``fps``, or ``extract --fps``); with neither, reading refuses
 instead of guessing a rate.
 
+**Videos** are timed by their container's presentation times, unless a
+``<name>.timestamps.csv`` sidecar (what the recorder writes beside its FFV1
+videos, to 1 µs where Matroska keeps 1 ms) gives one valid time per frame: then
+the sidecar wins (:mod:`liquidtouch.io.frame_times`).
+
 **Truncated videos**: a video whose decoding fails part-way, or that ends well
 before the frame count or duration its container declares (a recording cut
 short, a partial copy), raises :class:`VideoError` instead of silently giving
@@ -30,11 +35,36 @@ from pathlib import Path
 import numpy as np
 
 from liquidtouch.errors import VideoError
+from liquidtouch.io.frame_times import (
+    TIMESTAMPS_NAME,
+    VIDEO_TIMESTAMPS_SUFFIX,
+    folder_times,
+    read_folder_timestamps,
+    video_sidecar,
+    video_sidecar_times,
+)
+
+__all__ = [
+    "IMAGE_SUFFIXES",
+    "TIMESTAMPS_NAME",
+    "VIDEO_SUFFIXES",
+    "VIDEO_TIMESTAMPS_SUFFIX",
+    "VideoInfo",
+    "folder_times",
+    "image_files",
+    "iter_camera",
+    "iter_frames",
+    "iter_image_folder",
+    "iter_video",
+    "read_folder_timestamps",
+    "read_frames",
+    "video_info",
+    "video_sidecar",
+    "video_sidecar_times",
+]
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
-#: per-frame timestamps of an image folder: CSV with a ``t_s`` column, one row per image
-TIMESTAMPS_NAME = "timestamps.csv"
 #: a video may end this many frames (or this fraction) short of its declared length
 TRUNCATION_TOLERANCE_FRAMES = 2
 TRUNCATION_TOLERANCE_FRACTION = 0.02
@@ -49,6 +79,7 @@ class VideoInfo:
     height: int
     fps: float
     frames: int  # 0 when the container does not say
+    codec: str = ""  # FFmpeg's codec name, e.g. "h264", "mpeg4", "mjpeg", "ffv1"
 
 
 def _luma(frame) -> np.ndarray:
@@ -78,6 +109,7 @@ def video_info(path: str | Path) -> VideoInfo:
                 height=int(stream.codec_context.height),
                 fps=float(rate),
                 frames=int(stream.frames or 0),
+                codec=str(stream.codec_context.name or ""),
             )
     except av.FFmpegError as exc:
         raise VideoError(f"cannot read video {path}: {exc}; is it a video file?") from None
@@ -86,12 +118,17 @@ def video_info(path: str | Path) -> VideoInfo:
 def iter_video(path: str | Path) -> Iterator[tuple[float, np.ndarray]]:
     """Decode a video file; yield ``(t_s, grey_image)`` with container timestamps (PTS × time base).
 
-    Frames without a PTS get the previous timestamp plus the nominal frame
-    interval. Raises :class:`VideoError` for a missing, unreadable or empty file.
+    A ``<name>.timestamps.csv`` sidecar with one valid time per frame wins over
+    the PTS (module docstring). Frames without a PTS get the previous timestamp
+    plus the nominal frame interval. Raises :class:`VideoError` for a missing,
+    unreadable or empty file, or a sidecar that does not fit the video.
     """
     import av
 
     path = _existing_file(path)
+    sidecar = None
+    if video_sidecar(path).is_file():
+        sidecar = video_sidecar_times(path, _count_frames(path))
     try:
         container = av.open(str(path))
     except av.FFmpegError as exc:
@@ -110,7 +147,9 @@ def iter_video(path: str | Path) -> Iterator[tuple[float, np.ndarray]]:
         count = 0
         try:
             for frame in container.decode(stream):
-                if frame.pts is None:
+                if sidecar is not None:
+                    t_s = float(sidecar[min(count, len(sidecar) - 1)])
+                elif frame.pts is None:
                     t_s = previous + 1.0 / rate
                 else:
                     stamp = frame.pts * time_base
@@ -130,6 +169,19 @@ def iter_video(path: str | Path) -> Iterator[tuple[float, np.ndarray]]:
         if count == 0:
             raise VideoError(f"video {path} has no frames; record again or pick another file")
         _check_complete(path, count, previous, declared_frames, declared_s)
+
+
+def _count_frames(path: Path) -> int:
+    """How many frames the video stream of ``path`` holds (its packets; nothing decoded)."""
+    import av
+
+    try:
+        with av.open(str(path)) as container:
+            if not container.streams.video:
+                return 0
+            return sum(1 for p in container.demux(container.streams.video[0]) if p.size)
+    except av.FFmpegError as exc:
+        raise VideoError(f"cannot read video {path}: {exc}; is it a video file?") from None
 
 
 def _declared_duration_s(container, stream) -> float:
@@ -192,74 +244,6 @@ def iter_image_folder(
             )
         shape = image.shape
         yield float(t_s), image
-
-
-def folder_times(folder: str | Path, n_images: int, fps: float | None = None) -> np.ndarray:
-    """Frame times [s] from 0 of an image folder of ``n_images`` images (see iter_image_folder)."""
-    folder = Path(folder)
-    stamps = read_folder_timestamps(folder, n_images)
-    if stamps is not None:
-        return stamps - stamps[0]
-    if fps is None:
-        raise VideoError(
-            f"image folder {folder} has no frame rate: give it (--fps, or the trial's "
-            f"meta.json 'fps') or add a {TIMESTAMPS_NAME} with a t_s column, one row per image"
-        )
-    try:
-        fps = float(fps)
-    except (TypeError, ValueError):
-        raise VideoError(f"frame rate must be a number of frames per second, got {fps!r}") from None
-    if not 0 < fps < np.inf:
-        raise VideoError(f"frame rate must be positive and finite, got {fps}")
-    return np.arange(n_images) / fps
-
-
-def read_folder_timestamps(folder: str | Path, n_images: int) -> np.ndarray | None:
-    """The ``t_s`` column [s] of ``folder/timestamps.csv``; ``None`` when there is no such file.
-
-    The file must hold a header with a ``t_s`` column and exactly one row per image
-    (``n_images``), finite and strictly increasing; otherwise :class:`VideoError`.
-    """
-    import csv
-
-    path = Path(folder) / TIMESTAMPS_NAME
-    if not path.exists():
-        return None
-    limit = 64 * (n_images + 2) + 4096  # generous for one number per row and extra columns
-    try:
-        size = path.stat().st_size
-        if size > limit:
-            raise VideoError(
-                f"{path} is {size} bytes, far more than {n_images} timestamps need; "
-                "give one t_s row per image"
-            )
-        lines = path.read_text(encoding="utf-8").splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise VideoError(f"cannot read {path}: {getattr(exc, 'strerror', None) or exc}") from None
-    rows = [row for row in csv.reader(lines) if row and any(cell.strip() for cell in row)]
-    header = [cell.strip() for cell in rows[0]] if rows else []
-    if "t_s" not in header:
-        raise VideoError(f"{path} needs a header row with a t_s column (frame times in seconds)")
-    column = header.index("t_s")
-    if len(rows) - 1 != n_images:
-        raise VideoError(
-            f"{path} lists {len(rows) - 1} timestamps but the folder holds {n_images} images; "
-            "give exactly one t_s row per image, in name order"
-        )
-    try:
-        stamps = np.array([float(row[column]) for row in rows[1:]])
-    except (ValueError, IndexError):
-        raise VideoError(f"{path}: every t_s value must be a number of seconds") from None
-    if not np.isfinite(stamps).all():
-        raise VideoError(f"{path}: t_s holds NaN or infinite values")
-    steps = np.diff(stamps)
-    if (steps <= 0).any():
-        i = int(np.argmax(steps <= 0))
-        raise VideoError(
-            f"{path}: t_s must increase strictly, but row {i + 2} ({stamps[i + 1]:g}) is not "
-            f"after row {i + 1} ({stamps[i]:g})"
-        )
-    return stamps
 
 
 def image_files(folder: str | Path) -> list[Path]:

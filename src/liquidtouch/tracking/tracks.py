@@ -100,6 +100,11 @@ class MarkerTracks:
     sensor : sensor name (``left``, ``right`` or the video's name).
     spacing_px : median nearest-neighbour marker distance in the first frame [px].
     diameter_px : median marker diameter [px].
+    first_frame : the first (grey) image, when tracked from frames.
+    start_s : time [s] of the first frame on the clock shared by all sensors of the
+        trial (a recording's ``meta.json`` ``sensor_start_s``); 0 when unknown, and
+        sensors are then aligned on their first frames. Frame ``k`` is at
+        ``start_s + t[k] - t[0]`` on that clock.
     """
 
     t: np.ndarray
@@ -110,6 +115,7 @@ class MarkerTracks:
     spacing_px: float = float("nan")
     diameter_px: float = float("nan")
     first_frame: np.ndarray | None = field(default=None, repr=False)
+    start_s: float = 0.0
 
     @property
     def n_markers(self) -> int:
@@ -244,7 +250,8 @@ def save_tracks(path: str | Path, tracks: list[MarkerTracks]) -> None:
     """Write tracks of one or more sensors to an ``.npz`` file (atomic, no pickle).
 
     Keys: ``sensors`` (names) and per sensor ``<name>/t``, ``<name>/positions``,
-    ``<name>/valid``, ``<name>/reference``.
+    ``<name>/valid``, ``<name>/reference`` and ``<name>/start_s`` (a 0-D float;
+    files without it read as 0).
     """
     from liquidtouch.io import atomic
 
@@ -254,6 +261,7 @@ def save_tracks(path: str | Path, tracks: list[MarkerTracks]) -> None:
         arrays[f"{tr.sensor}/positions"] = tr.positions
         arrays[f"{tr.sensor}/valid"] = tr.valid
         arrays[f"{tr.sensor}/reference"] = tr.reference
+        arrays[f"{tr.sensor}/start_s"] = np.float64(tr.start_s)
     with atomic.atomic_path(path) as tmp, open(tmp, "wb") as handle:
         np.savez_compressed(handle, **arrays)
 
@@ -269,6 +277,7 @@ def load_tracks(path: str | Path) -> list[MarkerTracks]:
                 reference=data[f"{name}/reference"],
                 sensor=str(name),
                 spacing_px=marker_spacing(data[f"{name}/reference"]),
+                start_s=float(data[f"{name}/start_s"]) if f"{name}/start_s" in data else 0.0,
             )
             for name in data["sensors"]
         ]

@@ -120,6 +120,9 @@ class MjpegServer:
     host, port : where to listen; the default port 0 picks a free port (see :attr:`url`).
         Only loopback use is intended (the default ``127.0.0.1``).
     quality : JPEG quality, 0–100.
+    timed : call ``frame_source(t_s)`` with the frame's capture time [s, time.monotonic]
+        (its ``X-Timestamp``), to render the scene at that time: on a busy machine the
+        producer thread can be descheduled for tens of ms between the stamp and the call.
 
     Use as a context manager, or call :meth:`start` and :meth:`stop`. An exception
     raised by ``frame_source`` stops the stream and is kept in :attr:`error`.
@@ -133,6 +136,7 @@ class MjpegServer:
         host: str = "127.0.0.1",
         port: int = 0,
         quality: int = 95,
+        timed: bool = False,
     ) -> None:
         if not 0 < float(fps) <= 1000:
             raise DeviceError(f"the stream's frame rate must be in (0, 1000] Hz, got {fps!r}")
@@ -143,6 +147,7 @@ class MjpegServer:
         self.host = host
         self.port = int(port)
         self.quality = int(quality)
+        self.timed = bool(timed)
         self.sent_timestamps: list[float] = []
         """Capture time [s, time.monotonic] of every frame, in frame_source call order."""
         self.error: BaseException | None = None
@@ -230,7 +235,7 @@ class MjpegServer:
                 due = now
             t_s = time.monotonic()
             try:
-                image = np.asarray(self.frame_source())
+                image = np.asarray(self.frame_source(t_s) if self.timed else self.frame_source())
                 if image.dtype != np.uint8 or image.ndim not in (2, 3):
                     raise DeviceError(
                         f"frame_source must return a grey or BGR uint8 image, got "

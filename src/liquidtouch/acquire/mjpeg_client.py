@@ -1,0 +1,341 @@
+"""An MJPEG-over-HTTP camera (mjpg-streamer, a GelSight R1.5) read with the standard library.
+
+OpenCV reads an ``http://`` stream through FFmpeg and the recorder could only
+stamp each frame when it arrived: network jitter then lands in the timestamps
+(4 ms of it moved λ by 7 % on the simulated rig). This client parses the stream
+itself, so it sees each part's ``X-Timestamp`` header.
+
+**Protocol**: ``GET`` answered by ``multipart/x-mixed-replace; boundary=B``, then
+parts ``--B``, headers (``Content-Type: image/jpeg``, ``Content-Length``, and
+optionally ``X-Timestamp: <seconds on the sender's clock>``), a blank line and
+the JPEG (:class:`MjpegStream`; a part without ``Content-Length`` runs to the
+next boundary line, or the stream's end if its JPEG is complete). ``--B--`` or
+the server closing between parts ends the stream (:class:`StreamEnded`); closing
+inside a part, a part that breaks the format, or no byte for ``read_timeout_s``
+raise :class:`DeviceError`. A JPEG
+that does not decode is skipped (it shows as a dropped frame) and counted in
+:attr:`MjpegCamera.bad_frames`.
+
+**Timestamps** (:class:`SenderClock`): a part with ``X-Timestamp`` is stamped at
+that capture time moved onto the local :func:`time.monotonic` clock by the
+sender→receiver offset, the minimum of ``arrival − sender time`` over the last
+:data:`OFFSET_WINDOW_S` seconds of frames: the network only ever delays a frame,
+so the least delayed frame shows the offset (plus the smallest latency), and
+jitter does not reach the timestamps. A part without it is stamped on arrival
+(a part without ``Content-Length`` arrives only with the next boundary).
+"""
+
+from __future__ import annotations
+
+import base64
+import http.client
+import math
+import socket
+import threading
+import time
+from collections import deque
+from urllib.parse import urlsplit
+
+import numpy as np
+
+from liquidtouch.acquire.camera_devices import (
+    DEFAULT_OPEN_TIMEOUT_S,
+    DEFAULT_READ_TIMEOUT_S,
+    Camera,
+    StreamEnded,
+)
+from liquidtouch.acquire.camera_profiles import CameraProfile
+from liquidtouch.errors import DeviceError
+
+__all__ = ["OFFSET_WINDOW_S", "MjpegCamera", "MjpegStream", "SenderClock"]
+
+OFFSET_WINDOW_S = 30.0
+"""The sender→receiver clock offset is the least delay over this many seconds of frames [s]
+(longer than a trial; short enough that two machines' clocks drift by < 1 ms over it)."""
+MAX_PART_BYTES = 32 * 1024 * 1024
+"""Largest JPEG part accepted [bytes] (a 12 MP frame at high quality is a few MB)."""
+JPEG_END = b"\xff\xd9"
+"""The JPEG end-of-image marker."""
+MAX_HEADER_LINES = 64
+MAX_LINE_BYTES = 8192
+MAX_SKIPPED_BYTES = 65536
+"""Bytes between parts (preamble, padding) skipped while looking for the boundary."""
+
+
+class SenderClock:
+    """Maps a sender's capture times onto the local monotonic clock (module docstring).
+
+    ``to_local(sender_s, arrival_s)`` [s] gives ``sender_s + offset``, the offset
+    being the least ``arrival_s − sender_s`` seen over the last ``window_s`` seconds
+    (a sliding minimum, O(1) per frame).
+    """
+
+    def __init__(self, window_s: float = OFFSET_WINDOW_S) -> None:
+        self.window_s = float(window_s)
+        self._recent: deque[tuple[float, float]] = deque()  # (arrival, offset), offsets rising
+
+    @property
+    def offset_s(self) -> float | None:
+        """The current offset [s] (``None`` before the first frame)."""
+        return self._recent[0][1] if self._recent else None
+
+    def to_local(self, sender_s: float, arrival_s: float) -> float:
+        offset = arrival_s - sender_s
+        while self._recent and self._recent[-1][1] >= offset:
+            self._recent.pop()
+        self._recent.append((arrival_s, offset))
+        while self._recent[0][0] < arrival_s - self.window_s:
+            self._recent.popleft()
+        return sender_s + self._recent[0][1]
+
+
+class MjpegStream:
+    """One HTTP connection to an MJPEG stream; :meth:`read_part` gives its next part.
+
+    ``open_timeout_s`` bounds connecting and the response headers,
+    ``read_timeout_s`` every later wait for bytes [s]. Raises :class:`DeviceError`
+    when the URL cannot be opened or does not serve a multipart stream.
+    """
+
+    def __init__(
+        self,
+        url: str,
+        *,
+        open_timeout_s: float = DEFAULT_OPEN_TIMEOUT_S,
+        read_timeout_s: float = DEFAULT_READ_TIMEOUT_S,
+    ) -> None:
+        parts = urlsplit(url)
+        if parts.scheme not in ("http", "https") or not parts.hostname:
+            raise DeviceError(f"{url!r} is not an http:// or https:// stream URL")
+        self.url = url
+        self.read_timeout_s = float(read_timeout_s)
+        kind = (
+            http.client.HTTPSConnection if parts.scheme == "https" else http.client.HTTPConnection
+        )
+        self._conn = kind(parts.hostname, parts.port, timeout=float(open_timeout_s))
+        target = (parts.path or "/") + (f"?{parts.query}" if parts.query else "")
+        headers = {"Accept": "multipart/x-mixed-replace, image/jpeg", "Connection": "close"}
+        if parts.username:  # mjpg-streamer's -c user:password
+            token = f"{parts.username}:{parts.password or ''}".encode()
+            headers["Authorization"] = "Basic " + base64.b64encode(token).decode("ascii")
+        try:
+            self._conn.request("GET", target, headers=headers)
+            # kept: once the response owns the connection (Connection: close) conn.sock is None
+            self._sock = self._conn.sock
+            response = self._conn.getresponse()
+        except (OSError, http.client.HTTPException) as exc:
+            self._conn.close()
+            raise DeviceError(f"stream {url} could not be opened: {exc}") from None
+        kind_header = response.getheader("Content-Type", "")
+        boundary = _boundary(kind_header)
+        if response.status != 200 or boundary is None:
+            response.close()
+            self._conn.close()
+            raise DeviceError(
+                f"stream {url} could not be opened: the server answered {response.status} "
+                f"{response.reason} with {kind_header or 'no Content-Type'!r}, not a "
+                "multipart/x-mixed-replace MJPEG stream"
+            )
+        self._response = response
+        self.set_read_timeout(self.read_timeout_s)
+        self._boundary = b"--" + boundary.encode("latin-1")
+        self._pending: bytes | None = None  # a boundary line already read (no Content-Length)
+
+    def read_part(self) -> tuple[float, dict[str, str], bytes]:
+        """``(arrival_s, headers, body)`` of the next part; ``arrival_s`` on time.monotonic.
+
+        Header names are lower case. :class:`StreamEnded` at the stream's end,
+        :class:`DeviceError` on a timeout or a broken part (module docstring).
+        """
+        try:
+            self._skip_to_boundary()
+            headers = self._headers()
+            body = self._body(headers.get("content-length"))
+        except TimeoutError:
+            raise DeviceError(
+                f"stream {self.url} delivered no data within {self.read_timeout_s:g} s; is the "
+                "sensor still streaming?"
+            ) from None
+        except (OSError, http.client.HTTPException) as exc:
+            raise DeviceError(f"stream {self.url} broke off: {exc}") from None
+        return time.monotonic(), headers, body
+
+    def set_read_timeout(self, timeout_s: float) -> None:
+        """Wait at most ``timeout_s`` [s] for the next bytes of the stream."""
+        self.read_timeout_s = float(timeout_s)
+        try:
+            self._sock.settimeout(self.read_timeout_s)
+        except OSError:  # closed at the stream's end (http.client): the next read says so
+            pass
+
+    def interrupt(self) -> None:
+        """Wake a read blocked on the socket (from another thread): it fails at once."""
+        try:
+            self._sock.shutdown(socket.SHUT_RDWR)
+        except OSError:  # already closed or never connected
+            pass
+
+    def close(self) -> None:
+        """Close the connection (idempotent)."""
+        self._response.close()
+        self._conn.close()
+        self._sock.close()
+
+    # --- parsing ------------------------------------------------------------------------
+
+    def _line(self) -> bytes:
+        line = self._response.readline(MAX_LINE_BYTES + 1)
+        if len(line) > MAX_LINE_BYTES:
+            raise DeviceError(f"stream {self.url}: a line longer than {MAX_LINE_BYTES} bytes")
+        return line
+
+    def _skip_to_boundary(self) -> None:
+        if self._pending is not None:
+            line, self._pending = self._pending, None
+        else:
+            line = self._line()
+        skipped = 0
+        while line.rstrip(b"\r\n") != self._boundary:
+            if not line:
+                raise StreamEnded(f"stream {self.url} ended (the server closed it)")
+            if line.rstrip() == self._boundary + b"--":
+                raise StreamEnded(f"stream {self.url} ended (its last part was sent)")
+            skipped += len(line)
+            if skipped > MAX_SKIPPED_BYTES:
+                raise DeviceError(
+                    f"stream {self.url}: no part boundary in {skipped} bytes; is it an "
+                    "MJPEG stream?"
+                )
+            line = self._line()
+
+    def _headers(self) -> dict[str, str]:
+        headers: dict[str, str] = {}
+        for _ in range(MAX_HEADER_LINES):
+            line = self._line()
+            if not line:
+                raise DeviceError(f"stream {self.url} closed inside a part's headers")
+            text = line.decode("latin-1").strip()
+            if not text:
+                return headers
+            name, sep, value = text.partition(":")
+            if not sep:
+                raise DeviceError(f"stream {self.url}: malformed part header {text[:80]!r}")
+            headers[name.strip().lower()] = value.strip()
+        raise DeviceError(f"stream {self.url}: a part with more than {MAX_HEADER_LINES} headers")
+
+    def _body(self, length_text: str | None) -> bytes:
+        if length_text is None:
+            return self._body_to_boundary()
+        try:
+            length = int(length_text)
+        except ValueError:
+            length = -1
+        if not 0 < length <= MAX_PART_BYTES:
+            raise DeviceError(
+                f"stream {self.url}: part Content-Length {length_text!r} is not a size in "
+                f"1..{MAX_PART_BYTES} bytes"
+            )
+        body = self._response.read(length)
+        if len(body) < length:
+            raise DeviceError(
+                f"stream {self.url} closed inside a frame ({len(body)} of {length} bytes)"
+            )
+        return body
+
+    def _body_to_boundary(self) -> bytes:
+        chunks: list[bytes] = []
+        size = 0
+        while True:
+            line = self._line()
+            if not line:  # the last part ends with the stream, if its JPEG is complete
+                if b"".join(chunks).rstrip(b"\r\n").endswith(JPEG_END):
+                    break
+                raise DeviceError(f"stream {self.url} closed inside a frame")
+            if line.startswith(self._boundary):
+                self._pending = line
+                break
+            chunks.append(line)
+            size += len(line)
+            if size > MAX_PART_BYTES:
+                raise DeviceError(f"stream {self.url}: a part over {MAX_PART_BYTES} bytes")
+        body = b"".join(chunks)
+        return body[:-2] if body.endswith(b"\r\n") else body.rstrip(b"\n")
+
+
+def _boundary(content_type: str) -> str | None:
+    """The boundary of a ``multipart/x-mixed-replace`` Content-Type (``None`` for others)."""
+    kind, _, params = content_type.partition(";")
+    if kind.strip().lower() != "multipart/x-mixed-replace":
+        return None
+    for param in params.split(";"):
+        name, _, value = param.strip().partition("=")
+        if name.strip().lower() == "boundary" and value.strip().strip('"'):
+            return value.strip().strip('"').removeprefix("--")
+    return None
+
+
+class MjpegCamera(Camera):
+    """An ``http(s)://`` MJPEG stream as a :class:`Camera` (module docstring for timing)."""
+
+    def __init__(
+        self,
+        url: str,
+        profile: CameraProfile,
+        *,
+        open_timeout_s: float = DEFAULT_OPEN_TIMEOUT_S,
+        read_timeout_s: float = DEFAULT_READ_TIMEOUT_S,
+    ) -> None:
+        self.source = url
+        self.profile = profile
+        self.nominal_fps = profile.fps
+        self.clock = SenderClock()
+        self.bad_frames = 0
+        """Parts whose JPEG did not decode (skipped: they show as dropped frames)."""
+        self.sender_timed: bool | None = None
+        """Whether the last part carried ``X-Timestamp`` (``None`` before the first)."""
+        self._lock = threading.Lock()
+        self._open_timeout_s = float(open_timeout_s)
+        self._stream: MjpegStream | None = MjpegStream(
+            url, open_timeout_s=open_timeout_s, read_timeout_s=read_timeout_s
+        )
+
+    def _read(self, timeout_s: float) -> tuple[float, np.ndarray]:
+        import cv2
+
+        with self._lock:
+            if self._stream is None:
+                raise DeviceError(f"stream {self.source} is closed")
+            if self.sender_timed is None:  # the first frame: a sender may still be starting up
+                timeout_s = max(float(timeout_s), self._open_timeout_s)
+            self._stream.set_read_timeout(timeout_s)
+            deadline = time.monotonic() + float(timeout_s)
+            while True:
+                arrival, headers, body = self._stream.read_part()
+                image = cv2.imdecode(np.frombuffer(body, np.uint8), cv2.IMREAD_UNCHANGED)
+                if image is not None:
+                    break
+                self.bad_frames += 1
+                if time.monotonic() > deadline:
+                    raise DeviceError(
+                        f"stream {self.source}: no decodable JPEG within {timeout_s:g} s"
+                    )
+        stamp = headers.get("x-timestamp")
+        self.sender_timed = stamp is not None
+        if stamp is None:
+            return arrival, image
+        try:
+            sender_s = float(stamp)
+        except ValueError:
+            sender_s = math.nan
+        if not math.isfinite(sender_s):
+            raise DeviceError(f"stream {self.source}: X-Timestamp {stamp[:40]!r} is not seconds")
+        return self.clock.to_local(sender_s, arrival), image
+
+    def close(self) -> None:
+        stream = self._stream
+        if stream is not None:
+            stream.interrupt()  # a read in progress holds the lock: end it first
+        with self._lock:
+            if self._stream is not None:
+                self._stream.close()
+                self._stream = None

@@ -1,0 +1,168 @@
+"""``liquidtouch live``: the streaming estimate of cameras or a replayed recording.
+
+A thin command over :func:`liquidtouch.live.live_updates`: one line (or, with
+``--json``, one JSON object) per update, then the final one; ``--serve``
+publishes the updates and the frames with their markers to the browser view
+(:mod:`liquidtouch.live.hub`, :mod:`liquidtouch.live.web`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+import typer
+
+from liquidtouch.cli import options
+from liquidtouch.cli.format import with_uncertainty
+
+#: frames published to the browser per sensor at most [Hz]
+SERVE_FRAME_HZ = 10.0
+
+
+def register(app: typer.Typer) -> None:
+    """Register this module's commands on ``app``."""
+    app.command("live")(live)
+
+
+def parse_serve(text: str) -> tuple[str, int]:
+    """``HOST:PORT`` → ``(host, port)``; typer.BadParameter otherwise (port 0: any free one)."""
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or int(port) > 65535:
+        raise typer.BadParameter(
+            f"{text!r} is not HOST:PORT (e.g. 127.0.0.1:8765)", param_hint="'--serve'"
+        )
+    return host, int(port)
+
+
+def live(
+    sources: list[str] = typer.Argument(
+        ...,
+        metavar="SRC...",
+        help="Camera sources (0, /dev/video2, name:GelSight Mini, a URL) or recordings "
+        "(video files, image folders, one trial directory).",
+        show_default=False,
+    ),
+    model_file: Path | None = typer.Option(
+        None, "--model", help="Model file (from train): predict its targets with their std."
+    ),
+    replay: bool = typer.Option(
+        False, "--replay", help="Play recordings at the pace of their timestamps (real time)."
+    ),
+    until_std: list[str] = typer.Option(
+        [],
+        "--until-std",
+        metavar="TARGET=STD",
+        help="Stop once TARGET's std is below STD (repeatable; all must hold): decay_rate, "
+        "angular_frequency or a model target, e.g. height_mm=0.5.",
+        show_default=False,
+    ),
+    max_duration_s: float | None = typer.Option(
+        None,
+        "--max-duration",
+        metavar="SECONDS",
+        help="Stop after this much stream time [s].",
+        show_default=False,
+    ),
+    as_json: bool = typer.Option(
+        False, "--json", help="One JSON object per update on stdout; the last has final=true."
+    ),
+    serve: str | None = typer.Option(
+        None,
+        "--serve",
+        metavar="HOST:PORT",
+        help="Show the stream in a browser at http://HOST:PORT (port 0: any free port).",
+        show_default=False,
+    ),
+    fps: float | None = typer.Option(
+        None,
+        "--fps",
+        metavar="HZ",
+        help="Frame rate of image folders without timestamps [Hz].",
+        show_default=False,
+    ),
+    lowpass_hz: options.Lowpass = options.DEFAULT_LOWPASS_HZ,
+    n_markers: options.Markers = options.DEFAULT_MARKERS,
+) -> None:
+    """Estimate λ, ω (and, with --model, properties) while the frames come in.
+
+    An estimate appears as soon as its std supports it; the stream stops at the end of
+    the recording, after --max-duration, or once every --until-std target is met.
+    """
+    from liquidtouch.live import live_updates, parse_until_std
+
+    limits = parse_until_std(until_std)
+    address = parse_serve(serve) if serve else None
+    model = None
+    if model_file is not None:
+        from liquidtouch.models.modelfile import load_model
+
+        model = load_model(model_file)
+    hub = server = None
+    on_frame = None
+    if address is not None:
+        hub, server, on_frame = _start_serving(*address)
+    try:
+        for update in live_updates(
+            sources,
+            model=model,
+            until_std=limits,
+            realtime=replay,
+            max_duration_s=max_duration_s,
+            fps=fps,
+            lowpass_hz=lowpass_hz,
+            n_markers=n_markers,
+            on_frame=on_frame,
+        ):
+            if hub is not None:
+                hub.publish(update.to_dict(include_signal=True))
+            if as_json:
+                typer.echo(json.dumps(update.to_dict(), ensure_ascii=False))
+            else:
+                typer.echo(_line(update))
+    finally:
+        if server is not None:
+            server.stop()
+        if hub is not None:
+            hub.close()
+
+
+def _start_serving(host: str, port: int):
+    """The hub, its web server and an ``on_frame`` that publishes ≤ SERVE_FRAME_HZ per sensor."""
+    from liquidtouch.cli.format import warn
+    from liquidtouch.live.hub import LiveHub
+    from liquidtouch.live.web import start_server
+
+    hub = LiveHub()
+    server = start_server(hub, host=host, port=port)
+    warn(f"serving the live view at {server.url}")
+    last: dict[str, float] = {}
+
+    def on_frame(frame, positions, reference) -> None:
+        now = time.monotonic()
+        if now - last.get(frame.sensor, -math.inf) >= 1.0 / SERVE_FRAME_HZ:
+            last[frame.sensor] = now
+            hub.publish_frame(frame.sensor, frame.image, reference, positions)
+
+    return hub, server, on_frame
+
+
+def _line(update) -> str:
+    """One human-readable line of an update."""
+    parts = [f"{update.phase:7s}"]
+    if math.isfinite(update.t_s):
+        parts.append(f"t = {update.t_s:5.2f} s")
+    if math.isfinite(update.decay_rate):
+        parts.append(f"λ = {with_uncertainty(update.decay_rate, update.decay_rate_std)} 1/s")
+    if math.isfinite(update.angular_frequency):
+        omega = with_uncertainty(update.angular_frequency, update.angular_frequency_std)
+        parts.append(f"ω = {omega} rad/s")
+    for target, (mean, std) in update.predicted.items():
+        parts.append(f"{target} = {with_uncertainty(mean, std)}")
+    if update.final:
+        parts.append(f"(stopped: {update.stopped_because.replace('_', ' ')})")
+    elif update.message and not math.isfinite(update.angular_frequency):
+        parts.append(f"({update.message})")
+    return "  ".join(parts)

@@ -1,0 +1,52 @@
+"""Streaming estimation with early stopping: frames in, estimates with their std out.
+
+Frames (live cameras, or a recording replayed at its own pace) are tracked one
+at a time; every ~0.25 s of stream the tactile signal is rebuilt, the push and
+the start of the free decay are found, the decay is fitted and — with a model —
+the properties are predicted with the fit's uncertainty propagated. An
+estimate is reported as soon as its std supports it, and the stream stops
+early once every requested target's std is below a threshold.
+
+One concept per module:
+
+- :mod:`~liquidtouch.live.sources`: timed frames (:class:`LiveFrame`) from
+  recordings (:func:`replay_frames`) or cameras (:func:`camera_frames`);
+- :mod:`~liquidtouch.live.tracks`: marker tracks growing frame by frame;
+- :mod:`~liquidtouch.live.refresh`: one refresh (signal, phase, fit);
+- :mod:`~liquidtouch.live.properties`: predictions with the fit's std propagated;
+- :mod:`~liquidtouch.live.estimator`: :class:`LiveEstimator` (``add_frame``,
+  ``finish``) and the emission rule;
+- :mod:`~liquidtouch.live.stopping`: ``--until-std`` thresholds and the stop rule;
+- :mod:`~liquidtouch.live.updates`: :class:`LiveUpdate`, what is reported;
+- :mod:`~liquidtouch.live.stream`: :func:`live_updates`, the loop.
+
+Example::
+
+    from liquidtouch.live import live_updates
+
+    for update in live_updates("trial_dir", model="model.json",
+                               until_std={"height_mm": 0.5}):
+        print(update.t_s, update.decay_rate, update.predicted)
+"""
+
+from liquidtouch.live.estimator import REFRESH_S, LiveEstimator
+from liquidtouch.live.sources import LiveFrame, camera_frames, open_frames, replay_frames
+from liquidtouch.live.stopping import check_until_std, parse_until_std, stop_reached
+from liquidtouch.live.stream import live_updates, sensor_names
+from liquidtouch.live.updates import PHASES, LiveUpdate
+
+__all__ = [
+    "PHASES",
+    "REFRESH_S",
+    "LiveEstimator",
+    "LiveFrame",
+    "LiveUpdate",
+    "camera_frames",
+    "check_until_std",
+    "live_updates",
+    "open_frames",
+    "parse_until_std",
+    "replay_frames",
+    "sensor_names",
+    "stop_reached",
+]

@@ -1,0 +1,251 @@
+"""The incremental estimator: frames in, :class:`~liquidtouch.live.updates.LiveUpdate` out.
+
+:class:`LiveEstimator` does not know where frames come from:
+``add_frame(sensor, t_s, image)`` tracks the frame's markers at once (the only
+per-frame work) and, every :data:`REFRESH_S` of stream time, refreshes the
+estimate (:func:`~liquidtouch.live.refresh.refresh`) — on a worker thread when
+``threaded`` (so a slow fit never holds up the frames; a refresh due while one
+runs waits for it), else in the call. ``add_frame`` returns the update of a
+refresh that finished, else ``None``; :meth:`LiveEstimator.finish` fits the
+whole stream as offline and returns the final update.
+
+**Emission rule** (from the uncertainty, no time floor): ω is reported once its
+std is below :data:`MAX_FREQ_REL_STD` of ω; λ once its std is below
+:data:`MAX_DECAY_REL_STD` of λ, where λ's std adds to the fit's standard error
+the change of λ since the fit on two thirds of the window (:func:`window_drift`).
+The damping of a real slosh is not exactly exponential (λ of simulated water
+falls from 0.25 to 0.20 1/s as the window grows from 1 s to 7.5 s while the
+fit's std is ~0.003 1/s), so the fit's std alone claims a precision the
+window does not have. Properties are predicted once both are reported, with
+the fit's std propagated (:mod:`liquidtouch.live.properties`).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Mapping
+
+import numpy as np
+
+from liquidtouch.errors import VideoError
+from liquidtouch.fit_settings import FitSettings
+from liquidtouch.live.properties import check_regression_model, predict_with_fit_std
+from liquidtouch.live.refresh import Refreshed, refresh
+from liquidtouch.live.stopping import check_until_std
+from liquidtouch.live.tracks import GrowingTracks
+from liquidtouch.live.updates import LiveUpdate
+from liquidtouch.signal import check_signal_options
+
+#: stream time between refreshes of the estimate [s]
+REFRESH_S = 0.25
+#: ω is reported once its std is below this fraction of ω
+MAX_FREQ_REL_STD = 0.01
+#: λ is reported once its std (fit and window drift) is below this fraction of λ
+MAX_DECAY_REL_STD = 0.10
+#: the window drift compares λ with the fit on this fraction of the current window
+DRIFT_FRACTION = 2.0 / 3.0
+
+
+def window_drift(history: list[tuple[float, float]], window_s: float, decay_rate: float) -> float:
+    """|λ − λ'| [1/s], λ' of the earlier fit whose window is closest to 2/3 of ``window_s``.
+
+    ``history`` holds ``(window_s, λ)`` of earlier fits. NaN when no earlier fit
+    covers at most 80 % of the window (the drift cannot be judged yet).
+    """
+    earlier = [(w, lam) for w, lam in history if w <= 0.8 * window_s]
+    if not earlier:
+        return math.nan
+    _, lam = min(earlier, key=lambda item: abs(item[0] - DRIFT_FRACTION * window_s))
+    return abs(decay_rate - lam)
+
+
+class LiveEstimator:
+    """Streaming estimate of λ, ω (and properties) from frames of one or more sensors.
+
+    Parameters
+    ----------
+    sensors : names of the sensors whose frames will come (all must deliver
+        frames before a signal is built).
+    model : a regression :class:`~liquidtouch.models.property_model.PropertyModel`, optional.
+    until_std : ``{target: std}`` thresholds (checked here; used by the caller's stop rule).
+    lowpass_hz, n_markers : as :func:`~liquidtouch.signal.tactile_signal`.
+    fit_settings : the final fit's settings (default: ``extract``'s).
+    refresh_s : stream time between refreshes [s].
+    threaded : refresh on a worker thread (real-time streams) instead of in ``add_frame``.
+    """
+
+    def __init__(
+        self,
+        sensors: list[str],
+        *,
+        model: object | None = None,
+        until_std: Mapping[str, float] | None = None,
+        lowpass_hz: float | None = 3.0,
+        n_markers: int = 16,
+        fit_settings: FitSettings | None = None,
+        refresh_s: float = REFRESH_S,
+        threaded: bool = False,
+    ) -> None:
+        check_signal_options(lowpass_hz, n_markers)
+        if not sensors or len(set(sensors)) != len(sensors):
+            raise VideoError(f"give one or more distinct sensor names, got {sensors!r}")
+        self.targets = check_regression_model(model) if model is not None else []
+        check_until_std(dict(until_std or {}), self.targets)
+        if not 0 < float(refresh_s) < math.inf:
+            raise VideoError(f"refresh_s must be a time > 0 in seconds, got {refresh_s!r}")
+        self.model = model
+        self.options = {"lowpass_hz": lowpass_hz, "n_markers": n_markers}
+        self.fit_settings = FitSettings() if fit_settings is None else fit_settings
+        self.refresh_s = float(refresh_s)
+        self.threaded = bool(threaded)
+        self.tracks = {name: GrowingTracks(name) for name in sensors}
+        self.frames = 0
+        self.first_t_s = math.nan
+        self.newest_due_s = math.nan
+        self.next_refresh_t_s = math.nan
+        self.history: list[tuple[float, float]] = []
+        self.push_seen = False  # once a push stood out, it is not judged again
+        self.decay_start_s = math.nan  # kept once the decay is fitted (see refresh)
+        self.last: LiveUpdate | None = None
+        #: seconds spent in each add_frame call (tracking plus any synchronous refresh)
+        self.latencies_s: list[float] = []
+        self._worker: threading.Thread | None = None
+        self._result: LiveUpdate | None = None
+        self._lock = threading.Lock()
+
+    # -- frames ------------------------------------------------------------------------
+
+    def add_frame(
+        self, sensor: str, t_s: float, image: np.ndarray, due_s: float = math.nan
+    ) -> LiveUpdate | None:
+        """Track one frame [``t_s``: s on the shared clock]; the update of a finished refresh.
+
+        ``due_s``: the :func:`time.monotonic` moment the frame became available,
+        for the update's ``lag_s`` (NaN: not measured).
+        """
+        began = time.perf_counter()
+        if sensor not in self.tracks:
+            raise VideoError(f"unknown sensor {sensor!r}; expected one of {', '.join(self.tracks)}")
+        self.tracks[sensor].add(t_s, image)
+        self.frames += 1
+        self.newest_due_s = float(due_s)
+        if math.isnan(self.first_t_s):
+            self.first_t_s = float(t_s)
+            self.next_refresh_t_s = float(t_s) + self.refresh_s
+        update = self._take_result()
+        ready = all(tr.n for tr in self.tracks.values())
+        if ready and t_s >= self.next_refresh_t_s and not self._busy():
+            self.next_refresh_t_s = float(t_s) + self.refresh_s
+            snapshot = self._snapshot()
+            if self.threaded:
+                self._worker = threading.Thread(
+                    target=self._run_refresh, args=snapshot, name="live-fit", daemon=True
+                )
+                self._worker.start()
+            else:
+                self._run_refresh(*snapshot)
+                update = self._take_result()
+        self.latencies_s.append(time.perf_counter() - began)
+        return update
+
+    def finish(self, stopped_because: str = "end_of_stream") -> LiveUpdate:
+        """Wait for a running refresh, fit the whole stream as offline; the final update."""
+        if self._worker is not None:
+            self._worker.join()
+        tracks, frames, elapsed, due = self._snapshot()
+        if not all(grown.n for grown in self.tracks.values()):
+            result = Refreshed(np.zeros(0), np.zeros(0), "waiting", message="no frames")
+        else:
+            result = refresh(tracks, **self.options, fit_settings=self.fit_settings, final=True)
+        update = self._update(result, frames, elapsed, due, final=True)
+        update.phase, update.stopped_because = "done", stopped_because
+        self.last = update
+        return update
+
+    # -- refreshes ----------------------------------------------------------------------
+
+    def _busy(self) -> bool:
+        return self._worker is not None and self._worker.is_alive()
+
+    def _snapshot(self) -> tuple[list, int, float, float]:
+        tracks = [tr.snapshot() for tr in self.tracks.values() if tr.n]
+        newest = max((tr.last_t_s for tr in self.tracks.values() if tr.n), default=math.nan)
+        return tracks, self.frames, newest - self.first_t_s, self.newest_due_s
+
+    def _run_refresh(self, tracks: list, frames: int, elapsed_s: float, due_s: float) -> None:
+        result = refresh(
+            tracks,
+            **self.options,
+            fit_settings=self.fit_settings,
+            push_seen=self.push_seen,
+            decay_start_s=self.decay_start_s,
+        )
+        self.push_seen = self.push_seen or result.phase != "waiting"
+        if result.phase == "decay":
+            self.decay_start_s = result.decay_start_s
+        update = self._update(result, frames, elapsed_s, due_s, final=False)
+        with self._lock:
+            self._result = update
+
+    def _take_result(self) -> LiveUpdate | None:
+        with self._lock:
+            update, self._result = self._result, None
+        if update is not None:
+            self.last = update
+        return update
+
+    def _update(
+        self, result: Refreshed, frames: int, elapsed_s: float, due_s: float, *, final: bool
+    ) -> LiveUpdate:
+        """The :class:`LiveUpdate` of one refresh, with the emission rule applied."""
+        decay_clock = result.t - (result.decay_start_s if result.phase != "waiting" else np.nan)
+        update = LiveUpdate(
+            t_s=result.now_s - result.decay_start_s,
+            phase=result.phase,
+            elapsed_s=elapsed_s,
+            frames=frames,
+            final=final,
+            message=result.message,
+            signal_t_s=decay_clock,
+            signal_u=result.u,
+            signal_fit=result.fit_curve(),
+        )
+        fit = result.fit
+        if fit is not None:
+            update.window_s, update.model = fit.duration_s, fit.model
+            drift = window_drift(self.history, fit.duration_s, fit.decay_rate)
+            self.history.append((fit.duration_s, fit.decay_rate))
+            lam_std = math.hypot(fit.decay_rate_std, drift)
+            show_omega = final or fit.angular_frequency_std < MAX_FREQ_REL_STD * abs(
+                fit.angular_frequency
+            )
+            show_lam = final or lam_std < MAX_DECAY_REL_STD * abs(fit.decay_rate)
+            if show_omega:
+                update.angular_frequency = fit.angular_frequency
+                update.angular_frequency_std = fit.angular_frequency_std
+            if show_lam:
+                update.decay_rate, update.decay_rate_std = fit.decay_rate, lam_std
+            if self.model is not None and show_omega and show_lam and math.isfinite(lam_std):
+                update.predicted = predict_with_fit_std(
+                    self.model, fit.decay_rate, lam_std, fit.angular_frequency,
+                    fit.angular_frequency_std,
+                )  # fmt: skip
+        if math.isfinite(due_s):
+            update.lag_s = time.monotonic() - due_s
+        return update
+
+    # -- measurements -------------------------------------------------------------------
+
+    def timing(self) -> dict[str, float]:
+        """Per-frame latency [ms] of ``add_frame``: ``median``, ``p95``, ``max`` and ``frames``."""
+        lat = np.asarray(self.latencies_s) * 1e3
+        if not lat.size:
+            return {"frames": 0}
+        return {
+            "frames": int(lat.size),
+            "latency_ms_median": float(np.median(lat)),
+            "latency_ms_p95": float(np.percentile(lat, 95)),
+            "latency_ms_max": float(lat.max()),
+        }

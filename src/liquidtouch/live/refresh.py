@@ -1,0 +1,131 @@
+"""One refresh of the streaming estimate: tracks so far → signal → phase → fit.
+
+:func:`refresh` is a plain function of the tracks so far (no state), run by the
+estimator every ~0.25 s of stream:
+
+1. **Signal**: the offline :func:`~liquidtouch.signal.tactile_signal` on the
+   growing tracks (resampled, zero-phase low-pass, marker selection, PCA). The
+   zero-phase filter has no delay but its last samples see the window's edge, so
+   the last :data:`EDGE_S` of signal are not trusted (not fitted, not used to
+   find the push) until the stream ends.
+2. **Phase**: the push is the largest excursion
+   (:func:`~liquidtouch.segment.free_decay_start`) once it stands
+   ``MIN_PUSH_SNR`` noise levels above the signal before it
+   (:func:`~liquidtouch.segment.push_snr`, judged on at least
+   :data:`MIN_NOISE_S` of it); the free decay starts there. "waiting" before a
+   push, "push" until :data:`MIN_WINDOW_S` of decay follow the peak, then "decay".
+3. **Fit**: ``fit_oscillation`` on the trusted free decay, the single-mode model
+   while streaming (:data:`REFRESH_MODEL`: the slow mode is the feature, and the
+   two-mode multi-start is ~90 % of a fit's time); the final refresh fits the
+   whole signal exactly as :func:`~liquidtouch.extraction.extract` does.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from liquidtouch.errors import LiquidTouchError
+from liquidtouch.fit_settings import AUTO, FitSettings
+from liquidtouch.segment import MIN_PUSH_SNR, free_decay_start, push_snr
+from liquidtouch.signal import tactile_signal
+from liquidtouch.tracking.tracks import MarkerTracks
+
+#: signal within this much of the newest sample is not trusted while streaming [s]: the
+#: zero-phase 3 Hz Butterworth's edge transient lasts about one period of its cut-off
+EDGE_S = 0.3
+#: least free decay fitted [s]: a few samples and most of a slosh period; whether the fit is
+#: good enough is then decided from its std, not from time
+MIN_WINDOW_S = 0.5
+#: least signal before the push its noise level is judged on [s]
+MIN_NOISE_S = 0.5
+#: the fit's model while streaming (the final fit uses the settings' model)
+REFRESH_MODEL = "single-mode"
+
+
+@dataclass
+class Refreshed:
+    """What one refresh found. Times on the signal's clock [s]."""
+
+    t: np.ndarray  # (T,) signal times
+    u: np.ndarray  # (T,) signal [px]
+    phase: str
+    decay_start_s: float = math.nan  # where the free decay starts (NaN: no push yet)
+    fit: object | None = None  # OscillationFit of the free decay, if any
+    message: str = ""
+
+    @property
+    def now_s(self) -> float:
+        """Newest signal time [s] (NaN without a signal)."""
+        return float(self.t[-1]) if self.t.size else math.nan
+
+    def fit_curve(self) -> np.ndarray:
+        """The fitted curve on ``t`` (NaN outside the fitted window)."""
+        out = np.full(self.t.shape, np.nan)
+        if self.fit is not None:
+            inside = (self.t >= self.fit.t0) & (self.t <= self.fit.t0 + self.fit.duration_s)
+            out[inside] = self.fit.curve(self.t[inside])
+        return out
+
+
+def refresh(
+    tracks: Sequence[MarkerTracks],
+    *,
+    lowpass_hz: float | None = 3.0,
+    n_markers: int = 16,
+    fit_settings: FitSettings | None = None,
+    final: bool = False,
+    push_seen: bool = False,
+    decay_start_s: float = math.nan,
+) -> Refreshed:
+    """Signal, phase and fit of the tracks so far (module docstring).
+
+    ``final``: the stream has ended: the whole signal is trusted and fitted with
+    ``fit_settings`` (its model and start) as offline. ``push_seen``: an earlier
+    refresh found the push (its noise test is not repeated on the longer
+    signal, whose high-pass and noise level move). ``decay_start_s``: the free
+    decay's start found earlier [s], kept while streaming (the largest excursion
+    of a short window can land at its edge, where the high-pass rings). Input problems of the
+    partial stream (too few frames, no oscillation yet) are reported in
+    ``message``, not raised.
+    """
+    from liquidtouch.fit.oscillation import fit_oscillation
+
+    settings = FitSettings() if fit_settings is None else fit_settings
+    empty = np.zeros(0)
+    try:
+        signal = tactile_signal(tracks, lowpass_hz=lowpass_hz, n_markers=n_markers)
+    except LiquidTouchError as exc:
+        return Refreshed(empty, empty, "waiting", message=str(exc))
+    t, u = signal.t, signal.u
+    trusted = np.ones(t.shape, bool) if final else t <= t[-1] - EDGE_S
+    if trusted.sum() < 3:
+        return Refreshed(t, u, "waiting", message="too little signal yet")
+    t_in, u_in = t[trusted], u[trusted]
+    if final and settings.start != AUTO:
+        start = int(np.searchsorted(t, float(settings.start)))
+    elif not final and math.isfinite(decay_start_s):
+        start = int(np.searchsorted(t, decay_start_s))
+    else:
+        start = free_decay_start(t_in, u_in)
+        snr = (
+            math.inf if final or push_seen else push_snr(t_in, u_in, start, min_noise_s=MIN_NOISE_S)
+        )
+        if not (final or push_seen) and not snr >= MIN_PUSH_SNR:
+            why = "no push yet" if math.isfinite(snr) else "too little signal before the push"
+            return Refreshed(t, u, "waiting", message=why)
+    decay_start = float(t[min(start, len(t) - 1)])
+    if t_in[-1] - decay_start < MIN_WINDOW_S:
+        return Refreshed(t, u, "push", decay_start, message="the push is under way")
+    keep = (t >= decay_start) & trusted
+    options = settings.fit_options()
+    if not final:
+        options["model"] = REFRESH_MODEL
+    try:
+        fit = fit_oscillation(t[keep], u[keep], **options, min_duration_s=MIN_WINDOW_S)
+    except LiquidTouchError as exc:
+        return Refreshed(t, u, "decay", decay_start, message=str(exc))
+    return Refreshed(t, u, "decay", decay_start, fit)

@@ -1,0 +1,160 @@
+"""Timed frames for the streaming estimator, from recordings or live cameras.
+
+Every source yields :class:`LiveFrame` objects in time order across its sensors:
+``t_s`` on the clock shared by the sensors [s] and ``due_s``, the
+:func:`time.monotonic` moment the frame became available (NaN when frames are
+read as fast as possible), from which the estimator's lag is measured.
+
+- :func:`replay_frames`: video files, image folders or one trial directory
+  (:func:`~liquidtouch.extraction.resolve_sources`), merged by timestamp; with
+  ``realtime`` each frame is handed on when it is due at the pace of its own
+  timestamps (a recording re-lived), else at once.
+- :func:`camera_frames`: live cameras (:func:`~liquidtouch.acquire.cameras.open_camera`
+  sources), each read on its own thread (:class:`~liquidtouch.acquire.capture.CaptureSession`).
+- :func:`open_frames`: either, from command-line sources.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import os
+import queue
+import time
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from liquidtouch.errors import DeviceError
+
+#: how long a camera queue is polled before the next one is looked at [s]
+POLL_S = 0.005
+
+
+@dataclass(frozen=True)
+class LiveFrame:
+    """One frame: ``sensor`` name, ``t_s`` [s, shared clock], grey ``image``, ``due_s``."""
+
+    sensor: str
+    t_s: float
+    image: np.ndarray
+    due_s: float = math.nan
+
+
+def replay_frames(
+    paths: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
+    *,
+    realtime: bool = False,
+    speed: float = 1.0,
+    fps: float | None = None,
+    sensors: Sequence[str] | None = None,
+) -> Iterator[LiveFrame]:
+    """Frames of recordings in time order (module docstring); ``realtime`` paces them.
+
+    ``speed`` [×] scales the pace of a real-time replay; ``fps`` times image
+    folders without timestamps; ``sensors`` picks sensors by name (default all).
+    Sensors of a trial are placed on its shared clock (``sensor_start_s``), else
+    aligned on their first frames.
+    """
+    from liquidtouch.extraction import resolve_sources, select_sensors
+    from liquidtouch.io.dataset import trial_sensor_starts
+    from liquidtouch.io.frames import iter_frames
+
+    if not 0 < float(speed) < math.inf:
+        raise DeviceError(f"the replay speed must be a number > 0, got {speed!r}")
+    chosen = select_sensors(resolve_sources(paths, fps=fps), sensors)
+    starts = trial_sensor_starts(paths)
+    if not all(name in starts for name, _, _ in chosen):
+        starts = {}
+
+    def timed(name: str, source: Path, rate: float | None) -> Iterator[tuple[float, str, object]]:
+        first = None
+        for t_s, image in iter_frames(source, fps=rate):
+            first = t_s if first is None else first
+            yield starts.get(name, 0.0) + t_s - first, name, image
+
+    merged = heapq.merge(*(timed(*item) for item in chosen), key=lambda item: item[0])
+    wall0 = t0 = None
+    for t_s, name, image in merged:
+        due = math.nan
+        if realtime:
+            if wall0 is None:
+                wall0, t0 = time.monotonic(), t_s
+            due = wall0 + (t_s - t0) / speed
+            wait = due - time.monotonic()
+            if wait > 0:
+                time.sleep(wait)
+        yield LiveFrame(name, float(t_s), image, due)
+
+
+def camera_frames(
+    sources: Sequence[str],
+    *,
+    names: Sequence[str] | None = None,
+    profile: str = "raw",
+) -> Iterator[LiveFrame]:
+    """Frames of live cameras (any :func:`open_camera` source), as they arrive.
+
+    ``names`` default to ``left``, ``right``, ... ; ``t_s`` and ``due_s`` are
+    the frame's :func:`time.monotonic` capture time. The cameras are closed when
+    the generator is closed or ends (every source ended or failed; a failure is
+    raised as :class:`DeviceError` after the frames before it).
+    """
+    from liquidtouch.acquire.cameras import END, CaptureSession, open_camera
+
+    cameras = []
+    try:
+        for source in sources:
+            cameras.append(open_camera(source, profile=profile))
+        session = CaptureSession(cameras, names)
+    except BaseException:
+        for camera in cameras:
+            camera.close()
+        raise
+    open_queues = dict(session.queues)
+    with session:
+        while open_queues:
+            for name, q in list(open_queues.items()):
+                try:
+                    frame = q.get(timeout=POLL_S)
+                except queue.Empty:
+                    if session.all_ended and q.empty():
+                        del open_queues[name]
+                    continue
+                if frame is END:
+                    del open_queues[name]
+                    continue
+                yield LiveFrame(name, float(frame.t_s), frame.image, float(frame.t_s))
+    if session.errors:
+        name, error = next(iter(session.errors.items()))
+        raise DeviceError(f"camera {name} failed: {error}")
+
+
+def is_recording(source: str | os.PathLike[str]) -> bool:
+    """Whether ``source`` is a recording on disk (video file, image folder or trial)."""
+    text = str(source)
+    return not text.startswith("/dev/") and Path(text).exists()
+
+
+def open_frames(
+    sources: Sequence[str | os.PathLike[str]],
+    *,
+    realtime: bool = False,
+    fps: float | None = None,
+    profile: str = "raw",
+) -> Iterator[LiveFrame]:
+    """Frames of recordings (:func:`replay_frames`) or of live cameras (:func:`camera_frames`).
+
+    Recordings and cameras are not mixed (one clock per stream): DeviceError.
+    """
+    recorded = [is_recording(s) for s in sources]
+    if all(recorded):
+        return replay_frames(list(sources), realtime=realtime, fps=fps)
+    if any(recorded):
+        raise DeviceError(
+            "give either recordings (video files, image folders, a trial directory) or "
+            "cameras, not both"
+        )
+    return camera_frames([str(s) for s in sources], profile=profile)

@@ -1,0 +1,154 @@
+"""The streaming loop: :func:`live_updates` runs frames through a :class:`LiveEstimator`.
+
+It yields every update, stops early when every ``until_std`` target's std is
+below its threshold (:func:`~liquidtouch.live.stopping.stop_reached`) or the
+stream time reaches ``max_duration_s``, and ends with the final update
+(``final=True``, ``stopped_because``, and the per-frame ``timing``: the
+latency of each ``add_frame`` [ms] and the lag of each frame's processing behind
+the moment it became available [s], when frames are paced).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from liquidtouch.fit_settings import FitSettings
+from liquidtouch.live.estimator import REFRESH_S, LiveEstimator
+from liquidtouch.live.sources import LiveFrame, is_recording, open_frames
+from liquidtouch.live.stopping import parse_until_std, stop_reached
+from liquidtouch.live.updates import LiveUpdate
+
+PathLike = str | os.PathLike[str]
+#: ``on_frame(frame, positions (N, 2) [px], reference (N, 2) [px])`` after each tracked frame
+FrameCallback = Callable[[LiveFrame, np.ndarray, np.ndarray], None]
+
+
+def sensor_names(sources: Sequence[PathLike], *, fps: float | None = None) -> list[str]:
+    """The sensor names the frames of ``sources`` will carry (:func:`open_frames`)."""
+    if all(is_recording(s) for s in sources):
+        from liquidtouch.extraction import resolve_sources
+
+        return [name for name, _, _ in resolve_sources(list(sources), fps=fps)]
+    from liquidtouch.acquire.capture import default_names
+
+    return default_names(len(sources))
+
+
+def live_updates(
+    sources: PathLike | Sequence[PathLike] | Iterable[LiveFrame],
+    *,
+    model: object | PathLike | None = None,
+    until_std: Mapping[str, float] | Sequence[str] | None = None,
+    realtime: bool = False,
+    max_duration_s: float | None = None,
+    sensors: Sequence[str] | None = None,
+    fps: float | None = None,
+    lowpass_hz: float | None = 3.0,
+    n_markers: int = 16,
+    fit_settings: FitSettings | None = None,
+    refresh_s: float = REFRESH_S,
+    threaded: bool | None = None,
+    on_frame: FrameCallback | None = None,
+) -> Iterator[LiveUpdate]:
+    """Updates of the streaming estimate of ``sources``; the last has ``final=True``.
+
+    Parameters
+    ----------
+    sources : video files, image folders or one trial directory (replayed), camera
+        sources (``open_camera``: ``"0"``, ``/dev/video2``, ``name:...``, URLs), or an
+        iterable of :class:`LiveFrame` (then ``sensors`` names the sensors).
+    model : a regression ``PropertyModel`` or the path of a model file: adds
+        ``predicted`` properties with their std.
+    until_std : ``{target: std}`` or ``["target=std", ...]``: stop once every
+        target's std is below its threshold (targets: ``decay_rate``,
+        ``angular_frequency``, the model's targets). Checked before any frame.
+    realtime : replay recordings at the pace of their timestamps (cameras always are).
+    max_duration_s : stop after this much stream time [s] (default: the source's end).
+    fps : frame rate of image folders without timestamps [Hz].
+    lowpass_hz, n_markers, fit_settings : as ``extract``.
+    refresh_s : stream time between refreshes [s].
+    threaded : refresh on a worker thread (default: when frames are paced in real time).
+    on_frame : called after each tracked frame (e.g. to show the markers).
+    """
+    limits = _until_std(until_std)
+    if isinstance(model, str | os.PathLike):
+        from liquidtouch.models.modelfile import load_model
+
+        model = load_model(Path(model))
+    if isinstance(sources, str | os.PathLike):
+        sources = [sources]
+    if isinstance(sources, Sequence) and all(isinstance(s, str | os.PathLike) for s in sources):
+        names = list(sensors) if sensors else sensor_names(sources, fps=fps)
+        paced = realtime or not all(is_recording(s) for s in sources)
+        frames: Iterable[LiveFrame] = open_frames(sources, realtime=realtime, fps=fps)
+    else:
+        if not sensors:
+            from liquidtouch.errors import VideoError
+
+            raise VideoError("give the sensor names (sensors=...) of a stream of LiveFrame objects")
+        names, paced, frames = list(sensors), realtime, sources
+    if max_duration_s is not None and not 0 < float(max_duration_s) < math.inf:
+        from liquidtouch.errors import SignalError
+
+        raise SignalError(f"max_duration_s must be a time > 0 in seconds, got {max_duration_s!r}")
+    estimator = LiveEstimator(
+        names,
+        model=model,
+        until_std=limits,
+        lowpass_hz=lowpass_hz,
+        n_markers=n_markers,
+        fit_settings=fit_settings,
+        refresh_s=refresh_s,
+        threaded=paced if threaded is None else threaded,
+    )
+    lags: list[float] = []
+    stopped = "end_of_stream"
+    first_t = math.nan
+    iterator = iter(frames)
+    try:
+        for frame in iterator:
+            if math.isfinite(frame.due_s):
+                lags.append(time.monotonic() - frame.due_s)
+            first_t = frame.t_s if math.isnan(first_t) else first_t
+            if max_duration_s is not None and frame.t_s - first_t > max_duration_s:
+                stopped = "max_duration"
+                break
+            update = estimator.add_frame(frame.sensor, frame.t_s, frame.image, frame.due_s)
+            if on_frame is not None:
+                grown = estimator.tracks[frame.sensor]
+                on_frame(frame, grown.positions[grown.n - 1], grown.reference)
+            if update is not None:
+                yield update
+                stds = {target: update.std_of(target) for target in limits}
+                if stop_reached(limits, stds):
+                    stopped = "until_std"
+                    break
+    finally:
+        close = getattr(iterator, "close", None)
+        if close is not None:
+            close()
+    final = estimator.finish(stopped)
+    final.timing = estimator.timing()
+    if lags:
+        final.timing.update(
+            frame_lag_s_median=float(np.median(lags)),
+            frame_lag_s_p95=float(np.percentile(lags, 95)),
+            frame_lag_s_max=float(np.max(lags)),
+        )
+    yield final
+
+
+def _until_std(until_std: Mapping[str, float] | Sequence[str] | None) -> dict[str, float]:
+    if until_std is None:
+        return {}
+    if isinstance(until_std, Mapping):
+        return {str(k): float(v) for k, v in until_std.items()}
+    if isinstance(until_std, str):
+        until_std = [until_std]
+    return parse_until_std(until_std)

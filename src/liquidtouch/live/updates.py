@@ -1,0 +1,122 @@
+"""What the streaming estimator reports: :class:`LiveUpdate`, one per refresh.
+
+An update is JSON-ready through :meth:`LiveUpdate.to_dict` (numbers only, NaN
+and unsupported estimates as ``null``): the keys are documented in
+``docs/formats.md`` ("Live updates").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+#: the stream's phases: no push yet, the push is under way, the free decay is being fitted, ended
+PHASES = ("waiting", "push", "decay", "done")
+
+
+def _number(value: float | None) -> float | None:
+    """``value`` as a JSON number; ``None`` for NaN/inf/None."""
+    if value is None:
+        return None
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def _numbers(values: np.ndarray) -> list[float | None]:
+    return [_number(v) for v in np.asarray(values, dtype=float).tolist()]
+
+
+@dataclass
+class LiveUpdate:
+    """One estimate of the stream (rates 1/s, angular frequencies rad/s, times s).
+
+    Attributes
+    ----------
+    t_s : time since the free decay started [s] (newest signal sample); NaN before it.
+    phase : one of :data:`PHASES`.
+    decay_rate, decay_rate_std : λ and its std [1/s]; NaN until supported (the
+        emission rule of :mod:`liquidtouch.live.estimator`).
+    angular_frequency, angular_frequency_std : ω and its std [rad/s]; NaN until supported.
+    predicted : ``{target: (mean, std)}`` of the model (empty without a model or
+        until both λ and ω are supported); the std combines the model's
+        predictive std and the fit's λ/ω std propagated through the model.
+    final : the last update of the stream.
+    stopped_because : why the stream ended (final update only): ``"until_std"``,
+        ``"end_of_stream"`` or ``"max_duration"``.
+    elapsed_s : stream time since the first frame [s].
+    frames : frames consumed so far (all sensors).
+    window_s : length of the fitted free-decay window [s] (NaN without a fit).
+    model : the fit's model (``"single-mode"``/``"two-mode"``), ``""`` without a fit.
+    lag_s : wall-clock lag of the estimate behind the newest frame it includes [s]
+        (NaN when frames are not paced in real time).
+    message : why there is no estimate yet (e.g. the fit's refusal), else ``""``.
+    timing : final update only: per-frame latency of the estimator [ms]
+        (``latency_ms_median``/``_p95``/``_max``) and, for paced frames, the lag of
+        a frame's processing behind its arrival [s] (``frame_lag_s_median``/``_p95``/``_max``).
+    signal_t_s, signal_u, signal_fit : the tactile signal [s, px] on the decay clock
+        (0 at the free-decay start, negative before) and the fitted curve (NaN
+        where not fitted), for plots.
+    """
+
+    t_s: float = math.nan
+    phase: str = "waiting"
+    decay_rate: float = math.nan
+    decay_rate_std: float = math.nan
+    angular_frequency: float = math.nan
+    angular_frequency_std: float = math.nan
+    predicted: dict[str, tuple[float, float]] = field(default_factory=dict)
+    final: bool = False
+    stopped_because: str | None = None
+    elapsed_s: float = math.nan
+    frames: int = 0
+    window_s: float = math.nan
+    model: str = ""
+    lag_s: float = math.nan
+    message: str = ""
+    timing: dict[str, float] = field(default_factory=dict)
+    signal_t_s: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    signal_u: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    signal_fit: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+
+    def std_of(self, target: str) -> float:
+        """The std of ``target`` (``decay_rate``, ``angular_frequency`` or a model target)."""
+        if target in ("decay_rate", "angular_frequency"):
+            return float(getattr(self, f"{target}_std"))
+        if target in self.predicted:
+            return float(self.predicted[target][1])
+        return math.nan
+
+    def to_dict(self, include_signal: bool = False) -> dict[str, object]:
+        """JSON-ready dict (module docstring); ``include_signal`` adds ``signal``."""
+        out: dict[str, object] = {
+            "t_s": _number(self.t_s),
+            "phase": self.phase,
+            "decay_rate": _number(self.decay_rate),
+            "decay_rate_std": _number(self.decay_rate_std),
+            "angular_frequency": _number(self.angular_frequency),
+            "angular_frequency_std": _number(self.angular_frequency_std),
+        }
+        for target, (mean, std) in self.predicted.items():
+            out[f"predicted_{target}"] = _number(mean)
+            out[f"predicted_{target}_std"] = _number(std)
+        out.update(
+            final=bool(self.final),
+            elapsed_s=_number(self.elapsed_s),
+            frames=int(self.frames),
+            window_s=_number(self.window_s),
+            model=self.model,
+            lag_s=_number(self.lag_s),
+            message=self.message,
+        )
+        if self.final:
+            out["stopped_because"] = self.stopped_because
+            out["timing"] = {key: _number(value) for key, value in self.timing.items()}
+        if include_signal:
+            out["signal"] = {
+                "t_s": _numbers(self.signal_t_s),
+                "u": _numbers(self.signal_u),
+                "fit": _numbers(self.signal_fit),
+            }
+        return out

@@ -1,0 +1,172 @@
+"""The streaming estimator (``liquidtouch.live``) on a replayed simulated trial.
+
+At the end of the stream it gives the offline ``extract`` result on the same
+videos; before the end it reports ω first, then λ, converging on the final
+values; ``until_std`` stops early; a real-time replay takes the recording's time.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+
+import numpy as np
+import pytest
+
+from liquidtouch.errors import ModelFileError, SignalError, VideoError
+from liquidtouch.live import LiveEstimator, live_updates, parse_until_std, stop_reached
+from liquidtouch.live.estimator import window_drift
+from liquidtouch.live.properties import predict_with_fit_std
+
+
+@pytest.fixture(scope="module")
+def trial(tmp_path_factory: pytest.TempPathFactory):
+    """A simulated water trial (8 s, GelSight Mini videos), its offline extraction and truth."""
+    from liquidtouch.extraction import extract
+    from liquidtouch.sim.trial import simulate_trial
+    from liquidtouch.sim.trial_io import write_trial
+
+    simulated = simulate_trial("water", height_mm=25.0, seed=2, duration_s=8.0)
+    directory = write_trial(simulated, tmp_path_factory.mktemp("live") / "trial", sensor="mini")
+    return directory, extract(directory), simulated
+
+
+@pytest.fixture(scope="module")
+def streamed(trial):
+    """Every update of the whole stream (read as fast as possible, refreshes in the loop)."""
+    return list(live_updates(trial[0]))
+
+
+def test_end_of_stream_matches_offline(trial, streamed) -> None:
+    _, offline, _ = trial
+    final = streamed[-1]
+    assert final.final and final.phase == "done" and final.stopped_because == "end_of_stream"
+    assert sum(u.final for u in streamed) == 1
+    assert final.decay_rate == pytest.approx(offline.fit.decay_rate, rel=0.02)
+    assert final.angular_frequency == pytest.approx(offline.fit.angular_frequency, rel=0.002)
+    assert final.frames == sum(len(tr.t) for tr in offline.tracks)
+
+
+def test_estimates_come_before_the_end_and_converge(trial, streamed) -> None:
+    _, _, simulated = trial
+    final = streamed[-1]
+    early = [u for u in streamed[:-1] if math.isfinite(u.angular_frequency)]
+    assert early, "no ω before the end of the stream"
+    first = early[0]
+    # ω is known within 1 % of the truth less than 2 s into the free decay
+    assert first.t_s < 2.0
+    assert first.angular_frequency == pytest.approx(simulated.true_angular_frequency, rel=0.01)
+    with_lam = [u for u in streamed[:-1] if math.isfinite(u.decay_rate)]
+    assert with_lam and with_lam[0].t_s >= first.t_s  # λ needs more decay than ω
+    # λ converges on the final value: the last streamed λ is closer than the first
+    assert abs(with_lam[-1].decay_rate - final.decay_rate) < abs(
+        with_lam[0].decay_rate - final.decay_rate
+    )
+    assert abs(with_lam[-1].decay_rate / final.decay_rate - 1) < 0.08
+    # phases move forward only, times since the decay start grow
+    order = {"waiting": 0, "push": 1, "decay": 2, "done": 3}
+    ranks = [order[u.phase] for u in streamed]
+    assert ranks == sorted(ranks)
+    times = [u.t_s for u in streamed if u.phase == "decay"]
+    assert np.all(np.diff(times) > 0)
+
+
+def test_until_std_stops_early(trial, streamed) -> None:
+    _, _, simulated = trial
+    updates = list(live_updates(trial[0], until_std=["angular_frequency=0.003"]))
+    final = updates[-1]
+    assert final.stopped_because == "until_std"
+    assert final.frames < 0.6 * streamed[-1].frames
+    assert updates[-2].angular_frequency_std < 0.003
+    assert final.angular_frequency == pytest.approx(simulated.true_angular_frequency, rel=0.005)
+
+
+def test_max_duration_stops(trial) -> None:
+    final = list(live_updates(trial[0], max_duration_s=1.0))[-1]
+    assert final.stopped_because == "max_duration"
+    assert final.elapsed_s <= 1.0
+
+
+def test_replay_paces_by_timestamps(trial) -> None:
+    began = time.monotonic()
+    updates = list(live_updates(trial[0], realtime=True, max_duration_s=1.5))
+    took = time.monotonic() - began
+    assert 1.4 <= took < 4.0
+    timing = updates[-1].timing
+    assert timing["frames"] > 0 and timing["frame_lag_s_median"] < 0.5
+
+
+def test_update_json_has_numbers_only(streamed) -> None:
+    for update in (streamed[0], streamed[len(streamed) // 2], streamed[-1]):
+        out = update.to_dict(include_signal=True)
+        text = json.dumps(out, allow_nan=False)  # NaN would raise
+        back = json.loads(text)
+        for key in ("t_s", "decay_rate", "decay_rate_std", "angular_frequency"):
+            assert key in back
+        assert len(back["signal"]["t_s"]) == len(back["signal"]["u"]) == len(back["signal"]["fit"])
+    assert streamed[-1].to_dict()["stopped_because"] == "end_of_stream"
+    assert streamed[0].to_dict()["decay_rate"] is None
+
+
+class _LinearModel:
+    """A regression model f = 2 λ + 0.5 ω with predictive std 0.1 (for propagation)."""
+
+    kind = "regression"
+    targets = ("height_mm",)
+
+    def predict(self, X):
+        X = np.asarray(X, dtype=float)
+        return {"height_mm": (2.0 * X[:, 0] + 0.5 * X[:, 1], np.full(len(X), 0.1))}
+
+
+def test_property_std_adds_the_fit_std() -> None:
+    out = predict_with_fit_std(_LinearModel(), 0.2, 0.03, 14.0, 0.2)
+    mean, std = out["height_mm"]
+    assert mean == pytest.approx(2 * 0.2 + 0.5 * 14.0)
+    assert std == pytest.approx(math.sqrt(0.1**2 + (2 * 0.03) ** 2 + (0.5 * 0.2) ** 2))
+
+
+def test_window_drift() -> None:
+    history = [(1.0, 0.30), (2.0, 0.26), (2.9, 0.25)]
+    assert window_drift(history, 3.0, 0.24) == pytest.approx(0.02)  # vs the 2 s window
+    assert math.isnan(window_drift([(1.0, 0.3)], 1.1, 0.29))  # nothing short enough
+
+
+def test_until_std_parsing_and_rule() -> None:
+    assert parse_until_std(["height_mm=0.5", "decay_rate = 0.01"]) == {
+        "height_mm": 0.5,
+        "decay_rate": 0.01,
+    }
+    for bad in (["height_mm"], ["height_mm=-1"], ["=0.5"], ["height_mm=x"], ["a=1", "a=2"]):
+        with pytest.raises(SignalError):
+            parse_until_std(bad)
+    assert stop_reached({"decay_rate": 0.01}, {"decay_rate": 0.005})
+    assert not stop_reached({"decay_rate": 0.01}, {"decay_rate": math.nan})
+    assert not stop_reached({}, {"decay_rate": 0.0})
+
+
+def test_estimator_refuses_bad_input() -> None:
+    with pytest.raises(ModelFileError, match="height_mm"):
+        LiveEstimator(["left"], until_std={"height_mm": 0.5})  # no model
+    with pytest.raises(ModelFileError, match="viscosity"):
+        LiveEstimator(["left"], model=_LinearModel(), until_std={"viscosity_cst": 0.5})
+    estimator = LiveEstimator(["left"])
+    with pytest.raises(VideoError, match="unknown sensor"):
+        estimator.add_frame("right", 0.0, np.zeros((40, 40), np.uint8))
+
+
+def test_camera_frames_from_a_replayed_file(trial) -> None:
+    """The camera path (a capture thread per source) on a video replayed as a camera."""
+    from liquidtouch.live import camera_frames
+
+    frames = camera_frames([str(trial[0] / "left.mp4")], names=["left"])
+    got = []
+    for frame in frames:
+        got.append(frame)
+        if len(got) == 8:
+            break
+    frames.close()  # stops the capture thread and closes the camera
+    assert [f.sensor for f in got] == ["left"] * 8
+    times = np.array([f.t_s for f in got])
+    assert np.all(np.diff(times) > 0) and np.all(np.isfinite([f.due_s for f in got]))

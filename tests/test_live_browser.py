@@ -1,0 +1,72 @@
+"""The live view as a viewer sees it: the page in headless Chromium while a trial streams.
+
+A simulated trial is replayed in real time through ``live_updates`` into the
+live view's server (``benchmarks.live_browser``); Chromium loads the page while
+the updates stream and its DOM is checked once the stream has ended: every
+update arrived, each sensor's frame image decoded, the signal plot and the
+plots over time were drawn, and λ, ω and the predicted properties on the page
+are the stream's last values, which are near the simulator's ground truth.
+Without Chromium the test skips locally and fails when the environment
+variable ``CI`` is set (``.ci/run`` installs Debian's ``chromium``).
+"""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from benchmarks.live_browser import check_page, run_check, simulated_trial
+from benchmarks.report_browser import find_chromium
+
+
+@pytest.fixture(scope="module")
+def browser() -> str:
+    path = find_chromium()
+    if path is None:
+        if os.environ.get("CI"):
+            pytest.fail("CI is set but chromium is not installed (.ci/run installs it)")
+        pytest.skip("chromium is not installed (apt-get install chromium) and CI is not set")
+    return path
+
+
+def test_the_live_page_shows_frames_signal_and_estimates_as_they_stream(browser, tmp_path) -> None:
+    trial = simulated_trial(tmp_path)
+    png = tmp_path / "live.png"
+    check = run_check(trial, png, browser=browser)
+    assert check.problems == [], check.problems
+    assert check.updates > 3 and check.signal_points > 100
+    assert check.frames_loaded == len(trial[2]["sensor_names"]) == 2
+    assert check.colours > 500  # frames, plots and text: not a blank page
+    # what the page showed (checked equal above) against the simulator's ground truth
+    meta = trial[2]
+    assert check.final["angular_frequency"] == pytest.approx(
+        meta["true_angular_frequency"], rel=0.01
+    )
+    assert abs(check.final["predicted_height_mm"] - meta["height_mm"]) < 2.0
+    from PIL import Image
+
+    with Image.open(png) as im:
+        assert im.size == (1280, 900)
+
+
+def test_the_check_catches_a_page_that_missed_the_stream() -> None:
+    updates = [{"t_s": 1.0, "decay_rate": 0.2, "angular_frequency": 14.0, "final": True}]
+    dom = (
+        '<html><body data-updates="0"><div id="frames"><img data-sensor="left"></div>'
+        '<svg id="signal" data-points="0"></svg>'
+        '<div class="card estimate" id="est-decay_rate"><h2>λ</h2><div class="value">0.3</div>'
+        "</div></body></html>"
+    )
+    problems = check_page(dom, updates, ["left"])
+    for expected in (
+        "0 of 1 updates",
+        "did not see the end",
+        "frame of left did not load",
+        "signal plot has 0 points",
+        "estimate decay_rate",
+        "estimate angular_frequency",
+        "plot of decay_rate",
+        "why the estimate stopped",
+    ):
+        assert any(expected in p for p in problems), (expected, problems)

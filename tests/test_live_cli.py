@@ -1,0 +1,141 @@
+"""``liquidtouch live``: JSON lines, early stopping on a model target, refused options."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from liquidtouch.cli import main
+
+
+def _run(capsys: pytest.CaptureFixture[str], *argv: object) -> tuple[int, str, str]:
+    status = main([str(a) for a in argv])
+    captured = capsys.readouterr()
+    return status, captured.out, captured.err
+
+
+@pytest.fixture(scope="module")
+def trial(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
+    """A short simulated water trial (6 s, GelSight Mini videos) and its truth."""
+    from liquidtouch.sim.trial import simulate_trial
+    from liquidtouch.sim.trial_io import write_trial
+
+    simulated = simulate_trial("water", height_mm=25.0, seed=4, duration_s=6.0)
+    directory = write_trial(simulated, tmp_path_factory.mktemp("live") / "trial", sensor="mini")
+    return directory, simulated
+
+
+@pytest.fixture(scope="module")
+def model_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A quadratic model of a made-up target height_mm = 2 ω − 3 [mm] (exact on its grid)."""
+    from liquidtouch.models.modelfile import save_model
+    from liquidtouch.models.property_model import train_regression
+
+    lam, omega = np.meshgrid(np.linspace(0.05, 0.6, 8), np.linspace(8.0, 20.0, 8))
+    X = np.column_stack([lam.ravel(), omega.ravel()])
+    model = train_regression(X, {"height_mm": 2.0 * X[:, 1] - 3.0}, model="quadratic")
+    return save_model(model, tmp_path_factory.mktemp("model") / "model.json")
+
+
+def test_json_lines_and_final(capsys, trial) -> None:
+    directory, simulated = trial
+    status, out, err = _run(capsys, "live", directory, "--json")
+    assert status == 0, err
+    lines = [json.loads(line) for line in out.splitlines()]
+    assert len(lines) > 5 and lines[-1]["final"] is True
+    assert not any(line["final"] for line in lines[:-1])
+    for key in (
+        "t_s",
+        "decay_rate",
+        "decay_rate_std",
+        "angular_frequency",
+        "angular_frequency_std",
+    ):
+        assert all(key in line for line in lines)
+    final = lines[-1]
+    assert final["stopped_because"] == "end_of_stream"
+    assert final["angular_frequency"] == pytest.approx(simulated.true_angular_frequency, rel=0.005)
+
+
+def test_until_std_on_a_model_target(capsys, trial, model_file) -> None:
+    directory = trial[0]
+    status, out, err = _run(
+        capsys, "live", directory, "--json", "--model", model_file, "--until-std", "height_mm=0.05"
+    )
+    assert status == 0, err
+    lines = [json.loads(line) for line in out.splitlines()]
+    final = lines[-1]
+    assert final["stopped_because"] == "until_std"
+    last = lines[-2]
+    assert last["predicted_height_mm_std"] < 0.05
+    # the model is exact, so the prediction is 2 ω − 3 of the streamed ω
+    assert last["predicted_height_mm"] == pytest.approx(2 * last["angular_frequency"] - 3, abs=0.01)
+    full = _run(capsys, "live", directory, "--json")[1].splitlines()
+    assert final["frames"] < json.loads(full[-1])["frames"]
+    with_prediction = [line for line in lines if line.get("predicted_height_mm") is not None]
+    assert all(math.isfinite(line["predicted_height_mm_std"]) for line in with_prediction)
+
+
+def test_text_output(capsys, trial) -> None:
+    status, out, err = _run(capsys, "live", trial[0], "--until-std", "angular_frequency=0.01")
+    assert status == 0, err
+    assert "ω =" in out and "stopped: until std" in out.splitlines()[-1]
+
+
+@pytest.mark.parametrize(
+    ("option", "message"),
+    [
+        ("viscosity_cst=0.5", "unknown target"),
+        ("height_mm=-1", "number > 0"),
+        ("height_mm", "TARGET=STD"),
+    ],
+)
+def test_bad_until_std(capsys, trial, option, message) -> None:
+    status, out, err = _run(capsys, "live", trial[0], "--until-std", option)
+    assert status == 2 and out == ""
+    assert err.startswith("error:") and message in err
+
+
+def test_model_without_the_target(capsys, trial, model_file) -> None:
+    status, out, err = _run(
+        capsys, "live", trial[0], "--model", model_file, "--until-std", "log10_viscosity_cst=0.05"
+    )
+    assert status == 2 and out == ""
+    assert err.startswith("error:") and "height_mm" in err  # names what the model predicts
+
+
+def test_bad_serve_address(capsys, trial) -> None:
+    status, _, err = _run(capsys, "live", trial[0], "--serve", "nowhere")
+    assert status == 2 and "HOST:PORT" in err
+
+
+def test_serve_publishes_updates_and_frames(capsys, trial, monkeypatch) -> None:
+    from liquidtouch.live import hub as hub_module
+
+    published: list[dict] = []
+    frames: list[tuple[str, tuple, int]] = []
+
+    class RecordingHub(hub_module.LiveHub):
+        def publish(self, update: dict) -> None:
+            published.append(update)
+            super().publish(update)
+
+        def publish_frame(self, sensor, image, reference_px=None, positions_px=None) -> None:
+            frames.append((sensor, image.shape, len(positions_px)))
+            super().publish_frame(sensor, image, reference_px, positions_px)
+
+    monkeypatch.setattr(hub_module, "LiveHub", RecordingHub)
+    status, _, err = _run(
+        capsys, "live", trial[0], "--serve", "127.0.0.1:0", "--until-std", "angular_frequency=0.01"
+    )
+    assert status == 0, err
+    assert "http://127.0.0.1:" in err
+    assert published and published[-1]["final"] is True
+    signal = published[-1]["signal"]
+    assert len(signal["t_s"]) == len(signal["u"]) == len(signal["fit"]) > 10
+    assert {sensor for sensor, _, _ in frames} == {"left", "right"}
+    assert all(n > 0 for _, _, n in frames)  # the tracked markers come with each frame
