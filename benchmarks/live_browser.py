@@ -1,6 +1,6 @@
 """Watch a replayed trial in the live view in headless Chromium and check what the page shows.
 
-    python benchmarks/live_browser.py OUT_DIR [--png docs/live_view.png]
+    python benchmarks/live_browser.py OUT_DIR [--png docs/live_view.png --palette 256]
 
 Simulates a short trial (water, 25 mm, GelSight Mini videos) and a small
 property model (fill height and viscosity from the simulator's ground truth),
@@ -224,6 +224,9 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path, help="work directory (trial, model)")
     parser.add_argument("--png", type=Path, default=None, help="screenshot (default OUT/live.png)")
+    parser.add_argument(
+        "--palette", type=int, default=0, help="then save the PNG with this many colours (docs)"
+    )
     args = parser.parse_args()
     started = time.monotonic()
     trial = simulated_trial(args.out)
@@ -233,6 +236,14 @@ def main() -> int:
         f"{check.frames_loaded}, screenshot colours {check.colours}, "
         f"{time.monotonic() - started:.1f} s; screenshot {check.png}"
     )
+    if args.palette:
+        from PIL import Image
+
+        with Image.open(check.png) as im:  # an octree palette keeps the green arrows;
+            rgb = im.convert("RGB")  # dithering keeps the gel's shading free of bands
+        palette = rgb.quantize(colors=args.palette, method=Image.Quantize.FASTOCTREE)
+        small = rgb.quantize(palette=palette, dither=Image.Dither.FLOYDSTEINBERG)
+        small.save(check.png, optimize=True)
     for problem in check.problems:
         print("problem:", problem)
     return 1 if check.problems else 0

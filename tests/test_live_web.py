@@ -23,7 +23,7 @@ from helpers import grid, render_blobs
 
 from benchmarks.live_browser import replay_into, simulated_trial
 from liquidtouch.errors import OutputError
-from liquidtouch.live.hub import ARROW_SCALE, LiveHub
+from liquidtouch.live.hub import ARROW_SCALE, ZOOM_BELOW_PX, LiveHub
 from liquidtouch.live.web import create_app, start_server
 
 with warnings.catch_warnings():  # starlette 1.x prefers httpx2; httpx is what the test extra has
@@ -145,15 +145,24 @@ def test_frame_is_a_jpeg_with_displacement_arrows() -> None:
     response = client.get("/frame/left.jpg")
     assert response.status_code == 200 and response.headers["content-type"] == "image/jpeg"
     decoded = cv2.imdecode(np.frombuffer(response.content, np.uint8), cv2.IMREAD_COLOR)
-    assert decoded.shape == (*image.shape, 3)
+    assert image.shape[1] < ZOOM_BELOW_PX  # a small frame is shown zoomed ×2
+    assert decoded.shape == (2 * image.shape[0], 2 * image.shape[1], 3)
     mask = green(decoded)
+
+    def zoomed(points_px: np.ndarray) -> np.ndarray:
+        return np.rint(2 * (points_px + 0.5) - 0.5).astype(int)
+
     # each arrow runs from the reference to reference + ARROW_SCALE × shift: its middle is green
-    middle = np.rint(reference + 0.5 * ARROW_SCALE * shift).astype(int)
+    middle = zoomed(reference + 0.5 * ARROW_SCALE * shift)
     near = [mask[y - 1 : y + 2, x - 1 : x + 2].any() for x, y in middle]
     assert np.mean(near) > 0.9
     # and nowhere far from an arrow: the rest of the image is the grey frame
-    far = np.rint(reference - 4 * shift).astype(int)
+    far = zoomed(reference - 4 * shift)
     assert not any(mask[y, x] for x, y in far)
+    large = np.zeros((ZOOM_BELOW_PX, ZOOM_BELOW_PX), np.uint8)
+    hub.publish_frame("big", large, reference, reference + shift)
+    big = cv2.imdecode(np.frombuffer(client.get("/frame/big.jpg").content, np.uint8), 1)
+    assert big.shape == (*large.shape, 3) and green(big).sum() > 0
 
     # the same markers at rest: no arrow of any length, only dots at the markers
     hub.publish_frame("left", image, reference, reference)
@@ -225,16 +234,20 @@ def test_served_on_loopback_streams_as_it_goes_and_stops() -> None:
         connection.close()
         with pytest.raises(OutputError, match="cannot serve"):
             start_server(hub, port=parts.port)  # the port is taken
-    # stop() ends the server within its bound, even with a stream open
+    # stop() ends the server within its bound, even with a stream open: the browser gets
+    # what was published before the stop, then the end (not a broken connection)
     hub2 = LiveHub()
     server = start_server(hub2)
-    reader = threading.Thread(target=read_stream, args=(server.url, "end", 20))
+    got2: list = []
+    reader = threading.Thread(target=lambda: got2.extend(read_stream(server.url, "end", 20)))
     reader.start()
     time.sleep(0.3)
+    hub2.publish(update(7))
     started = time.monotonic()
     server.stop()
     reader.join(10)
     assert time.monotonic() - started < 5 and not reader.is_alive()
+    assert [(e[0], e[2]) for e in got2] == [("update", "1"), ("end", None)]
     with pytest.raises(OSError):
         http.client.HTTPConnection("127.0.0.1", urlsplit(server.url).port, timeout=2).connect()
 

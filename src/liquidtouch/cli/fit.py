@@ -26,7 +26,7 @@ def fit(
     ),
     as_json: options.Json = False,
     loss: options.Loss = options.DEFAULT_LOSS,
-    model: options.FitModel = options.DEFAULT_FIT_MODEL,
+    model: options.FitModelOrNone = None,
     band_low_hz: options.BandLow = options.DEFAULT_BAND_LOW_HZ,
     band_high_hz: options.BandHigh = options.DEFAULT_BAND_HIGH_HZ,
     noise: options.Noise = options.DEFAULT_NOISE,
@@ -42,18 +42,22 @@ def fit(
         False, "--example", help="Fit the built-in example signal instead of a file."
     ),
 ) -> None:
-    """Fit u ≈ B e^{-λt}cos(ωt+ψ) + B' e^{-λ't}cos(ω't+ψ') + drift; print λ, ω and errors.
+    """Fit a damped oscillation + drift to a signal; print λ, ω and their errors.
 
     By default (--start auto) the fit covers the free decay after the push, as
     extract does: a whole record (before the push, the push, the ring-down) gives
     the same λ and ω as extract. A signal that already starts at the release needs
     --start 0 (its largest excursion may come later, where two modes beat); the
-    built-in example is fitted from its first sample unless --start is given.
+    built-in example is fitted from its first sample unless --start is given, and
+    with the paper's two-mode model it was drawn from unless --model is given
+    (default otherwise: amplitude).
     """
     from liquidtouch.fit.oscillation import example_signal, fit_oscillation
 
     if example == (signal is not None):
         raise SignalError("give either a SIGNAL.csv or --example (exactly one)")
+    if model is None:
+        model = options.FitModelChoice.two_mode if example else options.DEFAULT_FIT_MODEL
     settings = options.fit_settings(loss, model, band_low_hz, band_high_hz, noise, start)
     if plot is not None:
         from liquidtouch.io.figures import check_figure_path

@@ -145,7 +145,7 @@ Sensor = Annotated[
 # -- oscillation fit ---------------------------------------------------------------------------
 
 DEFAULT_LOSS = LossChoice.paper
-DEFAULT_FIT_MODEL = FitModelChoice.two_mode
+DEFAULT_FIT_MODEL = FitModelChoice.amplitude
 DEFAULT_BAND_LOW_HZ = 0.3
 DEFAULT_BAND_HIGH_HZ = 5.0
 DEFAULT_NOISE = NoiseChoice.white
@@ -182,14 +182,16 @@ Loss = Annotated[
         "ls: plain least squares.",
     ),
 ]
-FitModel = Annotated[
-    FitModelChoice,
-    typer.Option(
-        "--model",
-        help="two-mode (falls back to one mode when the data do not support a fast mode), "
-        "single-mode, or amplitude (one mode whose damping grows with its amplitude: "
-        "λ is the small-amplitude rate λ0).",
-    ),
+_FIT_MODEL_HELP = (
+    "amplitude (default: one mode whose damping grows with its amplitude; λ is the "
+    "small-amplitude rate λ0, the same whatever the push), two-mode (the paper's: falls "
+    "back to one mode when the data do not support a fast mode) or single-mode."
+)
+FitModel = Annotated[FitModelChoice, typer.Option("--model", help=_FIT_MODEL_HELP)]
+#: ``fit``: None lets the built-in example use the two-mode model it was drawn from
+FitModelOrNone = Annotated[
+    FitModelChoice | None,
+    typer.Option("--model", help=_FIT_MODEL_HELP + " fit --example: two-mode unless given."),
 ]
 BandLow = Annotated[
     float,

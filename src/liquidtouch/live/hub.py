@@ -41,7 +41,7 @@ ARROW_PX = 2
 HEAD_MIN_PX = 4.0
 #: frames narrower than this are shown zoomed ×2, so that the arrows have room [px]
 ZOOM_BELOW_PX = 480
-SHIFT = 4
+_SHIFT = 4  # fractional bits of OpenCV's fixed-point coordinates
 JPEG_QUALITY = 80
 
 
@@ -103,8 +103,8 @@ def draw_arrows(
         barb = np.column_stack([c * back[:, 0] - s * back[:, 1], s * back[:, 0] + c * back[:, 1]])
         lines.append(np.stack([tips, tips + barb], axis=1))
     # sub-pixel end points: OpenCV takes fixed-point coordinates with SHIFT fractional bits
-    segments = np.rint(np.concatenate(lines) * (1 << SHIFT)).astype(np.int32)
-    cv2.polylines(bgr, list(segments), False, ARROW_BGR, ARROW_PX, cv2.LINE_AA, SHIFT)
+    segments = np.rint(np.concatenate(lines) * (1 << _SHIFT)).astype(np.int32)
+    cv2.polylines(bgr, list(segments), False, ARROW_BGR, ARROW_PX, cv2.LINE_AA, _SHIFT)
     return bgr
 
 

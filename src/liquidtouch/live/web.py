@@ -65,7 +65,8 @@ def create_app(
     """The live view's ASGI app over ``hub``.
 
     ``allowed_hosts`` restricts the Host header (None: any); ``stopping``, once
-    set, ends every open stream (the server is shutting down). ``app.state.readers``
+    set, ends every open stream after what was already published (the server
+    is shutting down). ``app.state.readers``
     counts the open streams (browsers watching).
     """
     page = PAGE_PATH.read_text(encoding="utf-8")
@@ -94,7 +95,9 @@ def create_app(
             nonlocal seq
             versions: dict[str, int] = {}
             last_sent = time.monotonic()
-            while not stopping.is_set():
+            while True:
+                # read ``stopping`` first: what was published before the stop is still sent
+                stopped = stopping.is_set()
                 items, closed = hub.updates_since(seq)
                 for item_seq, text in items:
                     yield _event("update", text, item_seq)
@@ -104,8 +107,8 @@ def create_app(
                     versions = hub.frame_versions()
                     yield _event("frames", json.dumps(versions))
                     sent = True
-                if closed and not items:
-                    yield _event("end", "{}")
+                if (closed and not items) or stopped:
+                    yield _event("end", "{}")  # the server stopping ends the stream too
                     return
                 if sent:
                     last_sent = time.monotonic()

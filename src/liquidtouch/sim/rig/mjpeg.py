@@ -19,8 +19,10 @@ recorder's own losses show. Clients connected to ``/stream`` receive only frames
 captured after they connected.
 
 Timing (all on :func:`time.monotonic`, seconds): ``sent_timestamps[k]`` is the
-capture time of the k-th frame (the moment just before the k-th
-``frame_source()`` call), which is also its ``X-Timestamp`` header. Frames are
+capture time of the k-th frame, which is also its ``X-Timestamp`` header: its slot
+on the camera's frame lattice (start + j / fps; a producer that falls more than a
+frame behind skips whole slots, as a camera drops frames), which the k-th
+``frame_source()`` call follows within a frame period (or is given, ``timed``). Frames are
 indexed by the order of the ``frame_source`` calls, so a test whose frame
 source encodes a counter in the image can match each received frame to its
 capture time.
@@ -28,6 +30,7 @@ capture time.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections import deque
@@ -231,9 +234,11 @@ class MjpegServer:
             if now < due:
                 self._stopping.wait(min(due - now, _WAIT_S))
                 continue
-            if now > due + period:  # fell behind by more than a frame: skip, as a camera drops
-                due = now
-            t_s = time.monotonic()
+            if now > due + period:  # fell behind: skip whole frames, as a camera drops them
+                due += period * math.floor((now - due) / period)
+            # A camera exposes on its own clock, whatever its host is busy with: the frame's
+            # time is its slot on the frame lattice (the producer may wake late under load)
+            t_s = due
             try:
                 image = np.asarray(self.frame_source(t_s) if self.timed else self.frame_source())
                 if image.dtype != np.uint8 or image.ndim not in (2, 3):
