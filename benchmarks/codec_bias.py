@@ -1,6 +1,7 @@
 """λ and ω bias of lossy codecs, against the lossless result of the same frames.
 
-Run: .venv/bin/python benchmarks/codec_bias.py [--full] [--mechanism] [--jobs N] [--figure PNG]
+Run: .venv/bin/python benchmarks/codec_bias.py [--full] [--mechanism] [--cases N] [--only TEXT]
+[--jobs N] [--figure PNG]
 
 Each case is a simulated trial (``default`` sensor, 640 × 480 at 30 fps, 13 s,
 seeded variability; liquids from λ ≈ 0.14 to 3.4 /s; ``--full`` adds pushes of
@@ -23,6 +24,10 @@ Grids: default (a few minutes on one core): x264 ``fast`` CRF 18/23/28 with
 x264's defaults, CRF 18 without the dead zone, MPEG-4 (OpenCV ``mp4v``), MJPEG
 (OpenCV), FFV1. ``--full``: x264 CRF 10/18/23/28 × ``fast``/``slow`` × dead zone
 on/off, lossless x264 (``qp=0``), MPEG-4 ``mp4v`` and ``XVID``, MJPEG, FFV1.
+Mitigation probe (last column): the same λ fitted to the reference frames
+(I and P) only, the B-frames left out (:func:`fit_at_frames`), against the
+lossless tracks at the same frames.
+
 ``--mechanism``: x264 ``fast`` CRF 18 with one option changed at a time
 (trellis, psy-rd, fast P-skip, AQ, macroblock tree, B-frames, sub-pel motion
 estimation, dead zone) to find what freezes the motion.
@@ -47,9 +52,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from record_formats import make_writer, render_sensors
 
 from liquidtouch.codec_check import frozen_steps
+from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.fit_settings import FitSettings
 from liquidtouch.io.frames import iter_frames
 from liquidtouch.progress import progress_bar
+from liquidtouch.segment import free_decay_start
 from liquidtouch.signal import tactile_signal
 from liquidtouch.sim.encode import X264_PARAMS, encode_video
 from liquidtouch.sim.trial import simulate_trial
@@ -128,6 +135,9 @@ MECHANISM_GRID = [
             DEAD_ZONE_OFF,
             "mbtree=0:bframes=0",
             "mbtree=0:bframes=0:" + DEAD_ZONE_OFF,
+            "subme=9:bframes=0",
+            "subme=9:" + DEAD_ZONE_OFF,
+            "subme=9:bframes=0:" + DEAD_ZONE_OFF,
         )
     ],
     x264(18, "ultrafast"),
@@ -157,6 +167,32 @@ def encode(codec: Codec, frames: list[np.ndarray], t_s: np.ndarray, fps: float, 
         out.write(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
     out.release()
     return path
+
+
+def frame_types(path: Path) -> np.ndarray:
+    """Picture type (``I``, ``P``, ``B``) of every decoded frame of a video."""
+    import av
+
+    with av.open(str(path)) as container:
+        names = {1: "I", 2: "P", 3: "B"}
+        return np.array([names.get(int(f.pict_type), "?") for f in container.decode(video=0)])
+
+
+def fit_at_frames(tracks, keep: np.ndarray) -> float:
+    """λ [1/s] fitted to the kept frames only (probe: the B-frames left out).
+
+    u at a kept frame is the raw displacement of the signal's markers projected
+    on its PCA weights (no resampling, no low-pass: the kept frames are not
+    uniform); the window starts where ``extract``'s does.
+    """
+    signal = tactile_signal(tracks)
+    by_name = {tr.sensor: tr for tr in tracks}
+    disp = np.stack([by_name[s].displacement[:, m] for s, m in signal.markers], axis=1)
+    u = np.einsum("tnc,nc->t", disp, signal.weights)
+    t = tracks[0].t - tracks[0].t[0]
+    start = signal.t[free_decay_start(signal.t, signal.u)]
+    sel = keep & (t >= start) & np.isfinite(u)
+    return fit_oscillation(t[sel], u[sel], **FitSettings().fit_options()).decay_rate
 
 
 def fit_tracks(tracks) -> tuple[float, float, float]:
@@ -195,15 +231,17 @@ def run_case(case, grid: list[Codec]) -> list[dict[str, object]]:
     common = {"case": label, "true_lambda": trial.true_decay_rate}
     rows = [{**common, "codec": "lossless (memory)", "lambda": lam0, "omega": om0,
              "lambda_base": lam0, "omega_base": om0, "frozen": frozen0, "mb_per_min": math.nan,
+             "lambda_ref": math.nan, "lambda_ref_base": math.nan,
              "seconds": 0.0}]  # fmt: skip
     work = Path(tempfile.mkdtemp(prefix="codec-bias-"))
     try:
         for codec in grid:
             start = time.perf_counter()
-            tracks, size = [], 0
+            tracks, size, types = [], 0, None
             for s, frames in enumerate(sensors):
                 path = encode(codec, frames, t_s, fps, work)
                 size += path.stat().st_size
+                types = frame_types(path) if types is None else types
                 tr = track_markers(iter_frames(path), f"s{s}")
                 if len(tr.t) != len(t_s):
                     raise RuntimeError(f"{codec.name}: {len(tr.t)} frames decoded of {len(t_s)}")
@@ -214,9 +252,18 @@ def run_case(case, grid: list[Codec]) -> list[dict[str, object]]:
             except Exception as exc:  # a fit that fails is a result too
                 print(f"<!-- {label} {codec.name}: {exc} -->", file=sys.stderr)
                 lam = om = frozen = math.nan
+            lam_ref = lam_ref0 = math.nan
+            keep = types != "B"
+            if (~keep).any() and keep.sum() > 40:
+                try:
+                    lam_ref = fit_at_frames(tracks, keep)
+                    lam_ref0 = fit_at_frames(base_tracks, keep)
+                except Exception as exc:  # e.g. a fast decay seen in too few frames
+                    print(f"<!-- {label} {codec.name} I/P only: {exc} -->", file=sys.stderr)
             minutes = len(t_s) / fps / 60 * len(sensors)
             rows.append({**common, "codec": codec.name, "lambda": lam, "omega": om,
                          "lambda_base": lam0, "omega_base": om0, "frozen": frozen,
+                         "lambda_ref": lam_ref, "lambda_ref_base": lam_ref0,
                          "mb_per_min": size / 1e6 / minutes,
                          "seconds": time.perf_counter() - start})  # fmt: skip
     finally:
@@ -227,20 +274,21 @@ def run_case(case, grid: list[Codec]) -> list[dict[str, object]]:
 def summarise(rows: list[dict[str, object]]) -> None:
     """Print the per-case table and the per-codec medians (markdown)."""
     print("| case | λ true [1/s] | codec | λ vs lossless | λ vs truth | ω vs lossless | "
-          "frozen steps | MB/min/sensor |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|")
+          "frozen steps | MB/min/sensor | λ vs lossless, I/P frames only |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(
             f"| {r['case']} | {r['true_lambda']:.3f} | {r['codec']} | "
             f"{r['lambda'] / r['lambda_base'] - 1:+.3f} | "
             f"{r['lambda'] / r['true_lambda'] - 1:+.3f} "
             f"| {r['omega'] / r['omega_base'] - 1:+.4f} | {r['frozen']:.3f} | "
-            f"{r['mb_per_min']:.1f} |"
+            f"{r['mb_per_min']:.1f} | {r['lambda_ref'] / r['lambda_ref_base'] - 1:+.3f} |"
         )
     print("\n## Median over cases\n")
     print("| codec | λ vs lossless: median | min | max | λ vs truth: median | "
-          "ω vs lossless: median | frozen steps: median | MB/min/sensor |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|")
+          "ω vs lossless: median | frozen steps: median | MB/min/sensor | "
+          "I/P frames only: λ vs lossless median | min | max |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for codec in dict.fromkeys(r["codec"] for r in rows):
         sel = [r for r in rows if r["codec"] == codec]
         lam = np.array([r["lambda"] / r["lambda_base"] - 1 for r in sel])
@@ -248,11 +296,17 @@ def summarise(rows: list[dict[str, object]]) -> None:
         om = np.array([r["omega"] / r["omega_base"] - 1 for r in sel])
         frozen = np.array([r["frozen"] for r in sel])
         size = np.array([r["mb_per_min"] for r in sel])
+        ref = np.array([r["lambda_ref"] / r["lambda_ref_base"] - 1 for r in sel])
+        ref_cells = (
+            f"{np.nanmedian(ref):+.3f} | {np.nanmin(ref):+.3f} | {np.nanmax(ref):+.3f}"
+            if np.isfinite(ref).any()
+            else "– | – | –"
+        )
         print(
             f"| {codec} | {np.nanmedian(lam):+.3f} | {np.nanmin(lam):+.3f} | "
             f"{np.nanmax(lam):+.3f} | {np.nanmedian(truth):+.3f} | {np.nanmedian(om):+.4f} | "
             f"{np.nanmedian(frozen):.3f} | "
-            f"{np.nanmedian(size) if np.isfinite(size).any() else math.nan:.1f} |"
+            f"{np.nanmedian(size) if np.isfinite(size).any() else math.nan:.1f} | {ref_cells} |"
         )
 
 
@@ -291,10 +345,13 @@ def main() -> None:
     parser.add_argument("--mechanism", action="store_true", help="x264 options one at a time")
     parser.add_argument("--jobs", type=int, default=1, help="cases in parallel (processes)")
     parser.add_argument("--figure", type=Path, help="write λ bias vs CRF (PNG)")
+    parser.add_argument("--cases", type=int, help="only the first N cases")
+    parser.add_argument("--only", help="only the codecs whose name contains this text")
     args = parser.parse_args()
     cv2.setNumThreads(1)
     grid = MECHANISM_GRID if args.mechanism else FULL_GRID if args.full else DEFAULT_GRID
-    cases = FULL_CASES if args.full else CASES
+    cases = (FULL_CASES if args.full else CASES)[: args.cases]
+    grid = [codec for codec in grid if args.only is None or args.only in codec.name]
     start = time.perf_counter()
     rows: list[dict[str, object]] = []
     with (
@@ -304,8 +361,8 @@ def main() -> None:
         for case_rows in pool.map(run_case, cases, [grid] * len(cases)):
             rows += case_rows
             advance()
-    print(f"# codec_bias — {len(cases)} cases × {len(grid)} codecs, "
-          f"{time.perf_counter() - start:.0f} s\n")  # fmt: skip
+    print(f"# codec_bias — {len(cases)} cases × {len(grid)} codecs, fit model "
+          f"{FitSettings().model!r}, {time.perf_counter() - start:.0f} s\n")  # fmt: skip
     summarise(rows)
     if args.figure:
         plot(rows, args.figure)

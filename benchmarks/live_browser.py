@@ -151,8 +151,12 @@ def check_page(dom: str, updates: list[dict], sensors: list[str]) -> list[str]:
         text, value = _estimate(dom, key), last.get(key)
         if text is None or (isinstance(value, float) and not _shows(text, value)):
             problems.append(f"estimate {key}: the page shows {text!r}, the stream {value!r}")
-        if int(_attribute(dom, f"plot-{key}", "data-points") or 0) < 2:
-            problems.append(f"the plot of {key} over time was not drawn")
+        expected = sum(
+            isinstance(u.get("t_s"), float) and isinstance(u.get(key), float) for u in updates
+        )
+        drawn = int(_attribute(dom, f"plot-{key}", "data-points") or 0)
+        if drawn != expected or not expected:
+            problems.append(f"the plot of {key} over time has {drawn} of {expected} points")
     if last.get("final") and "stopped:" not in dom:
         problems.append("the page does not say why the estimate stopped")
     return problems

@@ -101,9 +101,9 @@ def test_diagnostic_near_zero_lossless_high_through_x264_crf28(videos):
     assert clean.frozen_step_share < 0.002  # sensor noise moves every marker every frame
     bad = extract([lossy / "left.mp4", lossy / "right.mp4"]).diagnostics
     assert bad.codec == "h264" and bad.lossless is False and bad.at_risk
-    assert bad.frozen_step_share > 0.05  # measured 0.12 on this trial
+    assert bad.frozen_step_share > 0.05  # measured 0.17 here (CRF 18: 0.04)
     assert bad.expected_lambda_bias == pytest.approx(X264_CRF_BIAS[-1][1])
-    assert 0 < bad.freezing_step_px < 0.2  # markers freeze while the others move < 0.2 px/frame
+    assert 0 < bad.freezing_step_px < 0.05  # measured 0.007 px/frame: sub-pixel motion freezes
 
 
 def test_extract_warns_on_lossy_video(videos, capsys):
@@ -115,7 +115,7 @@ def test_extract_warns_on_lossy_video(videos, capsys):
     assert out["frozen_step_share"] > 0.05 and out["codec_lambda_bias"] > 0.05
     warnings = [line for line in captured.err.splitlines() if line.startswith("warning: ")]
     assert len(warnings) == 1 and "lossy video (h264 CRF 28.0)" in warnings[0]
-    assert main(["extract", str(lossless), "--json"]) == 0
+    assert main(["extract", str(lossless)]) == 0
     captured = capsys.readouterr()
     assert "warning:" not in captured.err
-    assert json.loads(captured.out)["codec_at_risk"] is False
+    assert "codec h264 (lossless); frozen marker steps 0.0 %" in captured.out

@@ -20,11 +20,15 @@ def _run(capsys: pytest.CaptureFixture[str], *argv: object) -> tuple[int, str, s
 
 @pytest.fixture(scope="module")
 def trial(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
-    """A short simulated water trial (6 s, GelSight Mini videos) and its truth."""
+    """A short simulated mirin trial (6 s, GelSight Mini videos) and its truth.
+
+    Mirin decays in ~1.4 s (λ ≈ 0.7/s), so λ — and with it a model's prediction — is
+    reported while streaming; water's λ0 ≈ 0.1/s needs more than 6 s.
+    """
     from liquidtouch.sim.trial import simulate_trial
     from liquidtouch.sim.trial_io import write_trial
 
-    simulated = simulate_trial("water", height_mm=25.0, seed=4, duration_s=6.0)
+    simulated = simulate_trial("mirin", height_mm=25.0, seed=4, duration_s=6.0)
     directory = write_trial(simulated, tmp_path_factory.mktemp("live") / "trial", sensor="mini")
     return directory, simulated
 
@@ -81,7 +85,7 @@ def test_until_std_on_a_model_target(capsys, trial, model_file) -> None:
 
 
 def test_text_output(capsys, trial) -> None:
-    status, out, err = _run(capsys, "live", trial[0], "--until-std", "angular_frequency=0.01")
+    status, out, err = _run(capsys, "live", trial[0], "--until-std", "angular_frequency=0.03")
     assert status == 0, err
     assert "ω =" in out and "stopped: until std" in out.splitlines()[-1]
 
@@ -139,3 +143,20 @@ def test_serve_publishes_updates_and_frames(capsys, trial, monkeypatch) -> None:
     assert len(signal["t_s"]) == len(signal["u"]) == len(signal["fit"]) > 10
     assert {sensor for sensor, _, _ in frames} == {"left", "right"}
     assert all(n > 0 for _, _, n in frames)  # the tracked markers come with each frame
+
+
+def test_classifier_model_names_the_liquid(capsys, trial, tmp_path) -> None:
+    from liquidtouch.models.modelfile import save_model
+    from liquidtouch.models.property_model import train_classifier
+
+    # made-up features: "thin" λ 0.05-0.3/s, "thick" λ 0.5-1.5/s (mirin's λ ≈ 0.7/s)
+    rng = np.random.default_rng(1)
+    lam = np.concatenate([rng.uniform(0.05, 0.3, 20), rng.uniform(0.5, 1.5, 20)])
+    X = np.column_stack([lam, rng.uniform(10.0, 18.0, 40)])
+    model = save_model(train_classifier(X, ["thin"] * 20 + ["thick"] * 20), tmp_path / "c.json")
+    status, out, err = _run(capsys, "live", trial[0], "--json", "--model", model)
+    assert status == 0, err
+    final = json.loads(out.splitlines()[-1])
+    assert final["predicted_liquid"] == "thick"
+    assert final["predicted_liquid_proba"]["thick"] > 0.5
+    assert sum(final["predicted_liquid_proba"].values()) == pytest.approx(1.0)

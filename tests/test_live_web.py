@@ -119,12 +119,15 @@ def test_stream_sends_history_then_new_updates_then_end() -> None:
 def test_history_is_thinned_not_cut() -> None:
     hub = LiveHub(max_updates=10)
     for i in range(100):
-        hub.publish({"t_s": float(i)})
+        # the newest signal (update 42) stays even though later updates carry none
+        hub.publish({"t_s": float(i), "signal": {"u": [i]} if i in (3, 42) else None})
     items, closed = hub.updates_since(0)
-    times = [json.loads(text)["t_s"] for _, text in items]
-    assert not closed and len(items) <= 10
+    updates = [json.loads(text) for _, text in items]
+    times = [u["t_s"] for u in updates]
+    assert not closed and len(items) <= 11
     assert times[0] == 0.0 and times[-1] == 99.0  # the plots still span the whole trial
     assert times == sorted(times) and [s for s, _ in items] == sorted(s for s, _ in items)
+    assert [u["signal"] for u in updates if "signal" in u] == [{"u": [42]}]
     with pytest.raises(TypeError):
         hub.publish([1, 2])  # type: ignore[arg-type]
 

@@ -122,6 +122,12 @@ def _print_extraction(result, written: list[Path]) -> None:
     fit = result.fit
     Console().print(fit_table(fit, f"{fit.model} fit of the free decay (loss={fit.loss})"))
     typer.echo(fit_quality(fit))
+    check = result.diagnostics
+    if check is not None and check.codec:
+        kind = {True: "lossless", False: "lossy", None: "unknown"}[check.lossless]
+        typer.echo(
+            f"codec {check.codec} ({kind}); frozen marker steps {percent(check.frozen_step_share)}"
+        )
     for path in written:
         typer.echo(f"wrote {path}")
 

@@ -13,7 +13,11 @@ One concept per module:
   recordings (:func:`replay_frames`) or cameras (:func:`camera_frames`);
 - :mod:`~liquidtouch.live.tracks`: marker tracks growing frame by frame;
 - :mod:`~liquidtouch.live.refresh`: one refresh (signal, phase, fit);
-- :mod:`~liquidtouch.live.properties`: predictions with the fit's std propagated;
+- :mod:`~liquidtouch.live.uncertainty`: the std of a streamed λ, ω (how far from
+  the final values they may still be; calibrated on simulated trials);
+- :mod:`~liquidtouch.live.properties`: predictions with the fit's std propagated
+  (a liquid classifier's probabilities too);
+- :mod:`~liquidtouch.live.calibration`: ±kσ coverage, to check a std means what it says;
 - :mod:`~liquidtouch.live.estimator`: :class:`LiveEstimator` (``add_frame``,
   ``finish``) and the emission rule;
 - :mod:`~liquidtouch.live.stopping`: ``--until-std`` thresholds and the stop rule;

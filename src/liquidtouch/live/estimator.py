@@ -11,13 +11,15 @@ whole stream as offline and returns the final update.
 
 **Emission rule** (from the uncertainty, no time floor): ω is reported once its
 std is below :data:`MAX_FREQ_REL_STD` of ω; λ once its std is below
-:data:`MAX_DECAY_REL_STD` of λ, where λ's std adds to the fit's standard error
-the change of λ since the fit on two thirds of the window (:func:`window_drift`).
-The damping of a real slosh is not exactly exponential (λ of simulated water
-falls from 0.25 to 0.20 1/s as the window grows from 1 s to 7.5 s while the
-fit's std is ~0.003 1/s), so the fit's std alone claims a precision the
-window does not have. Properties are predicted once both are reported, with
-the fit's std propagated (:mod:`liquidtouch.live.properties`).
+:data:`MAX_DECAY_REL_STD` of λ. While streaming, the std is how far the value
+may still be from the stream's final one (:mod:`liquidtouch.live.uncertainty`):
+the fit's correlated-noise standard error plus a calibrated term for the
+window's length in e-foldings of the decay — the damping of a real slosh is
+not exactly exponential, so the fit's std alone claims a precision a short
+window does not have (simulated water: the first λ emitted was 38 % off the
+final one while its std claimed 6 %). The final update keeps the final fit's
+std. Properties are predicted once both are reported, with the std propagated
+(:mod:`liquidtouch.live.properties`).
 """
 
 from __future__ import annotations
@@ -31,10 +33,15 @@ import numpy as np
 
 from liquidtouch.errors import VideoError
 from liquidtouch.fit_settings import FitSettings
-from liquidtouch.live.properties import check_regression_model, predict_with_fit_std
+from liquidtouch.live.properties import (
+    check_live_model,
+    classify_with_fit_std,
+    predict_with_fit_std,
+)
 from liquidtouch.live.refresh import Refreshed, refresh
 from liquidtouch.live.stopping import check_until_std
 from liquidtouch.live.tracks import GrowingTracks
+from liquidtouch.live.uncertainty import streamed_decay_rate_std, streamed_frequency_std
 from liquidtouch.live.updates import LiveUpdate
 from liquidtouch.signal import check_signal_options
 
@@ -42,23 +49,13 @@ from liquidtouch.signal import check_signal_options
 REFRESH_S = 0.25
 #: ω is reported once its std is below this fraction of ω
 MAX_FREQ_REL_STD = 0.01
-#: λ is reported once its std (fit and window drift) is below this fraction of λ
+#: λ is reported once its std (fit and window length) is below this fraction of λ
 MAX_DECAY_REL_STD = 0.10
-#: the window drift compares λ with the fit on this fraction of the current window
-DRIFT_FRACTION = 2.0 / 3.0
-
-
-def window_drift(history: list[tuple[float, float]], window_s: float, decay_rate: float) -> float:
-    """|λ − λ'| [1/s], λ' of the earlier fit whose window is closest to 2/3 of ``window_s``.
-
-    ``history`` holds ``(window_s, λ)`` of earlier fits. NaN when no earlier fit
-    covers at most 80 % of the window (the drift cannot be judged yet).
-    """
-    earlier = [(w, lam) for w, lam in history if w <= 0.8 * window_s]
-    if not earlier:
-        return math.nan
-    _, lam = min(earlier, key=lambda item: abs(item[0] - DRIFT_FRACTION * window_s))
-    return abs(decay_rate - lam)
+#: what the final update keeps of the last streamed one when the final refit fails
+KEPT_FIELDS = (
+    "decay_rate", "decay_rate_std", "angular_frequency", "angular_frequency_std",
+    "window_s", "model",
+)  # fmt: skip
 
 
 class LiveEstimator:
@@ -68,7 +65,9 @@ class LiveEstimator:
     ----------
     sensors : names of the sensors whose frames will come (all must deliver
         frames before a signal is built).
-    model : a regression :class:`~liquidtouch.models.property_model.PropertyModel`, optional.
+    model : a :class:`~liquidtouch.models.property_model.PropertyModel`, optional: a
+        regression model adds ``predicted`` properties with their std, a liquid
+        classifier ``classified`` probabilities (no std, so no ``until_std`` target).
     until_std : ``{target: std}`` thresholds (checked here; used by the caller's stop rule).
     lowpass_hz, n_markers : as :func:`~liquidtouch.signal.tactile_signal`.
     fit_settings : the final fit's settings (default: ``extract``'s).
@@ -91,7 +90,8 @@ class LiveEstimator:
         check_signal_options(lowpass_hz, n_markers)
         if not sensors or len(set(sensors)) != len(sensors):
             raise VideoError(f"give one or more distinct sensor names, got {sensors!r}")
-        self.targets = check_regression_model(model) if model is not None else []
+        self.model_kind = check_live_model(model) if model is not None else ""
+        self.targets = list(model.targets) if self.model_kind == "regression" else []
         check_until_std(dict(until_std or {}), self.targets)
         if not 0 < float(refresh_s) < math.inf:
             raise VideoError(f"refresh_s must be a time > 0 in seconds, got {refresh_s!r}")
@@ -105,7 +105,6 @@ class LiveEstimator:
         self.first_t_s = math.nan
         self.newest_due_s = math.nan
         self.next_refresh_t_s = math.nan
-        self.history: list[tuple[float, float]] = []
         self.push_seen = False  # once a push stood out, it is not judged again
         self.decay_start_s = math.nan  # kept once the decay is fitted (see refresh)
         self.last: LiveUpdate | None = None
@@ -151,15 +150,28 @@ class LiveEstimator:
         return update
 
     def finish(self, stopped_because: str = "end_of_stream") -> LiveUpdate:
-        """Wait for a running refresh, fit the whole stream as offline; the final update."""
+        """Wait for a running refresh, fit the whole stream as offline; the final update.
+
+        A stream stopped by ``until_std`` keeps the last streamed estimate — the
+        one whose std met the thresholds (a refit of a short record, edge
+        included, can be far worse) — and so does one whose refit fails.
+        """
         if self._worker is not None:
             self._worker.join()
+        self._take_result()
+        previous = self.last
         tracks, frames, elapsed, due = self._snapshot()
         if not all(grown.n for grown in self.tracks.values()):
             result = Refreshed(np.zeros(0), np.zeros(0), "waiting", message="no frames")
         else:
             result = refresh(tracks, **self.options, fit_settings=self.fit_settings, final=True)
         update = self._update(result, frames, elapsed, due, final=True)
+        keep = result.fit is None or stopped_because == "until_std"
+        if keep and previous is not None and math.isfinite(previous.window_s):
+            for name in (*KEPT_FIELDS, "predicted", "classified"):
+                setattr(update, name, getattr(previous, name))
+            why = result.message if result.fit is None else "stopped on the std thresholds"
+            update.message = f"{why}: the last streamed estimate is kept"
         update.phase, update.stopped_because = "done", stopped_because
         self.last = update
         return update
@@ -183,7 +195,10 @@ class LiveEstimator:
             decay_start_s=self.decay_start_s,
         )
         self.push_seen = self.push_seen or result.phase != "waiting"
-        if result.phase == "decay":
+        if result.phase == "decay" and math.isnan(self.decay_start_s):
+            # set once: each refresh resamples the signal on a new grid and snaps the start
+            # to a sample at or after it, so re-keeping it crept ~0.4 s over a stream (a
+            # detergent λ then 38 % below the final one)
             self.decay_start_s = result.decay_start_s
         update = self._update(result, frames, elapsed_s, due_s, final=False)
         with self._lock:
@@ -215,23 +230,24 @@ class LiveEstimator:
         fit = result.fit
         if fit is not None:
             update.window_s, update.model = fit.duration_s, fit.model
-            drift = window_drift(self.history, fit.duration_s, fit.decay_rate)
-            self.history.append((fit.duration_s, fit.decay_rate))
-            lam_std = math.hypot(fit.decay_rate_std, drift)
-            show_omega = final or fit.angular_frequency_std < MAX_FREQ_REL_STD * abs(
-                fit.angular_frequency
-            )
-            show_lam = final or lam_std < MAX_DECAY_REL_STD * abs(fit.decay_rate)
+            lam, omega = fit.decay_rate, fit.angular_frequency
+            if final:
+                lam_std, omega_std = fit.decay_rate_std, fit.angular_frequency_std
+            else:
+                lam_std = streamed_decay_rate_std(lam, fit.decay_rate_std, fit.duration_s)
+                omega_std = streamed_frequency_std(omega, fit.angular_frequency_std, fit.duration_s)
+            show_omega = final or omega_std < MAX_FREQ_REL_STD * abs(omega)
+            show_lam = final or lam_std < MAX_DECAY_REL_STD * abs(lam)
             if show_omega:
-                update.angular_frequency = fit.angular_frequency
-                update.angular_frequency_std = fit.angular_frequency_std
+                update.angular_frequency, update.angular_frequency_std = omega, omega_std
             if show_lam:
-                update.decay_rate, update.decay_rate_std = fit.decay_rate, lam_std
-            if self.model is not None and show_omega and show_lam and math.isfinite(lam_std):
-                update.predicted = predict_with_fit_std(
-                    self.model, fit.decay_rate, lam_std, fit.angular_frequency,
-                    fit.angular_frequency_std,
-                )  # fmt: skip
+                update.decay_rate, update.decay_rate_std = lam, lam_std
+            if self.model is not None and show_omega and show_lam:
+                stds = (lam, lam_std, omega, omega_std)
+                if self.model_kind == "regression":
+                    update.predicted = predict_with_fit_std(self.model, *stds)
+                else:
+                    update.classified = classify_with_fit_std(self.model, *stds)
         if math.isfinite(due_s):
             update.lag_s = time.monotonic() - due_s
         return update

@@ -9,8 +9,8 @@ its plots are complete), then the new ones, then the end (:meth:`LiveHub.close`)
 
 Memory is bounded: past ``max_updates`` the history is thinned (every other
 update dropped, the first and the newest kept, so the plots still span the
-whole trial), only the newest update keeps its ``signal`` (the plot of u(t)
-needs only the current one), and each sensor keeps only its newest frame. A
+whole trial), only the newest update with a ``signal`` keeps it (the plot of
+u(t) needs only the current one), and each sensor keeps only its newest frame. A
 frame is encoded to JPEG, with its marker displacement arrows drawn, only
 when a browser asks, and at most every :data:`FRAME_INTERVAL_S` per sensor.
 """
@@ -31,7 +31,7 @@ import numpy as np
 MAX_UPDATES = 2000
 #: the shortest time between two JPEG encodings of one sensor's frame [s] (~10 Hz)
 FRAME_INTERVAL_S = 0.1
-#: displacement arrows are drawn this many times their length (as GelSight's tracking demo)
+#: displacement arrows are drawn this many times their length, so that sub-pixel motion shows
 ARROW_SCALE = 5.0
 #: arrow colour (BGR): green, seen on the grey gel and the dark markers alike
 ARROW_BGR = (0, 220, 0)
@@ -140,7 +140,8 @@ class LiveHub:
         self.frame_interval_s = float(frame_interval_s)
         self._changed = threading.Condition()
         self._seq: list[int] = []  # sequence number of each kept update, increasing
-        self._text: list[str] = []  # its JSON, ``signal`` left out except for the newest
+        self._text: list[str] = []  # its JSON without ``signal``
+        self._signal: tuple[int, str] | None = None  # (seq, full JSON) of the newest with one
         self._last_seq = 0
         self._closed = False
         self._frames: dict[str, _Frame] = {}
@@ -148,25 +149,31 @@ class LiveHub:
     # -- producer side ---------------------------------------------------------------------
 
     def publish(self, update: dict) -> None:
-        """Add one update (a JSON-able dict; numpy values and NaN are converted)."""
+        """Add one update (a JSON-able dict; numpy values and NaN are converted).
+
+        Ignored once the hub is closed.
+        """
         update = jsonable(update)
         if not isinstance(update, dict):
             raise TypeError(f"an update is a dict, got {type(update).__name__}")
+        has_signal = update.get("signal") is not None
+        full = json.dumps(update, allow_nan=False, separators=(",", ":")) if has_signal else None
+        update.pop("signal", None)
         text = json.dumps(update, allow_nan=False, separators=(",", ":"))
         with self._changed:
             if self._closed:
                 return
-            if self._text and '"signal"' in self._text[-1]:
-                previous = json.loads(self._text[-1])
-                previous.pop("signal", None)
-                self._text[-1] = json.dumps(previous, separators=(",", ":"))
             self._last_seq += 1
             self._seq.append(self._last_seq)
             self._text.append(text)
+            if full is not None:
+                self._signal = (self._last_seq, full)
             if len(self._seq) > self.max_updates:
-                keep = [*range(0, len(self._seq) - 1, 2), len(self._seq) - 1]
-                self._seq = [self._seq[i] for i in keep]
-                self._text = [self._text[i] for i in keep]
+                keep = {*range(0, len(self._seq) - 1, 2), len(self._seq) - 1}
+                if self._signal is not None:  # the update that carries the newest signal stays
+                    keep.add(bisect_right(self._seq, self._signal[0]) - 1)
+                self._seq = [self._seq[i] for i in sorted(keep)]
+                self._text = [self._text[i] for i in sorted(keep)]
             self._changed.notify_all()
 
     def publish_frame(
@@ -219,7 +226,10 @@ class LiveHub:
         """
         with self._changed:
             start = bisect_right(self._seq, seq)
-            return list(zip(self._seq[start:], self._text[start:], strict=True)), self._closed
+            items = list(zip(self._seq[start:], self._text[start:], strict=True))
+            if self._signal is not None:
+                items = [(s, self._signal[1] if s == self._signal[0] else t) for s, t in items]
+            return items, self._closed
 
     def wait(self, seq: int, timeout_s: float = 1.0) -> bool:
         """Block until an update after ``seq`` or the close, at most ``timeout_s`` [s].

@@ -11,6 +11,12 @@ range counts) and added in quadrature::
 
 treating λ and ω as independent (the fit reports their std only). One call of
 ``PropertyModel.predict`` on five rows: the cost does not grow with the targets.
+
+A liquid classifier gives class probabilities instead
+(:func:`classify_with_fit_std`): the mean of its probabilities at the same five
+points — the centre weighted 1/3, each ±1σ point 1/6 (the sigma points of a
+Gaussian in two dimensions) — so an uncertain λ spreads the probability over
+the classes it could belong to.
 """
 
 from __future__ import annotations
@@ -25,14 +31,39 @@ from liquidtouch.errors import ModelFileError
 MIN_DECAY_RATE = 1e-6
 
 
-def check_regression_model(model: object) -> list[str]:
-    """The targets of a regression :class:`PropertyModel`; ModelFileError otherwise."""
-    if getattr(model, "kind", None) != "regression":
+#: weights of the five points (centre, λ ± σλ, ω ± σω) in a classifier's mean probabilities
+SIGMA_POINT_WEIGHTS = np.array([1 / 3, 1 / 6, 1 / 6, 1 / 6, 1 / 6])
+
+
+def check_live_model(model: object) -> str:
+    """``"regression"`` or ``"classification"``: the kind of a :class:`PropertyModel`.
+
+    Anything else raises :class:`ModelFileError`.
+    """
+    kind = getattr(model, "kind", None)
+    if kind not in ("regression", "classification"):
         raise ModelFileError(
-            "the live estimate needs a regression model (from 'train', with targets such as "
-            "height_mm); a liquid classifier gives no std to stop on"
+            "the live estimate needs a model from 'train' (targets such as height_mm) or "
+            f"'classify' (liquid names); got {type(model).__name__}"
         )
-    return list(model.targets)
+    return kind
+
+
+def _five_rows(lam: float, d_lam: float, omega: float, d_omega: float) -> np.ndarray:
+    """(λ, ω), then λ ± σλ, then ω ± σω: the rows the std is propagated on."""
+    return np.array(
+        [
+            [lam, omega],
+            [lam + d_lam, omega],
+            [max(lam - d_lam, MIN_DECAY_RATE), omega],
+            [lam, omega + d_omega],
+            [lam, omega - d_omega],
+        ]
+    )
+
+
+def _std_or_zero(std: float) -> float:
+    return float(std) if math.isfinite(float(std)) else 0.0
 
 
 def predict_with_fit_std(
@@ -46,18 +77,10 @@ def predict_with_fit_std(
 
     A NaN std of λ or ω counts as 0 (that feature's uncertainty is left out).
     """
-    lam, omega = float(decay_rate), float(angular_frequency)
-    d_lam = 0.0 if not math.isfinite(decay_rate_std) else float(decay_rate_std)
-    d_omega = 0.0 if not math.isfinite(angular_frequency_std) else float(angular_frequency_std)
-    rows = np.array(
-        [
-            [lam, omega],
-            [lam + d_lam, omega],
-            [max(lam - d_lam, MIN_DECAY_RATE), omega],
-            [lam, omega + d_omega],
-            [lam, omega - d_omega],
-        ]
-    )
+    rows = _five_rows(
+        float(decay_rate), _std_or_zero(decay_rate_std),
+        float(angular_frequency), _std_or_zero(angular_frequency_std),
+    )  # fmt: skip
     out = {}
     for target, (mean, std) in model.predict(rows).items():
         mean = np.asarray(mean, dtype=float)
@@ -65,3 +88,26 @@ def predict_with_fit_std(
         total = math.sqrt(float(np.asarray(std)[0]) ** 2 + spread[0] ** 2 + spread[1] ** 2)
         out[target] = (float(mean[0]), total)
     return out
+
+
+def classify_with_fit_std(
+    model: object,
+    decay_rate: float,
+    decay_rate_std: float,
+    angular_frequency: float,
+    angular_frequency_std: float,
+) -> dict[str, tuple[str, dict[str, float]]]:
+    """``{label column: (most probable class, {class: probability})}`` of a classifier.
+
+    The probabilities are the sigma-point mean (module docstring), so they sum to 1;
+    a NaN std of λ or ω counts as 0.
+    """
+    rows = _five_rows(
+        float(decay_rate), _std_or_zero(decay_rate_std),
+        float(angular_frequency), _std_or_zero(angular_frequency_std),
+    )  # fmt: skip
+    _, proba = model.predict_proba(rows)
+    mean = SIGMA_POINT_WEIGHTS @ np.asarray(proba, dtype=float)
+    classes = [str(c) for c in model.classifier.classes_]
+    best = classes[int(np.argmax(mean))]
+    return {model.targets[0]: (best, dict(zip(classes, mean.tolist(), strict=True)))}

@@ -115,7 +115,7 @@ def refresh(
     if final and settings.start != AUTO:
         start = int(np.searchsorted(t, float(settings.start)))
     elif not final and math.isfinite(decay_start_s):
-        start = int(np.searchsorted(t, decay_start_s))
+        start = int(np.argmin(np.abs(t - decay_start_s)))  # nearest: the grid moves per refresh
     else:
         start = free_decay_start(t_in, u_in)
         snr = (

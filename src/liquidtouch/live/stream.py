@@ -63,8 +63,9 @@ def live_updates(
     sources : video files, image folders or one trial directory (replayed), camera
         sources (``open_camera``: ``"0"``, ``/dev/video2``, ``name:...``, URLs), or an
         iterable of :class:`LiveFrame` (then ``sensors`` names the sensors).
-    model : a regression ``PropertyModel`` or the path of a model file: adds
-        ``predicted`` properties with their std.
+    model : a ``PropertyModel`` or the path of a model file: a regression model adds
+        ``predicted`` properties with their std, a liquid classifier ``classified``
+        probabilities.
     until_std : ``{target: std}`` or ``["target=std", ...]``: stop once every
         target's std is below its threshold (targets: ``decay_rate``,
         ``angular_frequency``, the model's targets). Checked before any frame.

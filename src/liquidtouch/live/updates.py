@@ -42,7 +42,11 @@ class LiveUpdate:
     predicted : ``{target: (mean, std)}`` of the model (empty without a model or
         until both λ and ω are supported); the std combines the model's
         predictive std and the fit's λ/ω std propagated through the model.
-    final : the last update of the stream.
+    classified : ``{label column: (class, {class: probability})}`` of a liquid
+        classifier (empty without one or until both λ and ω are supported); the
+        probabilities average the classifier's over λ, ω ± their std.
+    final : the last update of the stream: the whole record refitted as ``extract`` does,
+        or, when stopped by ``until_std``, the last streamed estimate (``message`` says).
     stopped_because : why the stream ended (final update only): ``"until_std"``,
         ``"end_of_stream"`` or ``"max_duration"``.
     elapsed_s : stream time since the first frame [s].
@@ -67,6 +71,7 @@ class LiveUpdate:
     angular_frequency: float = math.nan
     angular_frequency_std: float = math.nan
     predicted: dict[str, tuple[float, float]] = field(default_factory=dict)
+    classified: dict[str, tuple[str, dict[str, float]]] = field(default_factory=dict)
     final: bool = False
     stopped_because: str | None = None
     elapsed_s: float = math.nan
@@ -101,6 +106,9 @@ class LiveUpdate:
         for target, (mean, std) in self.predicted.items():
             out[f"predicted_{target}"] = _number(mean)
             out[f"predicted_{target}_std"] = _number(std)
+        for label, (name, proba) in self.classified.items():
+            out[f"predicted_{label}"] = name
+            out[f"predicted_{label}_proba"] = {k: _number(p) for k, p in proba.items()}
         out.update(
             final=bool(self.final),
             elapsed_s=_number(self.elapsed_s),

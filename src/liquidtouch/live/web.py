@@ -66,8 +66,8 @@ def create_app(
 
     ``allowed_hosts`` restricts the Host header (None: any); ``stopping``, once
     set, ends every open stream after what was already published (the server
-    is shutting down). ``app.state.readers``
-    counts the open streams (browsers watching).
+    is shutting down). ``app.state.readers`` counts the open streams (browsers
+    watching).
     """
     page = PAGE_PATH.read_text(encoding="utf-8")
     stopping = stopping or threading.Event()
@@ -193,12 +193,15 @@ def start_server(
     import uvicorn
 
     host = host.strip("[]")
+    sock = None
     try:
         family, kind, proto, _, address = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0]
         sock = socket.socket(family, kind, proto)
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         sock.bind(address)
     except OSError as err:
+        if sock is not None:
+            sock.close()
         raise OutputError(f"cannot serve the live view on {host}:{port}: {err}") from None
     bound = sock.getsockname()[1]
     stopping = threading.Event()

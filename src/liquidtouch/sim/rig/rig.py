@@ -9,9 +9,10 @@ JSON line endpoint (:mod:`~liquidtouch.sim.rig.arm_server`) and the two sensors 
 MJPEG streams (:class:`~liquidtouch.sim.rig.mjpeg.MjpegServer`).
 
 The parts, by concept: :mod:`~liquidtouch.sim.rig.state` (the physical state machine,
-:class:`Rig`, and what it simulates), :mod:`~liquidtouch.sim.rig.kinematics` (arm and
-finger motions in time), :mod:`~liquidtouch.sim.rig.live_sensor` (rendering the gels
-frame by frame) and this module (serving); the names are re-exported here.
+:class:`Rig`, and what it simulates), :mod:`~liquidtouch.sim.rig.fingers` (the
+gripper's commands), :mod:`~liquidtouch.sim.rig.kinematics` (arm and finger motions in
+time), :mod:`~liquidtouch.sim.rig.live_sensor` (rendering the gels frame by frame) and
+this module (serving); the names are re-exported here.
 """
 
 from __future__ import annotations
@@ -21,13 +22,12 @@ from typing import Any
 
 from liquidtouch.sim.gelsight import SENSOR_NAMES
 from liquidtouch.sim.rig.arm_server import ArmMove, ArmServer
+from liquidtouch.sim.rig.fingers import CLAMP_TRAVEL_MM, OPEN_WIDTH_MM
 from liquidtouch.sim.rig.gcl_server import GclServer, Motion
 from liquidtouch.sim.rig.kinematics import move_duration
 from liquidtouch.sim.rig.state import (
-    CLAMP_TRAVEL_MM,
     HOME_POSE,
     LIFT_OFF_MM,
-    OPEN_WIDTH_MM,
     REACH_M,
     TRIAL_DURATION_S,
     WALL_MM,

@@ -1,0 +1,293 @@
+"""Time to answer: ring-down seconds until the streamed height and viscosity are right, and
+whether their std means what it says.
+
+One run, on simulated trials (GelSight Mini videos, 320 × 240 at 25 fps):
+
+1. a training set — every liquid of the catalogue (water, olive oil, corn oil,
+   mirin, detergent, sugar water at 40/100/160 g/100 g) × ``--train-heights``
+   fill heights 16-40 mm — extracted offline as ``liquidtouch extract`` does,
+   and a GPR and a physics-GPR trained on it as ``liquidtouch train`` does
+   (targets ``height_mm``, ``log10_viscosity_cst``);
+2. ``--trials`` test trials per liquid (random heights 18-38 mm; sugar water at a
+   random concentration 20-140) streamed through
+   :func:`liquidtouch.live.live_updates` (``realtime=False``); every update's
+   λ, ω and their std go through each model as the stream does
+   (:func:`~liquidtouch.live.properties.predict_with_fit_std`);
+3. tables: the ring-down time [s] until height is within 1 mm and log10 ν within
+   0.1 of the truth and stays there (median, 90th percentile per liquid; ``inf``:
+   the final estimate is still off), against the offline estimate on the full
+   record (the final update refits the whole record as ``extract``); the
+   ±1σ/±2σ coverage of the truth per ring-down time, and of the final λ, ω by
+   the streamed ones; the per-frame latency of ``add_frame`` (refreshes run in
+   the call here; ``benchmarks/live_latency.py`` measures the real-time,
+   threaded case); a PNG of coverage and error vs ring-down time.
+
+Usage: nice -n 10 python benchmarks/time_to_answer.py [--trials 2] [--train-heights 6]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from liquidtouch.live.calibration import COVERAGE_KS, coverage, nominal_coverage
+
+TEST_LIQUIDS = ("water", "olive-oil", "corn-oil", "mirin", "detergent", "sugar-water")
+TRAIN_SUGAR = (40.0, 100.0, 160.0)
+TARGETS = ("height_mm", "log10_viscosity_cst")
+TOLERANCE = {"height_mm": 1.0, "log10_viscosity_cst": 0.1}
+KINDS = ("gpr", "physics-gpr")
+#: ring-down time bins of the coverage table [s]
+TIME_BINS = ((0.0, 2.0), (2.0, 4.0), (4.0, 6.0), (6.0, math.inf))
+
+
+def simulate(root: Path, name: str, liquid: str, height_mm: float, conc, seed: int, dur: float):
+    """Simulate and write one Mini trial; its directory and labels."""
+    from liquidtouch.sim.trial import simulate_trial
+    from liquidtouch.sim.trial_io import write_trial
+
+    trial = simulate_trial(
+        liquid, height_mm=height_mm, sugar_concentration=conc, seed=seed, duration_s=dur
+    )
+    return write_trial(trial, root / name, sensor="mini"), trial.labels()
+
+
+def training_set(root: Path, n_heights: int, duration_s: float, advance) -> tuple:
+    """(n, 2) offline features and the targets of the training trials."""
+    from liquidtouch.extraction import extract
+
+    entries = [(liq, None) for liq in TEST_LIQUIDS if liq != "sugar-water"]
+    entries += [("sugar-water", c) for c in TRAIN_SUGAR]
+    X, y = [], {t: [] for t in TARGETS}
+    for i, (liquid, conc) in enumerate(entries):
+        for j, h in enumerate(np.linspace(16.0, 40.0, n_heights)):
+            directory, labels = simulate(
+                root, f"train_{i}_{j}", liquid, float(h), conc, 1000 + 37 * i + j, duration_s
+            )
+            fit = extract(directory).fit
+            X.append((fit.decay_rate, fit.angular_frequency))
+            for target in TARGETS:
+                y[target].append(labels[target])
+            advance()
+    return np.array(X), {t: np.array(v) for t, v in y.items()}
+
+
+def stream_trial(directory: Path) -> dict:
+    """Every update's (t_s, λ, σλ, ω, σω) of one stream, the final update's and its timing."""
+    from liquidtouch.live import live_updates
+
+    updates = list(live_updates(directory, realtime=False))
+    rows = np.array(
+        [
+            (u.t_s, u.decay_rate, u.decay_rate_std, u.angular_frequency, u.angular_frequency_std)
+            for u in updates
+        ]
+    )
+    return {"rows": rows, "timing": updates[-1].timing}
+
+
+def predictions(model, rows: np.ndarray) -> dict[str, np.ndarray]:
+    """``{target: (U, 2) mean, std}`` per update (NaN until λ and ω are both reported)."""
+    from liquidtouch.live.properties import predict_with_fit_std
+
+    out = {t: np.full((len(rows), 2), np.nan) for t in TARGETS}
+    for i, (_, lam, lam_std, omega, omega_std) in enumerate(rows):
+        if math.isfinite(lam) and math.isfinite(omega):
+            for target, pair in predict_with_fit_std(model, lam, lam_std, omega, omega_std).items():
+                out[target][i] = pair
+    return out
+
+
+def time_to_answer(t_s: np.ndarray, ok: np.ndarray) -> float:
+    """Ring-down time [s] from which every update (the last included) is ``ok``; inf if never."""
+    if not ok[-1]:
+        return math.inf
+    bad = np.flatnonzero(~ok)
+    return float(t_s[bad[-1] + 1] if bad.size else t_s[0])
+
+
+def quantiles(values: list[float]) -> str:
+    v = np.asarray(values, float)
+    med, p90 = np.percentile(v, 50, method="lower"), np.percentile(v, 90, method="higher")
+    return f"{med:6.2f} {p90:6.2f}"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--trials", type=int, default=2, help="test trials per liquid")
+    parser.add_argument("--train-heights", type=int, default=6, help="training heights per liquid")
+    parser.add_argument("--duration", type=float, default=10.0, help="trial length [s]")
+    parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--out", type=Path, default=Path("benchmarks/results"))
+    args = parser.parse_args()
+
+    from liquidtouch.models.property_model import train_regression
+    from liquidtouch.progress import progress_bar
+
+    began = time.perf_counter()
+    rng = np.random.default_rng(args.seed)
+    n_train = (len(TEST_LIQUIDS) - 1 + len(TRAIN_SUGAR)) * args.train_heights
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        with progress_bar("training trials", n_train) as advance:
+            X, y = training_set(root, args.train_heights, args.duration, advance)
+        models = {kind: train_regression(X, y, kind) for kind in KINDS}
+        tests = []
+        with progress_bar("test streams", len(TEST_LIQUIDS) * args.trials) as advance:
+            for liquid in TEST_LIQUIDS:
+                for r in range(args.trials):
+                    conc = float(rng.uniform(20, 140)) if liquid == "sugar-water" else None
+                    h, seed = float(rng.uniform(18.0, 38.0)), int(rng.integers(2**31))
+                    directory, labels = simulate(
+                        root, f"test_{liquid}_{r}", liquid, h, conc, seed, args.duration
+                    )
+                    tests.append({"liquid": liquid, "truth": labels, **stream_trial(directory)})
+                    advance()
+    took = time.perf_counter() - began
+    print(
+        f"{n_train} training trials, {len(tests)} test trials ({args.trials} per liquid), "
+        f"{args.duration:g} s each, GelSight Mini; {took:.0f} s"
+    )
+    for test in tests:
+        test["pred"] = {kind: predictions(model, test["rows"]) for kind, model in models.items()}
+    report_time_to_answer(tests)
+    report_coverage(tests)
+    report_latency(tests)
+    args.out.mkdir(parents=True, exist_ok=True)
+    print(f"figure: {plot(tests, args.out / 'time_to_answer.png')}")
+
+
+def report_time_to_answer(tests: list[dict]) -> None:
+    print(
+        "\nring-down time [s] until within tolerance for good (height 1 mm, log10 ν 0.1); "
+        "median p90; 'record' = the offline estimate on the full record"
+    )
+    for kind in KINDS:
+        print(f"\n{kind}")
+        head = f"{'liquid':12s} {'n':>2s} {'height':>13s} {'log10 ν':>13s} {'both':>13s}"
+        print(f"{head} {'record':>7s} {'offline |Δh| |Δμ|':>18s}")
+        for liquid in TEST_LIQUIDS:
+            cells = {t: [] for t in (*TARGETS, "both")}
+            record, errs = [], {t: [] for t in TARGETS}
+            for test in (t for t in tests if t["liquid"] == liquid):
+                t_s, ok_all = test["rows"][:, 0], None
+                for target in TARGETS:
+                    mean = test["pred"][kind][target][:, 0]
+                    with np.errstate(invalid="ignore"):
+                        ok = np.abs(mean - test["truth"][target]) <= TOLERANCE[target]
+                    cells[target].append(time_to_answer(t_s, ok))
+                    ok_all = ok if ok_all is None else ok_all & ok
+                    errs[target].append(abs(mean[-1] - test["truth"][target]))
+                cells["both"].append(time_to_answer(t_s, ok_all))
+                record.append(t_s[-1])
+            line = " ".join(f"{quantiles(cells[c]):>13s}" for c in (*TARGETS, "both"))
+            print(
+                f"{liquid:12s} {len(record):2d} {line} {np.median(record):7.2f} "
+                f"{np.median(errs[TARGETS[0]]):8.2f} {np.median(errs[TARGETS[1]]):8.3f}"
+            )
+
+
+def _coverage_cells(z_rows: list[tuple[float, float, float, float]], lo: float, hi: float) -> str:
+    rows = np.array([r for r in z_rows if lo <= r[0] < hi]).reshape(-1, 4)
+    if not len(rows):
+        return f"{'-':>14s}"
+    cov = coverage(rows[:, 1], rows[:, 2], rows[:, 3])
+    return f"{cov[1.0]:4.0%} {cov[2.0]:4.0%} {len(rows):4d}"
+
+
+def report_coverage(tests: list[dict]) -> None:
+    bins = [f"{lo:g}-{hi:g} s" if math.isfinite(hi) else f"≥{lo:g} s" for lo, hi in TIME_BINS]
+    nominal = ", ".join(f"±{k:g}σ {nominal_coverage(k):.0%}" for k in COVERAGE_KS)
+    print(
+        f"\ncoverage of the truth (±1σ ±2σ n; nominal {nominal}), by ring-down time; "
+        "rms z: RMS of (final − truth) / std, 1 when the std is calibrated"
+    )
+    head = " ".join(f"{b:>14s}" for b in [*bins, "final"])
+    print(f"{'model / target':30s} {head} {'rms z':>6s}")
+    for kind in KINDS:
+        for target in TARGETS:
+            stream, final = [], []
+            for test in tests:
+                t_s, (mean, std) = test["rows"][:, 0], test["pred"][kind][target].T
+                truth = test["truth"][target]
+                stream += [
+                    (t, m, s, truth) for t, m, s in zip(t_s[:-1], mean[:-1], std[:-1], strict=True)
+                ]
+                final.append((0.0, mean[-1], std[-1], truth))
+            cells = [_coverage_cells(stream, lo, hi) for lo, hi in TIME_BINS]
+            cells.append(_coverage_cells(final, 0.0, math.inf))
+            _, mean, std, truth = np.array(final).T
+            z_rms = math.sqrt(np.nanmean(((mean - truth) / std) ** 2))  # 1 when calibrated
+            print(f"{kind + ' ' + target:30s} " + " ".join(cells) + f" {z_rms:6.2f}")
+    for col, name in ((1, "λ (of the final λ)"), (3, "ω (of the final ω)")):
+        rows = []
+        for test in tests:
+            r = test["rows"]
+            rows += [(t, v, s, r[-1, col]) for t, v, s in r[:-1, [0, col, col + 1]]]
+        cells = [_coverage_cells(rows, lo, hi) for lo, hi in TIME_BINS]
+        print(f"{'streamed ' + name:30s} " + " ".join(cells))
+
+
+def report_latency(tests: list[dict]) -> None:
+    med = [t["timing"]["latency_ms_median"] for t in tests]
+    p95 = [t["timing"]["latency_ms_p95"] for t in tests]
+    worst = max(t["timing"]["latency_ms_max"] for t in tests)
+    budget = 1e3 / 50.0  # two Mini sensors at 25 fps
+    print(
+        f"\nper-frame add_frame latency [ms] (refreshes in the call), over {len(tests)} streams: "
+        f"median {np.median(med):.2f}, p95 {np.median(p95):.2f}, max {worst:.1f}; "
+        f"frame budget (2 × 25 fps) {budget:.0f} ms, median / budget {np.median(med) / budget:.2f}"
+    )
+
+
+def plot(tests: list[dict], path: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from liquidtouch.io.figures import save_figure
+
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7))
+    colours = dict(zip(TEST_LIQUIDS, plt.cm.tab10.colors, strict=False))
+    centres = [lo + 1.0 for lo, _ in TIME_BINS]
+    for col, target in enumerate(TARGETS):
+        ax = axes[0, col]
+        for test in tests:
+            t_s, mean = test["rows"][:, 0], test["pred"]["gpr"][target][:, 0]
+            ax.plot(t_s, np.abs(mean - test["truth"][target]), color=colours[test["liquid"]])
+        ax.axhline(TOLERANCE[target], color="k", ls="--", lw=1)
+        ax.set(yscale="log", xlabel="ring-down time [s]", ylabel=f"GPR |error| of {target}")
+        ax = axes[1, col]
+        for kind, style in zip(KINDS, ("-", ":"), strict=True):
+            for k in COVERAGE_KS:
+                fractions = []
+                for lo, hi in TIME_BINS:
+                    rows = [
+                        (m, s, test["truth"][target])
+                        for test in tests
+                        for tt, (m, s) in zip(
+                            test["rows"][:-1, 0], test["pred"][kind][target][:-1], strict=True
+                        )
+                        if lo <= tt < hi
+                    ]
+                    arr = np.array(rows).reshape(-1, 3)
+                    fractions.append(coverage(arr[:, 0], arr[:, 1], arr[:, 2], (k,))[k])
+                ax.plot(centres, fractions, style, marker="o", label=f"{kind} ±{k:g}σ")
+        for k in COVERAGE_KS:
+            ax.axhline(nominal_coverage(k), color="grey", lw=0.8)
+        ax.set(xlabel="ring-down time [s] (bin)", ylabel=f"coverage of {target}", ylim=(0, 1))
+    for liquid, colour in colours.items():
+        axes[0, 0].plot([], [], color=colour, label=liquid)
+    axes[0, 0].legend(fontsize=7)
+    axes[1, 0].legend(fontsize=7)
+    return save_figure(fig, path, tight=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,78 @@
+"""The std of a streamed λ and ω: how far they may still be from the stream's final values.
+
+A streaming fit's own standard error (correlated-noise, Newey–West:
+:data:`~liquidtouch.live.refresh.REFRESH_NOISE`) only describes the noise of
+the window fitted so far. The final fit — whose λ and ω the property models
+were trained on — sees a longer record, and the slosh's damping is not
+exactly exponential, so a short window's λ differs from the final one by more
+than its noise. That difference shrinks with the number of e-foldings the
+window has seen, ``n = λ · window_s``, the same for every liquid (a viscous
+liquid's 1 s shows as much of its decay as 7 s of water). It is added in
+quadrature, as a relative std calibrated on simulated trials of every liquid
+in the catalogue (water, oils, mirin, detergent, sugar water; 26 trials of
+10 s with the GelSight Mini, the amplitude model streamed and final)::
+
+    std(λ)² = std_fit(λ)² + (λ · b(n))²,   b(n)² = (B0 e^{−n/N})² + FLOOR²
+    std(ω)² = std_fit(ω)² + ω² ((F0 e^{−window_s/T})² + FREQ_FLOOR²)
+
+with the RMS of ``log(λ_t / λ_final)`` per bin of ``n``: 0.38 (n < 0.5), 0.28
+(0.5-0.75), 0.17 (0.75-1), 0.087 (1-1.5), 0.069 (1.5-2), 0.03 (2-3), 0.014
+(beyond 3, about the fit's own std). ω's extra error is set by the window in
+seconds, not in e-foldings (how many periods resolve the frequency): the
+first refreshes (window < 1.5 s) had ω outside ±2σ of the fit's std in more
+than half the cases. With these terms, streamed λ covered the final λ at ±1σ /
+±2σ in 77 % / 93 % of all refreshes (80 % / 94 % of those that reported λ;
+the fit's std alone: 23-86 % at ±1σ, worst on short windows); ω in 83 % / 94 %
+(windows < 1 s: 57 % / 86 %; the fit's std alone: 25-80 % / 46-93 %).
+``benchmarks/time_to_answer.py`` measures it on other trials.
+"""
+
+from __future__ import annotations
+
+import math
+
+#: relative std of a streamed λ at the start of the decay (n = 0 e-foldings)
+SHORT_WINDOW_REL_STD = 0.5
+#: e-foldings over which that std falls by e
+SHORT_WINDOW_EFOLDINGS = 0.8
+#: relative std of a streamed λ however long the window (the final fit's record differs)
+DECAY_REL_STD_FLOOR = 0.005
+#: relative std of a streamed ω however long the window (the 68th percentile of
+#: |ω_t/ω_final − 1| on simulated trials: 0.03-0.07 %)
+FREQ_REL_STD_FLOOR = 0.0003
+#: relative std of a streamed ω on a window of 0 s (F0), falling by e every SHORT_FREQ_WINDOW_S
+SHORT_FREQ_REL_STD = 0.03
+#: [s], see SHORT_FREQ_REL_STD
+SHORT_FREQ_WINDOW_S = 0.4
+
+
+def window_rel_std(decay_rate: float, window_s: float) -> float:
+    """b(n): the relative std of λ from the window alone, ``n = λ · window_s`` e-foldings."""
+    efoldings = max(float(decay_rate) * float(window_s), 0.0)
+    short = SHORT_WINDOW_REL_STD * math.exp(-efoldings / SHORT_WINDOW_EFOLDINGS)
+    return math.hypot(short, DECAY_REL_STD_FLOOR)
+
+
+def streamed_decay_rate_std(decay_rate: float, fit_std: float, window_s: float) -> float:
+    """std of a streamed λ [1/s] from the fit's std [1/s] and the window [s] (module docstring).
+
+    NaN when λ or the window is not finite; a NaN fit std counts as 0.
+    """
+    lam = float(decay_rate)
+    if not (math.isfinite(lam) and math.isfinite(float(window_s))):
+        return math.nan
+    fit = float(fit_std) if math.isfinite(float(fit_std)) else 0.0
+    return math.hypot(fit, abs(lam) * window_rel_std(lam, window_s))
+
+
+def streamed_frequency_std(angular_frequency: float, fit_std: float, window_s: float) -> float:
+    """std of a streamed ω [rad/s] from the fit's std [rad/s] and the window [s] (module docstring).
+
+    NaN when ω or the window is not finite; a NaN fit std counts as 0.
+    """
+    omega = float(angular_frequency)
+    if not (math.isfinite(omega) and math.isfinite(float(window_s))):
+        return math.nan
+    fit = float(fit_std) if math.isfinite(float(fit_std)) else 0.0
+    short = SHORT_FREQ_REL_STD * math.exp(-max(float(window_s), 0.0) / SHORT_FREQ_WINDOW_S)
+    return math.hypot(fit, abs(omega) * math.hypot(short, FREQ_REL_STD_FLOOR))
