@@ -270,7 +270,7 @@ def test_plain_values() -> None:
 
 
 def test_fit_table_has_units_and_rounded_values(tmp_path: Path, capsys) -> None:
-    status, out, _ = _run(capsys, "fit", "--example")
+    status, out, _ = _run(capsys, "fit", "--example", "--model", "two-mode")  # its model
     assert status == 0
     assert "[rad/s]" in out and "[1/s]" in out
     slow = next(line for line in out.splitlines() if "slow" in line)

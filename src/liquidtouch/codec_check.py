@@ -51,11 +51,14 @@ IMAGE_CODECS = {".png": "png", ".bmp": "bmp", ".tif": "tiff", ".tiff": "tiff",
 FROZEN_SHARE_RISK = 0.01
 #: expected λ bias above which a recording is flagged
 BIAS_RISK = 0.05
-#: median λ bias vs lossless of the same frames (benchmarks/codec_bias.py, x264 defaults,
-#: ``fast`` preset), by CRF; interpolated linearly in CRF, flat beyond the ends
-X264_CRF_BIAS = ((10, 0.10), (18, 0.25), (23, 0.40), (28, 0.60))
-#: median λ bias of other lossy codecs as OpenCV's VideoWriter writes them (benchmark)
-CODEC_BIAS = {"mpeg4": 0.5, "mjpeg": 0.02}
+#: median λ bias vs lossless of the same frames (benchmarks/codec_bias.py, 4 simulated trials,
+#: λ 0.14-3.4 /s; x264's defaults, ``fast`` preset), by CRF; interpolated linearly in CRF and
+#: flat beyond the ends (below CRF 18 it is an upper bound: not measured)
+X264_CRF_BIAS = ((18, 0.25), (23, 0.34), (28, 0.47))
+#: median λ bias of other lossy codecs as OpenCV's VideoWriter writes them (same benchmark):
+#: MPEG-4 Part 2 (``mp4v``) +19 %; MJPEG at OpenCV's quality 95 +0.7 % (intra-only: no
+#: frame is predicted from another, nothing freezes)
+CODEC_BIAS = {"mpeg4": 0.19, "mjpeg": 0.007}
 #: bytes of a stream searched for x264's settings (they come with the first frame)
 X264_SEARCH_BYTES = 1 << 16
 

@@ -26,7 +26,7 @@ def fit(
     ),
     as_json: options.Json = False,
     loss: options.Loss = options.DEFAULT_LOSS,
-    model: options.FitModelOrNone = None,
+    model: options.FitModel = options.DEFAULT_FIT_MODEL,
     band_low_hz: options.BandLow = options.DEFAULT_BAND_LOW_HZ,
     band_high_hz: options.BandHigh = options.DEFAULT_BAND_HIGH_HZ,
     noise: options.Noise = options.DEFAULT_NOISE,
@@ -48,16 +48,13 @@ def fit(
     extract does: a whole record (before the push, the push, the ring-down) gives
     the same λ and ω as extract. A signal that already starts at the release needs
     --start 0 (its largest excursion may come later, where two modes beat); the
-    built-in example is fitted from its first sample unless --start is given, and
-    with the paper's two-mode model it was drawn from unless --model is given
-    (default otherwise: amplitude).
+    built-in example is fitted from its first sample unless --start is given; it is
+    drawn from the paper's two-mode model (--model two-mode fits that model).
     """
     from liquidtouch.fit.oscillation import example_signal, fit_oscillation
 
     if example == (signal is not None):
         raise SignalError("give either a SIGNAL.csv or --example (exactly one)")
-    if model is None:
-        model = options.FitModelChoice.two_mode if example else options.DEFAULT_FIT_MODEL
     settings = options.fit_settings(loss, model, band_low_hz, band_high_hz, noise, start)
     if plot is not None:
         from liquidtouch.io.figures import check_figure_path

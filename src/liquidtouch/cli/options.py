@@ -182,16 +182,14 @@ Loss = Annotated[
         "ls: plain least squares.",
     ),
 ]
-_FIT_MODEL_HELP = (
-    "amplitude (default: one mode whose damping grows with its amplitude; λ is the "
-    "small-amplitude rate λ0, the same whatever the push), two-mode (the paper's: falls "
-    "back to one mode when the data do not support a fast mode) or single-mode."
-)
-FitModel = Annotated[FitModelChoice, typer.Option("--model", help=_FIT_MODEL_HELP)]
-#: ``fit``: None lets the built-in example use the two-mode model it was drawn from
-FitModelOrNone = Annotated[
-    FitModelChoice | None,
-    typer.Option("--model", help=_FIT_MODEL_HELP + " fit --example: two-mode unless given."),
+FitModel = Annotated[
+    FitModelChoice,
+    typer.Option(
+        "--model",
+        help="amplitude (one mode whose damping grows with its amplitude; λ is the "
+        "small-amplitude rate λ0, the same whatever the push), two-mode (the paper's: falls "
+        "back to one mode when the data do not support a fast mode) or single-mode.",
+    ),
 ]
 BandLow = Annotated[
     float,

@@ -7,14 +7,15 @@ estimate (:func:`~liquidtouch.live.refresh.refresh`) — on a worker thread when
 ``threaded`` (so a slow fit never holds up the frames; a refresh due while one
 runs waits for it), else in the call. ``add_frame`` returns the update of a
 refresh that finished, else ``None``; :meth:`LiveEstimator.finish` fits the
-whole stream as offline and returns the final update.
+whole stream as offline (a stream stopped on ``until_std`` keeps the estimate
+that met the thresholds) and returns the final update.
 
 **Emission rule** (from the uncertainty, no time floor): ω is reported once its
 std is below :data:`MAX_FREQ_REL_STD` of ω; λ once its std is below
 :data:`MAX_DECAY_REL_STD` of λ. While streaming, the std is how far the value
 may still be from the stream's final one (:mod:`liquidtouch.live.uncertainty`):
-the fit's correlated-noise standard error plus a calibrated term for the
-window's length in e-foldings of the decay — the damping of a real slosh is
+the fit's correlated-noise standard error plus calibrated terms for the
+window's length, in e-foldings of the decay and in seconds — the damping of a real slosh is
 not exactly exponential, so the fit's std alone claims a precision a short
 window does not have (simulated water: the first λ emitted was 38 % off the
 final one while its std claimed 6 %). The final update keeps the final fit's
@@ -243,11 +244,11 @@ class LiveEstimator:
             if show_lam:
                 update.decay_rate, update.decay_rate_std = lam, lam_std
             if self.model is not None and show_omega and show_lam:
-                stds = (lam, lam_std, omega, omega_std)
+                features = (lam, lam_std, omega, omega_std)
                 if self.model_kind == "regression":
-                    update.predicted = predict_with_fit_std(self.model, *stds)
+                    update.predicted = predict_with_fit_std(self.model, *features)
                 else:
-                    update.classified = classify_with_fit_std(self.model, *stds)
+                    update.classified = classify_with_fit_std(self.model, *features)
         if math.isfinite(due_s):
             update.lag_s = time.monotonic() - due_s
         return update

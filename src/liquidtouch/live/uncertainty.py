@@ -12,18 +12,20 @@ quadrature, as a relative std calibrated on simulated trials of every liquid
 in the catalogue (water, oils, mirin, detergent, sugar water; 26 trials of
 10 s with the GelSight Mini, the amplitude model streamed and final)::
 
-    std(λ)² = std_fit(λ)² + (λ · b(n))²,   b(n)² = (B0 e^{−n/N})² + FLOOR²
-    std(ω)² = std_fit(ω)² + ω² ((F0 e^{−window_s/T})² + FREQ_FLOOR²)
+    std(λ)² = std_fit(λ)² + (λ · b)²,   b² = (B0 e^{−n/N})² + (C0 e^{−window_s/T})² + FLOOR²
+    std(ω)² = std_fit(ω)² + ω² ((F0 e^{−window_s/T'})² + FREQ_FLOOR²)
 
 with the RMS of ``log(λ_t / λ_final)`` per bin of ``n``: 0.38 (n < 0.5), 0.28
 (0.5-0.75), 0.17 (0.75-1), 0.087 (1-1.5), 0.069 (1.5-2), 0.03 (2-3), 0.014
-(beyond 3, about the fit's own std). ω's extra error is set by the window in
-seconds, not in e-foldings (how many periods resolve the frequency): the
-first refreshes (window < 1.5 s) had ω outside ±2σ of the fit's std in more
-than half the cases. With these terms, streamed λ covered the final λ at ±1σ /
-±2σ in 77 % / 93 % of all refreshes (80 % / 94 % of those that reported λ;
-the fit's std alone: 23-86 % at ±1σ, worst on short windows); ω in 83 % / 94 %
-(windows < 1 s: 57 % / 86 %; the fit's std alone: 25-80 % / 46-93 %).
+(beyond 3, about the fit's own std). The first refreshes after the push
+(window < 1.5 s) are off by more again, whatever the liquid — the push's end
+and the filter's edge weigh on a window of a few periods — hence the terms in
+window seconds; for ω they are the main one (how many periods resolve the
+frequency): ω was outside ±2σ of the fit's std in more than half of them.
+With these terms, streamed λ covered the final λ at ±1σ / ±2σ in 78 % / 94 %
+of all refreshes (windows < 1 s: 62 % / 95 %; the fit's std alone: 23-86 %
+at ±1σ, worst on short windows); ω in 83 % / 94 % (windows < 1 s: 57 % /
+86 %; the fit's std alone: 25-80 % / 46-93 %).
 ``benchmarks/time_to_answer.py`` measures it on other trials.
 """
 
@@ -35,6 +37,10 @@ import math
 SHORT_WINDOW_REL_STD = 0.5
 #: e-foldings over which that std falls by e
 SHORT_WINDOW_EFOLDINGS = 0.8
+#: relative std of a streamed λ on a window of 0 s (C0), falling by e every SHORT_DECAY_WINDOW_S
+SHORT_DECAY_REL_STD = 1.0
+#: [s], see SHORT_DECAY_REL_STD
+SHORT_DECAY_WINDOW_S = 0.3
 #: relative std of a streamed λ however long the window (the final fit's record differs)
 DECAY_REL_STD_FLOOR = 0.005
 #: relative std of a streamed ω however long the window (the 68th percentile of
@@ -47,10 +53,12 @@ SHORT_FREQ_WINDOW_S = 0.4
 
 
 def window_rel_std(decay_rate: float, window_s: float) -> float:
-    """b(n): the relative std of λ from the window alone, ``n = λ · window_s`` e-foldings."""
-    efoldings = max(float(decay_rate) * float(window_s), 0.0)
-    short = SHORT_WINDOW_REL_STD * math.exp(-efoldings / SHORT_WINDOW_EFOLDINGS)
-    return math.hypot(short, DECAY_REL_STD_FLOOR)
+    """b: the relative std of λ from the window alone (``n = λ · window_s`` e-foldings)."""
+    window_s = max(float(window_s), 0.0)
+    efoldings = max(float(decay_rate) * window_s, 0.0)
+    few = SHORT_WINDOW_REL_STD * math.exp(-efoldings / SHORT_WINDOW_EFOLDINGS)
+    short = SHORT_DECAY_REL_STD * math.exp(-window_s / SHORT_DECAY_WINDOW_S)
+    return math.sqrt(few**2 + short**2 + DECAY_REL_STD_FLOOR**2)
 
 
 def streamed_decay_rate_std(decay_rate: float, fit_std: float, window_s: float) -> float:
