@@ -7,6 +7,8 @@ tables live in ``benchmarks/synthetic_tables.py`` (shared with the benchmarks).
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 from scipy.special import erf
 
@@ -32,3 +34,21 @@ def grid(shape=(160, 200), pitch=24.0, jitter=0.3, seed=0):
     ys, xs = np.mgrid[20 : shape[0] - 15 : pitch, 20 : shape[1] - 15 : pitch]
     pts = np.stack([xs.ravel(), ys.ravel()], axis=1).astype(float)
     return pts + rng.uniform(-jitter, jitter, pts.shape)
+
+
+def chromium_or_skip() -> str:
+    """Path of headless Chromium; without it skip locally, but FAIL when ``CI`` is set.
+
+    CI must not skip the browser checks silently (``.ci/run`` installs Debian's
+    ``chromium``).
+    """
+    import pytest
+
+    from benchmarks.report_browser import find_chromium
+
+    path = find_chromium()
+    if path is None:
+        if os.environ.get("CI"):
+            pytest.fail("CI is set but chromium is not installed (.ci/run installs it)")
+        pytest.skip("chromium is not installed (apt-get install chromium) and CI is not set")
+    return path

@@ -12,23 +12,17 @@ variable ``CI`` is set (``.ci/run`` installs Debian's ``chromium``).
 
 from __future__ import annotations
 
-import os
 import re
 
 import pytest
+from helpers import chromium_or_skip
 
 from benchmarks.live_browser import check_page, run_check, simulated_trial
-from benchmarks.report_browser import find_chromium
 
 
 @pytest.fixture(scope="module")
 def browser() -> str:
-    path = find_chromium()
-    if path is None:
-        if os.environ.get("CI"):
-            pytest.fail("CI is set but chromium is not installed (.ci/run installs it)")
-        pytest.skip("chromium is not installed (apt-get install chromium) and CI is not set")
-    return path
+    return chromium_or_skip()
 
 
 def test_the_live_page_shows_frames_signal_and_estimates_as_they_stream(browser, tmp_path) -> None:

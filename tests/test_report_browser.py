@@ -11,24 +11,19 @@ when the environment variable ``CI`` is set (CI must not skip them silently;
 
 from __future__ import annotations
 
-import os
 import re
 from pathlib import Path
 
 import pytest
+from helpers import chromium_or_skip
 
 from benchmarks.experiment_tables import experiment_features
-from benchmarks.report_browser import check_report, find_chromium
+from benchmarks.report_browser import check_report
 
 
 @pytest.fixture(scope="module")
 def browser() -> str:
-    path = find_chromium()
-    if path is None:
-        if os.environ.get("CI"):
-            pytest.fail("CI is set but chromium is not installed (.ci/run installs it)")
-        pytest.skip("chromium is not installed (apt-get install chromium) and CI is not set")
-    return path
+    return chromium_or_skip()
 
 
 @pytest.fixture(scope="module")

@@ -54,14 +54,14 @@ fast mode never degrades the slow-mode estimate.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
 from liquidtouch.errors import NoOscillationError, SignalError
-from liquidtouch.fit.amplitude import amplitude_damped_cosine, optimise_amplitude
+from liquidtouch.fit.amplitude import optimise_amplitude
 from liquidtouch.fit.example import EXAMPLE_PARAMETERS, example_signal
-from liquidtouch.fit.model import damped_cosine, quadratic_drift
+from liquidtouch.fit.result import OscillationFit
 from liquidtouch.fit.solve import FitState, optimise_single_mode, optimise_two_mode
 
 __all__ = ["EXAMPLE_PARAMETERS", "OscillationFit", "example_signal", "fit_oscillation"]
@@ -85,103 +85,6 @@ MIN_OSCILLATION_SNR = 30.0
 #: leaves the two modes poorly determined (quick-demo classification and sugar trials:
 #: two-mode fits that improve λ 0.5-2.9x, the ill-determined detergent fit 7.6x)
 MAX_SLOW_STD_RATIO = 4.0
-
-
-@dataclass(frozen=True)
-class OscillationFit:
-    """Result of :func:`fit_oscillation`. Rates in 1/s, angular frequencies in rad/s.
-
-    Amplitudes are in the unit of ``u`` and, like the phases [rad] and the drift
-    coefficients ``drift_c0`` [u], ``drift_c1`` [u/s], ``drift_c2`` [u/s²], refer
-    to time measured from ``t0`` (the first time stamp). Fast-mode fields are NaN
-    when the single-mode model was used.
-
-    ``model == "amplitude"`` (:mod:`liquidtouch.fit.amplitude`): the decay rate
-    depends on the amplitude, ``λ(A) = λ0 (1 + κ A^p)``; ``decay_rate`` is the
-    small-amplitude λ0, ``amplitude`` A at ``t0``, ``damping_gain`` κ [1/u^p]
-    (0 when the data do not support a gain: then λ0 is the single-mode λ),
-    ``damping_gain_std`` its standard error and ``damping_exponent`` p (2 or 1).
-    All three are NaN for the other models.
-    """
-
-    decay_rate: float
-    angular_frequency: float
-    amplitude: float
-    phase: float
-    fast_decay_rate: float
-    fast_angular_frequency: float
-    fast_amplitude: float
-    fast_phase: float
-    drift_c0: float
-    drift_c1: float
-    drift_c2: float
-    decay_rate_std: float
-    angular_frequency_std: float
-    fast_decay_rate_std: float
-    fast_angular_frequency_std: float
-    r2: float
-    noise_std: float
-    loss: str
-    delta: float
-    model: str
-    t0: float
-    n_samples: int
-    duration_s: float
-    damping_gain: float = math.nan
-    damping_gain_std: float = math.nan
-    damping_exponent: float = math.nan
-
-    @property
-    def frequency_hz(self) -> float:
-        """Slow-mode frequency ω / 2π [Hz]."""
-        return self.angular_frequency / (2 * math.pi)
-
-    def modes(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The slow mode, the fast mode (zeros if unused) and the drift at times ``t`` [s]."""
-        tau = np.asarray(t, dtype=float) - self.t0
-        if self.model == "amplitude":
-            slow = amplitude_damped_cosine(
-                tau,
-                self.amplitude,
-                self.decay_rate,
-                self.angular_frequency,
-                self.phase,
-                self.damping_gain,
-                self.damping_exponent,
-            )
-        else:
-            slow = damped_cosine(
-                tau, self.amplitude, self.decay_rate, self.angular_frequency, self.phase
-            )
-        if self.model == "two-mode":
-            fast = damped_cosine(
-                tau,
-                self.fast_amplitude,
-                self.fast_decay_rate,
-                self.fast_angular_frequency,
-                self.fast_phase,
-            )
-        else:
-            fast = np.zeros_like(tau)
-        drift = quadratic_drift(tau, self.drift_c0, self.drift_c1, self.drift_c2)
-        return slow, fast, drift
-
-    def curve(self, t: np.ndarray) -> np.ndarray:
-        """The fitted signal û at times ``t`` [s]."""
-        slow, fast, drift = self.modes(t)
-        return slow + fast + drift
-
-    def to_dict(self) -> dict[str, float | int | str | None]:
-        """JSON-ready dict with the CLI's key names (NaN becomes ``None``)."""
-        out: dict[str, float | int | str | None] = {}
-        for key, value in asdict(self).items():
-            if isinstance(value, float) and not math.isfinite(value):
-                out[key] = None
-            elif isinstance(value, str | int):
-                out[key] = value
-            else:
-                out[key] = float(value)
-        return out
 
 
 def _validate(
