@@ -58,17 +58,27 @@ def wrench_features(
     ``lowpass_hz`` [Hz]: the low-pass of the wrist forces (:func:`wrench_signal`);
     ``fit_settings``: how the signal is fitted (default
     :class:`~liquidtouch.fit_settings.FitSettings`: the free decay, the paper's fit);
-    ``best_effort``: fit even a signal that shows no oscillation above its noise.
+    ``best_effort``: fit even a signal that shows no oscillation above its noise
+    (and where no push stands out of it, from the end of the push the trial's
+    ``meta.json`` records, ``push_end_s``: the robot knows when it pushed).
     """
+    import dataclasses
+
     from liquidtouch.fit.oscillation import fit_oscillation
-    from liquidtouch.fit_settings import FitSettings
+    from liquidtouch.fit_settings import AUTO, FitSettings
+    from liquidtouch.io.dataset import read_trial_meta
 
     fit = FitSettings() if fit_settings is None else fit_settings
     t_s, force_n = read_wrench_csv(Path(trial_dir) / WRENCH_NAME)
     t, u, explained = wrench_signal(t_s, force_n, lowpass_hz=lowpass_hz, fps=WRENCH_FPS)
-    result = fit_oscillation(
-        *fit.window(t, u), **fit.fit_options(), check_oscillation=not best_effort
-    )
+    try:
+        window = fit.window(t, u)
+    except SignalError:
+        push_end_s = (read_trial_meta(trial_dir).model_extra or {}).get("push_end_s")
+        if not best_effort or fit.start != AUTO or not isinstance(push_end_s, int | float):
+            raise
+        window = dataclasses.replace(fit, start=float(push_end_s)).window(t, u)
+    result = fit_oscillation(*window, **fit.fit_options(), check_oscillation=not best_effort)
     row = dict(result.to_dict())
     row.update(explained_variance=explained, n_markers=0, fps=WRENCH_FPS, frames=len(t))
     return row

@@ -35,7 +35,7 @@ from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.progress import progress_bar
 
 #: Bump when extraction or fitting changes in a way that changes features.
-FEATURES_VERSION = 3
+FEATURES_VERSION = 4
 #: ``wrench-best-effort``: the wrist fit even where it shows no oscillation (the paper's baseline)
 SOURCES = ("gelsight", "wrench", "wrench-best-effort")
 #: The measured columns of a feature row (after the manifest's): the two model

@@ -179,6 +179,7 @@ def fit_oscillation(
     noise: str = "white",
     check_oscillation: bool = True,
     min_duration_s: float = MIN_DURATION_S,
+    warm_start: tuple[float, float] | None = None,
 ) -> OscillationFit:
     """Fit the damped-oscillation model to a tactile signal ``u`` at times ``t`` [s].
 
@@ -208,6 +209,10 @@ def fit_oscillation(
         Shortest signal accepted [s] (default :data:`MIN_DURATION_S`). The streaming
         estimator (:mod:`liquidtouch.live`) lowers it and judges a short window by the
         fit's standard errors instead.
+    warm_start : (λ [1/s], ω [rad/s]) or None
+        A previous fit of (most of) the same signal, e.g. the last streaming refresh:
+        the single-mode optimiser starts there and at the spectral peak instead of its
+        full start search (the λ profile), which is most of a fit's time.
 
     Raises
     ------
@@ -248,7 +253,7 @@ def fit_oscillation(
     weights = 1.0 / (u_detrended**2 + delta_n) if loss == "paper" else np.ones_like(u_n)
     weights /= weights.mean()
     sqrt_w = np.sqrt(weights)
-    single = optimise_single_mode(tau, x, u_n, u_detrended, sqrt_w, band)
+    single = optimise_single_mode(tau, x, u_n, u_detrended, sqrt_w, band, warm_start)
     if check_oscillation:
         _check_is_oscillation(single, band)
     if model == "amplitude":

@@ -278,8 +278,22 @@ def optimise_single_mode(
     u_detrended: np.ndarray,
     sqrt_w: np.ndarray,
     band: tuple[float, float],
+    warm_start: tuple[float, float] | None = None,
 ) -> FitState:
-    """Best single-mode optimum from starts at the spectral peaks and the λ profile."""
+    """Best single-mode optimum from starts at the spectral peaks and the λ profile.
+
+    ``warm_start`` (λ [1/s], ω [rad/s]) of a previous fit: start there and at the
+    strongest spectral peak (with that λ) only, skipping the λ profile.
+    """
+    if warm_start is not None:
+        lam, omega = (float(v) for v in warm_start)
+        if lam > 0 and band[0] < omega < band[1]:
+            peak = spectral_peaks(tau, u_detrended, band, n_peaks=1)[0]
+            starts = [(0.0, lam, omega), (0.0, lam, float(peak))]
+            fits = [_solve(np.array([r, w]), 1, tau, x, u, sqrt_w, band) for _, r, w in starts]
+            best = min(fits, key=lambda f: f.cost)
+            if math.isfinite(best.cost):
+                return best
     peaks = spectral_peaks(tau, u_detrended, band, n_peaks=2)
     starts = profile_starts(tau, x, u, sqrt_w, peaks, band)
     fits = [_solve(np.array([lam, omega]), 1, tau, x, u, sqrt_w, band) for _, lam, omega in starts]

@@ -108,6 +108,7 @@ class LiveEstimator:
         self.next_refresh_t_s = math.nan
         self.push_seen = False  # once a push stood out, it is not judged again
         self.decay_start_s = math.nan  # kept once the decay is fitted (see refresh)
+        self.warm_start: tuple[float, float] | None = None  # (λ, ω) of the last refresh's fit
         self.last: LiveUpdate | None = None
         #: seconds spent in each add_frame call (tracking plus any synchronous refresh)
         self.latencies_s: list[float] = []
@@ -194,7 +195,10 @@ class LiveEstimator:
             fit_settings=self.fit_settings,
             push_seen=self.push_seen,
             decay_start_s=self.decay_start_s,
+            warm_start=self.warm_start,
         )
+        if result.fit is not None:
+            self.warm_start = (result.fit.decay_rate, result.fit.angular_frequency)
         self.push_seen = self.push_seen or result.phase != "waiting"
         if result.phase == "decay" and math.isnan(self.decay_start_s):
             # set once: each refresh resamples the signal on a new grid and snaps the start

@@ -22,6 +22,7 @@ estimator every ~0.25 s of stream:
    two-mode multi-start is ~90 % of a fit's time); standard errors for
    low-passed, correlated noise (:data:`REFRESH_NOISE`). The final refresh fits
    the whole signal exactly as :func:`~liquidtouch.extraction.extract` does.
+   Each streaming fit is warm-started from the previous refresh's (λ, ω).
 """
 
 from __future__ import annotations
@@ -87,6 +88,7 @@ def refresh(
     final: bool = False,
     push_seen: bool = False,
     decay_start_s: float = math.nan,
+    warm_start: tuple[float, float] | None = None,
 ) -> Refreshed:
     """Signal, phase and fit of the tracks so far (module docstring).
 
@@ -95,7 +97,9 @@ def refresh(
     refresh found the push (its noise test is not repeated on the longer
     signal, whose high-pass and noise level move). ``decay_start_s``: the free
     decay's start found earlier [s], kept while streaming (the largest excursion
-    of a short window can land at its edge, where the high-pass rings). Input problems of the
+    of a short window can land at its edge, where the high-pass rings). ``warm_start``:
+    (λ, ω) of the previous refresh's fit, where the streaming fit starts (not the final
+    one, which is fitted as offline). Input problems of the
     partial stream (too few frames, no oscillation yet) are reported in
     ``message``, not raised.
     """
@@ -134,7 +138,13 @@ def refresh(
         if options["model"] == "two-mode":
             options["model"] = REFRESH_MODEL
     try:
-        fit = fit_oscillation(t[keep], u[keep], **options, min_duration_s=MIN_WINDOW_S)
+        fit = fit_oscillation(
+            t[keep],
+            u[keep],
+            **options,
+            min_duration_s=MIN_WINDOW_S,
+            warm_start=None if final else warm_start,
+        )
     except LiquidTouchError as exc:
         return Refreshed(t, u, "decay", decay_start, message=str(exc))
     return Refreshed(t, u, "decay", decay_start, fit)
