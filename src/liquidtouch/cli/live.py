@@ -122,6 +122,8 @@ def live(
                 typer.echo(json.dumps(update.to_dict(), ensure_ascii=False))
             else:
                 typer.echo(_line(update))
+            if update.stopped_because == "source_error":
+                typer.echo(f"warning: the stream ended early: {update.message}", err=True)
     finally:
         if server is not None:
             server.stop()

@@ -25,6 +25,7 @@ std. Properties are predicted once both are reported, with the std propagated
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 import time
@@ -33,13 +34,13 @@ from collections.abc import Mapping
 import numpy as np
 
 from liquidtouch.errors import VideoError
-from liquidtouch.fit_settings import FitSettings
+from liquidtouch.fit_settings import AUTO, FitSettings
 from liquidtouch.live.properties import (
     check_live_model,
     classify_with_fit_std,
     predict_with_fit_std,
 )
-from liquidtouch.live.refresh import Refreshed, refresh
+from liquidtouch.live.refresh import MIN_WINDOW_S, REDETECT_AFTER_S, Refreshed, refresh
 from liquidtouch.live.stopping import check_until_std
 from liquidtouch.live.tracks import GrowingTracks
 from liquidtouch.live.uncertainty import streamed_decay_rate_std, streamed_frequency_std
@@ -109,6 +110,7 @@ class LiveEstimator:
         self.push_seen = False  # once a push stood out, it is not judged again
         self.decay_start_s = math.nan  # kept once the decay is fitted (see refresh)
         self.warm_start: tuple[float, float] | None = None  # (λ, ω) of the last refresh's fit
+        self.search_from_s = -math.inf  # the push is searched after this (see _run_refresh)
         self.last: LiveUpdate | None = None
         #: seconds spent in each add_frame call (tracking plus any synchronous refresh)
         self.latencies_s: list[float] = []
@@ -166,7 +168,11 @@ class LiveEstimator:
         if not all(grown.n for grown in self.tracks.values()):
             result = Refreshed(np.zeros(0), np.zeros(0), "waiting", message="no frames")
         else:
-            result = refresh(tracks, **self.options, fit_settings=self.fit_settings, final=True)
+            settings = self.fit_settings
+            if math.isfinite(self.search_from_s) and math.isfinite(self.decay_start_s):
+                if settings.start == AUTO:  # the push found after an earlier false one
+                    settings = dataclasses.replace(settings, start=self.decay_start_s)
+            result = refresh(tracks, **self.options, fit_settings=settings, final=True)
         update = self._update(result, frames, elapsed, due, final=True)
         keep = result.fit is None or stopped_because == "until_std"
         if keep and previous is not None and math.isfinite(previous.window_s):
@@ -196,9 +202,18 @@ class LiveEstimator:
             push_seen=self.push_seen,
             decay_start_s=self.decay_start_s,
             warm_start=self.warm_start,
+            search_from_s=self.search_from_s,
         )
         if result.fit is not None:
             self.warm_start = (result.fit.decay_rate, result.fit.angular_frequency)
+        elif result.no_oscillation and result.now_s - self.decay_start_s > (
+            MIN_WINDOW_S + REDETECT_AFTER_S
+        ):
+            # not the push (a grasp or a lift seen by a camera that watches the whole
+            # trial): look for the push after it
+            self.search_from_s = self.decay_start_s + MIN_WINDOW_S
+            self.decay_start_s, self.push_seen, self.warm_start = math.nan, False, None
+            return
         self.push_seen = self.push_seen or result.phase != "waiting"
         if result.phase == "decay" and math.isnan(self.decay_start_s):
             # set once: each refresh resamples the signal on a new grid and snaps the start

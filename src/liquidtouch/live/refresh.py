@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from liquidtouch.errors import LiquidTouchError
+from liquidtouch.errors import LiquidTouchError, NoOscillationError
 from liquidtouch.fit_settings import AUTO, FitSettings
 from liquidtouch.segment import MIN_PUSH_SNR, free_decay_start, push_snr
 from liquidtouch.signal import tactile_signal
@@ -47,6 +47,10 @@ EDGE_S = 0.3
 MIN_WINDOW_S = 0.5
 #: least signal before the push its noise level is judged on [s]
 MIN_NOISE_S = 0.5
+#: stream time [s] a kept decay start may give no oscillation before the push is
+#: searched again after it: a grasp or a lift seen before the push (a camera watching
+#: the whole trial) stands out of the noise too, and its "decay" is overdamped
+REDETECT_AFTER_S = 1.0
 #: the fit's model while streaming when the settings ask for two modes (the final fit uses them)
 REFRESH_MODEL = "single-mode"
 #: noise model of the streaming fits' std: the signal is low-passed, its noise correlated
@@ -64,6 +68,7 @@ class Refreshed:
     decay_start_s: float = math.nan  # where the free decay starts (NaN: no push yet)
     fit: object | None = None  # OscillationFit of the free decay, if any
     message: str = ""
+    no_oscillation: bool = False  # the fit found no oscillation (noise or overdamped)
 
     @property
     def now_s(self) -> float:
@@ -89,6 +94,7 @@ def refresh(
     push_seen: bool = False,
     decay_start_s: float = math.nan,
     warm_start: tuple[float, float] | None = None,
+    search_from_s: float = -math.inf,
 ) -> Refreshed:
     """Signal, phase and fit of the tracks so far (module docstring).
 
@@ -99,7 +105,8 @@ def refresh(
     decay's start found earlier [s], kept while streaming (the largest excursion
     of a short window can land at its edge, where the high-pass rings). ``warm_start``:
     (λ, ω) of the previous refresh's fit, where the streaming fit starts (not the final
-    one, which is fitted as offline). Input problems of the
+    one, which is fitted as offline). ``search_from_s``: look for the push only
+    after this time [s] (an earlier "push" gave no oscillation). Input problems of the
     partial stream (too few frames, no oscillation yet) are reported in
     ``message``, not raised.
     """
@@ -121,10 +128,13 @@ def refresh(
     elif not final and math.isfinite(decay_start_s):
         start = int(np.argmin(np.abs(t - decay_start_s)))  # nearest: the grid moves per refresh
     else:
-        start = free_decay_start(t_in, u_in)
-        snr = (
-            math.inf if final or push_seen else push_snr(t_in, u_in, start, min_noise_s=MIN_NOISE_S)
-        )
+        offset = int(np.searchsorted(t_in, search_from_s))
+        if len(t_in) - offset < 3:
+            return Refreshed(t, u, "waiting", message="too little signal yet")
+        t_s, u_s = t_in[offset:], u_in[offset:]
+        start = free_decay_start(t_s, u_s)
+        snr = math.inf if final or push_seen else push_snr(t_s, u_s, start, min_noise_s=MIN_NOISE_S)
+        start += offset
         if not (final or push_seen) and not snr >= MIN_PUSH_SNR:
             why = "no push yet" if math.isfinite(snr) else "too little signal before the push"
             return Refreshed(t, u, "waiting", message=why)
@@ -145,6 +155,8 @@ def refresh(
             min_duration_s=MIN_WINDOW_S,
             warm_start=None if final else warm_start,
         )
+    except NoOscillationError as exc:
+        return Refreshed(t, u, "decay", decay_start, message=str(exc), no_oscillation=True)
     except LiquidTouchError as exc:
         return Refreshed(t, u, "decay", decay_start, message=str(exc))
     return Refreshed(t, u, "decay", decay_start, fit)

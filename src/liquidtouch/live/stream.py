@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from liquidtouch.errors import LiquidTouchError
 from liquidtouch.fit_settings import FitSettings
 from liquidtouch.live.estimator import REFRESH_S, LiveEstimator
 from liquidtouch.live.sources import LiveFrame, is_recording, open_frames
@@ -110,10 +111,14 @@ def live_updates(
     )
     lags: list[float] = []
     stopped = "end_of_stream"
+    source_error = ""
     first_t = math.nan
     iterator = iter(frames)
     try:
-        for frame in iterator:
+        for frame in _until_source_fails(iterator):
+            if isinstance(frame, LiquidTouchError):  # a camera died after frames came
+                stopped, source_error = "source_error", str(frame)
+                break
             if math.isfinite(frame.due_s):
                 lags.append(time.monotonic() - frame.due_s)
             first_t = frame.t_s if math.isnan(first_t) else first_t
@@ -135,6 +140,8 @@ def live_updates(
         if close is not None:
             close()
     final = estimator.finish(stopped)
+    if source_error:
+        final.message = f"{source_error}; {final.message}" if final.message else source_error
     final.timing = estimator.timing()
     if lags:
         final.timing.update(
@@ -143,6 +150,29 @@ def live_updates(
             frame_lag_s_max=float(np.max(lags)),
         )
     yield final
+
+
+def _until_source_fails(
+    frames: Iterator[LiveFrame],
+) -> Iterator[LiveFrame | LiquidTouchError]:
+    """The frames; a source error after the first frame is yielded (ends the stream).
+
+    A camera that stops mid-stream should not lose the estimate so far: the
+    final update says why it stopped. An error before any frame is raised.
+    """
+    seen = False
+    while True:
+        try:
+            frame = next(frames)
+        except StopIteration:
+            return
+        except LiquidTouchError as exc:
+            if not seen:
+                raise
+            yield exc
+            return
+        seen = True
+        yield frame
 
 
 def _until_std(until_std: Mapping[str, float] | Sequence[str] | None) -> dict[str, float]:
