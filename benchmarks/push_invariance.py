@@ -3,7 +3,7 @@
 The same liquid and fill is simulated with the push at 0.5×, 1× and 2× the default
 (:data:`DEFAULT_PUSH_MM`, the mean of the drawn push in ``sim/variability.py``),
 everything else fixed by the seed. Each signal is fitted with the paper's model
-(``FitSettings()``: paper loss, two modes) and with ``model="amplitude"``
+(``model="two-mode"``: paper loss, two modes) and with ``model="amplitude"``
 (:mod:`liquidtouch.fit.amplitude`), both on the free decay as ``extract`` does.
 
 - force level (the bulk): total lateral gel force, 3 Hz zero-phase low-pass, 30 Hz;
@@ -39,7 +39,7 @@ from liquidtouch.sim.trial import simulate_trial
 DEFAULT_PUSH_MM = 15.0
 PUSH_FACTORS = (0.5, 1.0, 2.0)
 LIQUIDS = {"water": (18.0, 30.0), "olive-oil": (18.0, 30.0), "detergent": (20.0, 30.0)}
-MODELS = {"paper": FitSettings(), "amplitude": FitSettings(model="amplitude")}
+MODELS = {"paper": FitSettings(model="two-mode"), "amplitude": FitSettings(model="amplitude")}
 ALL_LIQUIDS = ("water", "olive-oil", "corn-oil", "mirin", "detergent", "sugar-water")
 FIGURE = Path("benchmarks/results/push_invariance.png")
 
