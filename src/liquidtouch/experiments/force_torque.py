@@ -125,7 +125,7 @@ def _accuracy_panel(ax, rows: list[dict[str, object]]) -> None:
     for xi, value in zip(x, paper, strict=True):
         ax.text(xi + 0.2, value + 2, f"{value:g} %", ha="center", va="bottom", fontsize=8)
     ax.axhline(100 / 3, color="tab:red", ls=":", lw=1, label="chance (1 in 3)")
-    ax.set_xticks(x, [str(r["sensor"]) for r in rows])
+    ax.set_xticks(x, [str(r["sensor"]).replace(", ", ",\n") for r in rows])
     ax.set_ylim(0, 118)
     ax.set_ylabel("test accuracy [%]")
     ax.set_title(f"paper: {FORCE_TORQUE_ACCURACY['wrist F/T'].source}", fontsize=8)
