@@ -30,8 +30,8 @@ class FitSettings:
     defaults are what ``extract``, ``features`` and ``fit`` use: the paper's loss
     with the amplitude-dependent damping model (``"amplitude"``: λ is the
     small-amplitude rate, the same whatever the push; on simulated trials through
-    video its λ is 4.3 % from the truth against 9.5 % for the paper's two-mode fit,
-    and varies 1.7 % against 4.1 % across 0.5-2x pushes). ``model="two-mode"`` is
+    video its λ is 3.1 % from the truth against 8.0 % for the paper's two-mode fit,
+    and varies 1.2 % against 5.6 % across 0.5-2x pushes). ``model="two-mode"`` is
     the paper's model. Raises :class:`~liquidtouch.errors.SignalError` for a bad option.
     """
 
