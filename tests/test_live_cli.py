@@ -160,3 +160,32 @@ def test_classifier_model_names_the_liquid(capsys, trial, tmp_path) -> None:
     assert final["predicted_liquid"] == "thick"
     assert final["predicted_liquid_proba"]["thick"] > 0.5
     assert sum(final["predicted_liquid_proba"].values()) == pytest.approx(1.0)
+
+
+def test_linger_keeps_the_final_page_served(capsys, trial, monkeypatch) -> None:
+    """--linger: after the stream, the page and its whole history are still served."""
+    import urllib.request
+
+    from liquidtouch.cli import live as live_cli
+
+    seen: dict[str, object] = {}
+    real_sleep = live_cli.time.sleep
+
+    def fake_sleep(seconds: float) -> None:  # fetch the page while the CLI lingers
+        if seconds != 30.0:  # another wait (the server starting)
+            return real_sleep(seconds)
+        url = seen["url"] = capsys.readouterr().err.split("stays at ")[1].split(" ")[0]
+        with urllib.request.urlopen(url, timeout=5) as page:
+            seen["page"] = page.status
+        with urllib.request.urlopen(url + "stream", timeout=5) as events:
+            seen["stream"] = events.read().decode()  # history, then the end: it closes
+        seen["seconds"] = seconds
+
+    monkeypatch.setattr(live_cli.time, "sleep", fake_sleep)
+    status, _, err = _run(
+        capsys, "live", trial[0], "--serve", "127.0.0.1:0", "--linger", "30", "--json"
+    )
+    assert status == 0, err
+    assert seen["seconds"] == 30.0 and seen["page"] == 200
+    events = str(seen["stream"])
+    assert "event: end" in events and '"final":true' in events  # the whole history, then the end

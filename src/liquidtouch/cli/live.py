@@ -76,6 +76,14 @@ def live(
         help="Show the stream in a browser at http://HOST:PORT (port 0: any free port).",
         show_default=False,
     ),
+    linger_s: float = typer.Option(
+        0.0,
+        "--linger",
+        metavar="SECONDS",
+        min=0.0,
+        help="With --serve: keep serving the final page this long after the stream ends [s] "
+        "(Ctrl-C ends it sooner).",
+    ),
     fps: float | None = typer.Option(
         None,
         "--fps",
@@ -124,11 +132,25 @@ def live(
                 typer.echo(_line(update))
             if update.stopped_because == "source_error":
                 typer.echo(f"warning: the stream ended early: {update.message}", err=True)
+        if server is not None and linger_s > 0:
+            hub.close()  # browsers get the end; the page and its history stay served
+            _linger(linger_s, server.url)
     finally:
         if server is not None:
             server.stop()
         if hub is not None:
             hub.close()
+
+
+def _linger(seconds: float, url: str) -> None:
+    """Wait ``seconds`` [s] with the final page still served; Ctrl-C ends the wait early."""
+    from liquidtouch.cli.format import warn
+
+    warn(f"the stream ended; the final page stays at {url} for {seconds:g} s (Ctrl-C ends it)")
+    try:
+        time.sleep(seconds)
+    except KeyboardInterrupt:
+        pass
 
 
 def _start_serving(host: str, port: int):
