@@ -16,8 +16,8 @@ Run: .venv/bin/python benchmarks/record_formats.py [--quick] [--frames 150]
    ``liquidtouch.extraction.extract``: λ/λ_true − 1 and ω/ω_true − 1 per format,
    and FFV1's λ against PNG's (the same grey frames; Matroska stores the
    timestamps to 1 ms, PNG's timestamps.csv to 1 µs).
-3. **Probe: the median-interval clock.** ``signal.uniform_clock`` steps at the
-   frame period fitted to all timestamps (``signal.frame_period``). Until it did,
+3. **Probe: the median-interval clock.** ``clock.uniform_clock`` steps at the
+   frame period fitted to all timestamps (``clock.frame_period``). Until it did,
    it stepped at the *median* frame interval, which with jittered or
    millisecond-rounded timestamps misses the real period by ~0.3 % and moves λ
    with it. The same extractions are repeated with the median interval (in this
@@ -42,14 +42,7 @@ from liquidtouch.acquire.cameras import Frame
 from liquidtouch.acquire.recorder import _Ffv1Writer, _PngWriter
 from liquidtouch.extraction import extract
 from liquidtouch.sim.encode import PTS_RATE_HZ, X264_PARAMS
-from liquidtouch.sim.gelsight import (
-    SENSOR_NAMES,
-    contact_geometry,
-    contact_offsets,
-    frame_timestamps,
-    marker_positions,
-    marker_rest_positions,
-)
+from liquidtouch.sim.gelsight import SENSOR_NAMES, sensor_scene
 from liquidtouch.sim.render import iter_frames, make_background
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
@@ -148,30 +141,21 @@ def make_writer(fmt: str, directory: Path, name: str, fps: float, *, grey: bool 
 def render_sensors(trial, seed: int):
     """The two sensors' RGB frames (lists) and timestamps [s], as the simulator renders them."""
     profile = get_sensor_profile(SENSOR)
-    rng = np.random.default_rng(seed)
-    loads = trial.loads
-    timestamps, _ = frame_timestamps(loads.duration_s, profile, rng)
-    t_frames = timestamps + float(loads.t_s[0])
-    geom = contact_geometry(loads, profile)
-    offsets = contact_offsets(loads, profile, t_frames)
-    rests = np.stack([marker_rest_positions(profile, rng) for _ in range(2)])
-    positions = np.stack(
-        [marker_positions(loads, profile, t_frames, rest_px=rests[s])[s] for s in range(2)]
-    )
+    scene = sensor_scene(trial.loads, profile, np.random.default_rng(seed))
     sensors = []
     for s in range(2):
         sensor_rng = np.random.default_rng([seed, s + 1])
         frames = iter_frames(
-            positions[s],
+            scene.positions_px[s],
             profile,
             sensor_rng,
             background=make_background(profile, sensor_rng),
-            contact_center_px=geom.center_px[s],
-            contact_radius_px=float(geom.radius_px[s]),
-            contact_offsets_px=offsets[s],
+            contact_center_px=scene.geometry.center_px[s],
+            contact_radius_px=float(scene.geometry.radius_px[s]),
+            contact_offsets_px=scene.offsets_px[s],
         )
         sensors.append([frame.copy() for frame in frames])  # the renderer reuses its buffer
-    return sensors, timestamps, profile.fps
+    return sensors, scene.timestamps_s, profile.fps
 
 
 # --- 1. encode speed --------------------------------------------------------------------
@@ -240,16 +224,16 @@ def median_period(t) -> float:
 
 def extract_both(directory: Path) -> tuple[tuple[float, float], tuple[float, float]]:
     """(λ, ω) of ``extract(directory)``, as the library does it and with the median clock."""
-    import liquidtouch.signal as signal
+    import liquidtouch.clock as clock
 
     result = extract(directory)
     library = (result.fit.decay_rate, result.fit.angular_frequency)
-    original = signal.frame_period
-    signal.frame_period = median_period
+    original = clock.frame_period
+    clock.frame_period = median_period
     try:
         result = extract(directory)
     finally:
-        signal.frame_period = original
+        clock.frame_period = original
     return library, (result.fit.decay_rate, result.fit.angular_frequency)
 
 

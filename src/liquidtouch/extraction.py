@@ -191,15 +191,15 @@ def check_consistent(tracks: Sequence[MarkerTracks]) -> None:
     """The videos of one trial must be one recording: VideoError otherwise.
 
     Their frame rates (the period fitted to all timestamps,
-    :func:`~liquidtouch.signal.frame_period`) agree within :data:`RATE_TOLERANCE`,
+    :func:`~liquidtouch.clock.frame_period`) agree within :data:`RATE_TOLERANCE`,
     and their time spans (on the trial's shared clock, ``MarkerTracks.start_s``)
     overlap over all but :data:`SPAN_TOLERANCE` of the longest (at least two frame
     periods). Frame counts may differ: sensors drop frames independently.
     """
     if len(tracks) < 2:
         return
+    from liquidtouch.clock import frame_period
     from liquidtouch.errors import SignalError
-    from liquidtouch.signal import frame_period
 
     try:
         periods = [frame_period(tr.t) for tr in tracks]

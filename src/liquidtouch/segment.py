@@ -30,8 +30,8 @@ import math
 
 import numpy as np
 
+from liquidtouch.clock import check_times, finite_array
 from liquidtouch.errors import SignalError
-from liquidtouch.signal import _check_times, _finite_array
 from liquidtouch.tracking.detect import as_number
 
 MIN_FREE_DECAY_S = 2.0
@@ -129,8 +129,8 @@ def free_decay(t: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _check_signal(t: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    t = _check_times(t, "t")
-    u = _finite_array(u, "u", min_ndim=1)
+    t = check_times(t, "t")
+    u = finite_array(u, "u", min_ndim=1)
     if u.shape != t.shape:
         raise SignalError(
             f"t and u must be 1-D arrays of equal length (got shapes {t.shape} and {u.shape})"

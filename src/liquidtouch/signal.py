@@ -7,9 +7,7 @@
    videos given on their own, which are then aligned on their first frames). The
    clock starts at the first frame of the sensor that started last and steps at
    that sensor's frame period fitted to all its timestamps
-   (:func:`frame_period`): the median interval of jittered or millisecond-rounded
-   timestamps misses the real period by ~0.3 %, and the interpolation's phase
-   against the frames then drifts through the decay and moves λ by several %.
+   (:func:`~liquidtouch.clock.frame_period`, :mod:`liquidtouch.clock` says why).
 2. **Gaps**: a marker lost in more than ``max_lost_fraction`` of the frames, or
    for longer than ``max_gap_s`` at a stretch, is not used; shorter gaps are
    interpolated. Markers cut by the image border in the first frame are not
@@ -33,9 +31,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from liquidtouch.clock import check_times, finite_array, frame_period, uniform_clock
 from liquidtouch.errors import MarkerError, SignalError
 from liquidtouch.tracking.detect import as_number
 from liquidtouch.tracking.tracks import MarkerTracks
+
+__all__ = [
+    "TactileSignal",
+    "check_signal_options",
+    "first_component",
+    "frame_period",
+    "lowpass",
+    "resample_displacement",
+    "tactile_signal",
+    "uniform_clock",
+]
 
 #: fewest usable markers (over all sensors) a signal is built from
 MIN_SELECTED = 2
@@ -69,39 +79,6 @@ class TactileSignal:
     @property
     def n_markers(self) -> int:
         return len(self.markers)
-
-
-def frame_period(t: np.ndarray) -> float:
-    """The frame period [s] fitted to all timestamps ``t`` [s] (least squares).
-
-    Frame ``k``'s index counts the frames dropped before it (each gap is
-    ``round(gap / median gap)`` periods, at least 1); the period is the slope of
-    ``t`` against that index. Unlike the median interval it is not pulled off by
-    timestamp jitter or rounding (e.g. Matroska's 1 ms PTS), and drops do not bias it.
-    """
-    t = _check_times(t, "frame timestamps")
-    gaps = np.diff(t)
-    steps = np.maximum(1.0, np.rint(gaps / np.median(gaps)))
-    index = np.concatenate([[0.0], np.cumsum(steps)])
-    index -= index.mean()  # centred: the slope without the cancellation of large times
-    return float(np.dot(index, t - t.mean()) / np.dot(index, index))
-
-
-def uniform_clock(t: np.ndarray, end_s: float | None = None) -> tuple[np.ndarray, float]:
-    """A uniform clock from 0 at the fitted frame period of timestamps ``t`` [s]: (times, fps).
-
-    The clock spans ``t[0]`` to ``end_s`` (a time on the clock of ``t``; default
-    ``t[-1]``), shifted to start at 0; its step is :func:`frame_period`.
-    """
-    t = _check_times(t, "frame timestamps")
-    if end_s is not None and not t[0] < as_number(end_s) < math.inf:
-        raise SignalError(
-            f"end_s must be a finite time after the first timestamp {t[0]:g} s, got {end_s!r}"
-        )
-    step = frame_period(t)
-    end = float(t[-1] if end_s is None else end_s) - float(t[0])
-    n = int(np.floor(end / step + 1e-6)) + 1
-    return np.arange(n) * step, 1.0 / step
 
 
 def common_span(tracks: Sequence[MarkerTracks]) -> tuple[int, float, float]:
@@ -177,7 +154,7 @@ def lowpass(x: np.ndarray, fps: float, cutoff_hz: float = 3.0, order: int = 4) -
     """Zero-phase Butterworth low-pass of ``x`` along axis 0 (``sosfiltfilt``)."""
     from scipy.signal import butter, sosfiltfilt
 
-    x = _finite_array(x, "the motion to low-pass", min_ndim=1)
+    x = finite_array(x, "the motion to low-pass", min_ndim=1)
     if not 0 < as_number(fps) < math.inf:
         raise SignalError(f"fps must be a frame rate > 0 in Hz, got {fps!r}")
     if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
@@ -199,7 +176,7 @@ def lowpass(x: np.ndarray, fps: float, cutoff_hz: float = 3.0, order: int = 4) -
 
 def first_component(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """PCA of (T, D) data: (scores (T,), weights (D,), explained variance fraction)."""
-    x = _finite_array(x, "the data for PCA", min_ndim=2)
+    x = finite_array(x, "the data for PCA", min_ndim=2)
     if x.ndim != 2 or x.shape[0] < 2 or x.shape[1] < 1:
         raise SignalError(f"PCA needs (samples >= 2, features >= 1) data, got shape {x.shape}")
     centred = x - x.mean(axis=0)
@@ -277,29 +254,6 @@ def tactile_signal(
     )
 
 
-def _finite_array(x: object, what: str, min_ndim: int) -> np.ndarray:
-    try:
-        x = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        raise SignalError(f"{what} must be an array of real numbers") from None
-    if x.ndim < min_ndim or x.size == 0:
-        raise SignalError(f"{what} must be a non-empty {min_ndim}-D array, got shape {x.shape}")
-    if not np.isfinite(x).all():
-        raise SignalError(f"{what} holds NaN/inf values; interpolate or drop them first")
-    return x
-
-
-def _check_times(t: object, what: str) -> np.ndarray:
-    """Timestamps [s] as a 1-D float array: finite, strictly increasing, at least 2."""
-    t = _finite_array(t, what, min_ndim=1)
-    if t.ndim != 1 or t.size < 2 or not np.all(np.diff(t) > 0):
-        raise SignalError(
-            f"{what} must be a 1-D array of at least 2 strictly increasing times [s] "
-            f"(got shape {t.shape}); sort the frames and drop duplicates"
-        )
-    return t
-
-
 def check_signal_options(
     lowpass_hz: float | None = 3.0,
     n_markers: int = 16,
@@ -356,7 +310,7 @@ def _check_tracks(tracks: Sequence[MarkerTracks]) -> list[MarkerTracks]:
                 f"valid {shapes[1]}, reference {shapes[2]}; expected (T,), (T, N, 2), (T, N), "
                 "(N, 2)"
             )
-        _check_times(tr.t, f"{tr.sensor}: frame timestamps")
+        check_times(tr.t, f"{tr.sensor}: frame timestamps")
         if not math.isfinite(as_number(getattr(tr, "start_s", 0.0))):
             raise MarkerError(f"{tr.sensor}: start_s must be a finite time [s], got {tr.start_s!r}")
         if names.count(tr.sensor) > 1:

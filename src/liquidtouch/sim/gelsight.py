@@ -1,4 +1,6 @@
-"""Simulated GelSight sensors: marker motion from finger loads, frame timing, video files.
+"""Simulated GelSight sensors: marker motion from finger loads, video files.
+
+Frame timing is :mod:`liquidtouch.sim.camera_timing` (``frame_timestamps``, used here).
 
 The gel under the container is sheared by the tangential force and twisted by the
 moment about its normal. Markers move with a Gaussian-weighted displacement field
@@ -29,7 +31,8 @@ import numpy as np
 from liquidtouch.errors import DatasetError, LiquidTouchError
 from liquidtouch.io.atomic import atomic_path
 from liquidtouch.io.dataset import TRUTH_TRACKS_NAME
-from liquidtouch.sim.encode import PTS_RATE_HZ, X264_PARAMS
+from liquidtouch.sim.camera_timing import frame_timestamps
+from liquidtouch.sim.encode import X264_PARAMS
 from liquidtouch.sim.loads import FingerLoads
 from liquidtouch.sim.sensors import SensorProfile, get_sensor_profile
 
@@ -217,41 +220,44 @@ def _shear_px(profile: SensorProfile, shear_n: np.ndarray) -> np.ndarray:
     return profile.shear_compliance_px_per_n * np.stack([image_x, image_y], axis=2).swapaxes(0, 1)
 
 
-def frame_timestamps(
-    duration_s: float,
-    profile: SensorProfile | str,
-    rng: np.random.Generator,
-    *,
-    jitter: bool = True,
-    drops: bool = True,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Frame times [s] and nominal frame indices of a recording lasting ``duration_s``.
+@dataclass(frozen=True)
+class SensorScene:
+    """What both sensors see over a recording: frame times and marker positions [px].
 
-    With ``jitter`` the clock runs at ``rate_factor`` × nominal rate and each frame
-    is shifted by Gaussian jitter (clipped to ±30 % of a period, so times stay
-    increasing); with ``drops`` frames are dropped independently with
-    ``drop_probability`` (never the first). Times are rounded to the video time
-    base (1/90000 s) so that stored timestamps equal the decoded PTS.
+    ``timestamps_s`` (T,) from the first frame, ``frame_index`` (T,) nominal frame
+    numbers (drops skip some), ``geometry`` the contact, ``offsets_px`` (2, T, 2)
+    the contact imprint's offset, ``rest_px`` (2, N, 2) and ``positions_px``
+    (2, T, N, 2) the markers at rest and per frame.
     """
-    profile = get_sensor_profile(profile)
-    if not np.isfinite(duration_s) or duration_s <= 0:
-        raise LiquidTouchError(f"recording duration must be positive, got {duration_s}")
-    period = 1.0 / (profile.fps * (profile.rate_factor if jitter else 1.0))
-    n = int(np.floor(duration_s / period + 1e-9)) + 1
-    index = np.arange(n)
-    t = index * period
-    if jitter and profile.jitter_std_s > 0:
-        noise = rng.normal(0.0, profile.jitter_std_s, n)
-        noise[0] = 0.0
-        t = t + np.clip(noise, -0.3 * period, 0.3 * period)
-        t = np.clip(t, 0.0, duration_s)
-    if drops and profile.drop_probability > 0:
-        keep = rng.random(n) >= profile.drop_probability
-        keep[0] = True
-        t, index = t[keep], index[keep]
-    t = np.round(t * PTS_RATE_HZ) / PTS_RATE_HZ
-    keep = np.concatenate([[True], np.diff(t) > 0])
-    return t[keep], index[keep]
+
+    timestamps_s: np.ndarray
+    frame_index: np.ndarray
+    geometry: ContactGeometry
+    offsets_px: np.ndarray
+    rest_px: np.ndarray
+    positions_px: np.ndarray
+
+
+def sensor_scene(
+    loads: FingerLoads, profile: SensorProfile, rng: np.random.Generator, *, jitter: bool = True
+) -> SensorScene:
+    """Frame times (jittered, with drops, unless ``jitter`` is False) and marker motion."""
+    timestamps, frame_index = frame_timestamps(
+        loads.duration_s, profile, rng, jitter=jitter, drops=jitter
+    )
+    t_frames = timestamps + float(loads.t_s[0])
+    rests = np.stack([marker_rest_positions(profile, rng) for _ in range(2)])
+    positions = np.stack(
+        [marker_positions(loads, profile, t_frames, rest_px=rests[s])[s] for s in range(2)]
+    )
+    return SensorScene(
+        timestamps,
+        frame_index,
+        contact_geometry(loads, profile),
+        contact_offsets(loads, profile, t_frames),
+        rests,
+        positions,
+    )
 
 
 def write_sensor_videos(
@@ -290,17 +296,9 @@ def write_sensor_videos(
             f"cannot create the trial directory {out_dir}: {exc.strerror or exc}; "
             "choose a writable directory path"
         ) from None
-    rng = np.random.default_rng(seed)
-    timestamps, frame_index = frame_timestamps(
-        loads.duration_s, profile, rng, jitter=jitter, drops=jitter
-    )
-    t_frames = timestamps + float(loads.t_s[0])
-    geom = contact_geometry(loads, profile)
-    offsets = contact_offsets(loads, profile, t_frames)
-    rests = np.stack([marker_rest_positions(profile, rng) for _ in range(2)])
-    positions = np.stack(
-        [marker_positions(loads, profile, t_frames, rest_px=rests[s])[s] for s in range(2)]
-    )
+    scene = sensor_scene(loads, profile, np.random.default_rng(seed), jitter=jitter)
+    timestamps, frame_index, geom = scene.timestamps_s, scene.frame_index, scene.geometry
+    offsets, rests, positions = scene.offsets_px, scene.rest_px, scene.positions_px
     files = [f"{name}.mp4" for name in SENSOR_NAMES]
     for s, name in enumerate(files):
         sensor_rng = np.random.default_rng([seed, s + 1])
