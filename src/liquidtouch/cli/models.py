@@ -12,21 +12,33 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import typer
 
 from liquidtouch.cli import options
 from liquidtouch.cli.format import warn
 
-_SPLIT_HELP = (
-    "Train on the rows whose 'split' column is NAME (e.g. train); the labelled rows not "
-    "selected are evaluated after training."
-)
-_WHERE_HELP = (
-    "Train on the rows where COLUMN equals VALUE (numerically for a numeric column); "
-    "repeat to combine (all must hold). The labelled rows not selected are evaluated."
-)
+TrainSplit = Annotated[
+    str | None,
+    typer.Option(
+        "--split",
+        metavar="NAME",
+        help="Train on the rows whose 'split' column is NAME (e.g. train); the labelled rows "
+        "not selected are evaluated after training.",
+        show_default=False,
+    ),
+]
+TrainWhere = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--where",
+        metavar="COLUMN=VALUE",
+        help="Train on the rows where COLUMN equals VALUE (numerically for a numeric column); "
+        "repeat to combine (all must hold). The labelled rows not selected are evaluated.",
+        show_default=False,
+    ),
+]
 
 
 def _echo_summary(lines: list[str], out: Path) -> None:
@@ -86,12 +98,8 @@ def train(
         "A GP takes at most 2000 rows (4000 over all targets; docs/formats.md, Limits).",
     ),
     out: Path = typer.Option(..., *options.OUT, help="Model file to write (JSON)."),
-    split: str | None = typer.Option(
-        None, "--split", metavar="NAME", help=_SPLIT_HELP, show_default=False
-    ),
-    where: list[str] | None = typer.Option(
-        None, "--where", metavar="COLUMN=VALUE", help=_WHERE_HELP, show_default=False
-    ),
+    split: TrainSplit = None,
+    where: TrainWhere = None,
     as_json: options.Json = False,
 ) -> None:
     """Train one regressor per --target on a features table and save them in one model file."""
@@ -148,12 +156,8 @@ def classify(
     ),
     label: str = typer.Option("liquid", "--label", "-l", help="Class label column."),
     out: Path = typer.Option(..., *options.OUT, help="Model file to write (JSON)."),
-    split: str | None = typer.Option(
-        None, "--split", metavar="NAME", help=_SPLIT_HELP, show_default=False
-    ),
-    where: list[str] | None = typer.Option(
-        None, "--where", metavar="COLUMN=VALUE", help=_WHERE_HELP, show_default=False
-    ),
+    split: TrainSplit = None,
+    where: TrainWhere = None,
     as_json: options.Json = False,
 ) -> None:
     """Train the RBF-SVM liquid classifier (with class probabilities) and save it."""

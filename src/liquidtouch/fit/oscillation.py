@@ -267,16 +267,20 @@ def fit_oscillation(
             damping_gain_std=gain_std,
             damping_exponent=float(amp.exponent),
         )
-    chosen = single
+    chosen, chosen_std = single, None
     if model == "two-mode":
         two = optimise_two_mode(tau, x, u_n, sqrt_w, band, single)
         if two is not None and two.supported_over(single):
             correlated = noise == "correlated"
-            slow_rel = two.standard_errors(weights, correlated=correlated)[0] / two.rates[0]
-            single_rel = single.standard_errors(weights, correlated=correlated)[0] / single.rates[0]
-            if slow_rel <= MAX_SLOW_STD_RATIO * single_rel:
-                chosen = two
-    return _build_result(chosen, weights, noise, loss, delta_n * scale**2, t, mean, scale)
+            two_std = two.standard_errors(weights, correlated=correlated)
+            single_std = single.standard_errors(weights, correlated=correlated)
+            if two_std[0] / two.rates[0] <= MAX_SLOW_STD_RATIO * single_std[0] / single.rates[0]:
+                chosen, chosen_std = two, two_std
+            else:
+                chosen_std = single_std
+    return _build_result(
+        chosen, weights, noise, loss, delta_n * scale**2, t, mean, scale, chosen_std
+    )
 
 
 def _build_result(
@@ -288,8 +292,10 @@ def _build_result(
     t: np.ndarray,
     mean: float,
     scale: float,
+    std: list[float] | None = None,
 ) -> OscillationFit:
-    std = state.standard_errors(weights, correlated=noise == "correlated")
+    if std is None:  # not computed yet by the model selection
+        std = state.standard_errors(weights, correlated=noise == "correlated")
     amps, phases = state.amplitudes_phases()
     d0, d1, d2 = state.drift()
     length = t[-1] - t[0]

@@ -289,8 +289,8 @@ def optimise_single_mode(
         lam, omega = (float(v) for v in warm_start)
         if lam > 0 and band[0] < omega < band[1]:
             peak = spectral_peaks(tau, u_detrended, band, n_peaks=1)[0]
-            starts = [(0.0, lam, omega), (0.0, lam, float(peak))]
-            fits = [_solve(np.array([r, w]), 1, tau, x, u, sqrt_w, band) for _, r, w in starts]
+            starts = ([lam, omega], [lam, float(peak)])
+            fits = [_solve(np.array(s), 1, tau, x, u, sqrt_w, band) for s in starts]
             best = min(fits, key=lambda f: f.cost)
             if math.isfinite(best.cost):
                 return best
