@@ -51,11 +51,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from record_formats import make_writer, render_sensors
 
+from liquidtouch._core.progress import progress_bar
 from liquidtouch.codec_check import frozen_steps
 from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.fit_settings import FitSettings
 from liquidtouch.io.frames import iter_frames
-from liquidtouch.progress import progress_bar
 from liquidtouch.segment import free_decay_start
 from liquidtouch.signal import tactile_signal
 from liquidtouch.sim.encode import X264_PARAMS, encode_video

@@ -29,7 +29,8 @@ def main() -> None:
     parser.add_argument("--trial", type=Path, default=None, help="an existing trial directory")
     args = parser.parse_args()
 
-    from liquidtouch.extraction import resolve_sources, track_sources
+    from liquidtouch.extraction import track_sources
+    from liquidtouch.io.sources import resolve_sources
     from liquidtouch.live import live_updates
 
     with tempfile.TemporaryDirectory() as tmp:

@@ -30,10 +30,10 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
+from liquidtouch._core.progress import progress_bar
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.fit_settings import FitSettings
 from liquidtouch.models.physics_prior import stokes_viscosity_feature
-from liquidtouch.progress import progress_bar
 from liquidtouch.sim.trial import simulate_trial
 
 DEFAULT_PUSH_MM = 15.0

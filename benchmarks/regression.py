@@ -179,7 +179,7 @@ def plot_curves(
     """
     from matplotlib.figure import Figure
 
-    from liquidtouch.io import atomic
+    from liquidtouch._core import atomic
 
     if ax is None:
         fig = Figure(figsize=(9, 3.6))

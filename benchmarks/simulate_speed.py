@@ -16,8 +16,8 @@ import time
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from liquidtouch.sim.containers import get_container
-from liquidtouch.sim.liquids import get_liquid
+from liquidtouch._core.containers import get_container
+from liquidtouch._core.liquids import get_liquid
 from liquidtouch.sim.slosh import accelerations, integrate, slosh_system
 from liquidtouch.sim.trial import simulate_trial
 

@@ -14,7 +14,7 @@ Chosen container ("container A"): L = 120 mm, b = 60 mm, wall factor 1.5; 16-40 
 fill is then 13-33 % of a 120 mm-tall box, ω ≈ 10-14 rad/s, λ ≈ 0.15-1.3 1/s for
 water to 160 g sugar / 100 g water. Measurement noise: 4 % (log-normal) on λ,
 0.3 % on ω — the oscillation fit pins the frequency far better than the decay.
-Sugar-water viscosity comes from :func:`liquidtouch.sim.liquids.get_liquid`
+Sugar-water viscosity comes from :func:`liquidtouch._core.liquids.get_liquid`
 (the CRC sucrose table).
 """
 
@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from liquidtouch.sim.liquids import get_liquid
+from liquidtouch._core.liquids import get_liquid
 
 GRAVITY = 9.81
 CONTAINER_A = {"length_m": 0.12, "width_m": 0.06, "wall": 1.5}

@@ -126,8 +126,8 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results"))
     args = parser.parse_args()
 
+    from liquidtouch._core.progress import progress_bar
     from liquidtouch.models.property_model import train_regression
-    from liquidtouch.progress import progress_bar
 
     began = time.perf_counter()
     rng = np.random.default_rng(args.seed)

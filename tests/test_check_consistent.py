@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from liquidtouch.errors import VideoError
-from liquidtouch.extraction import check_consistent
+from liquidtouch.clock import check_consistent
 from liquidtouch.tracking.tracks import MarkerTracks
 
 

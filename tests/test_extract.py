@@ -73,7 +73,8 @@ def test_extract_checks_signal_options_before_reading_any_video(tmp_path):
 
 
 def test_extract_sensor_choice_and_fit_options(tmp_path, capsys):
-    from liquidtouch.extraction import FitSettings, extract
+    from liquidtouch.extraction import extract
+    from liquidtouch.fit_settings import FitSettings
 
     a = write_video(tmp_path / "a.mp4")
     b = write_video(tmp_path / "b.mp4", amplitude=1.0)

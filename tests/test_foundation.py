@@ -8,9 +8,9 @@ import json
 import pytest
 
 import liquidtouch
+from liquidtouch._core import atomic
 from liquidtouch.cli import main
 from liquidtouch.errors import DatasetError
-from liquidtouch.io import atomic
 from liquidtouch.io.dataset import TrialMeta, read_trial_meta, write_trial_meta
 
 

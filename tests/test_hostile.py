@@ -12,11 +12,11 @@ from pathlib import Path
 
 import pytest
 
-from liquidtouch.batch.executors import open_executor
+from liquidtouch._core import atomic
+from liquidtouch._core.pool import open_executor
 from liquidtouch.batch.features import CACHE_DIR, extract_features
 from liquidtouch.cli import main
 from liquidtouch.errors import DatasetError, LiquidTouchError, OutputError
-from liquidtouch.io import atomic
 from liquidtouch.io.dataset import read_trial_meta, write_manifest
 
 

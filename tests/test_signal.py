@@ -214,7 +214,8 @@ def test_plot_extraction_draws_into_given_axes_without_touching_the_backend(tmp_
     from matplotlib.figure import Figure
 
     from liquidtouch.errors import LiquidTouchError
-    from liquidtouch.extraction import Extraction, plot_extraction
+    from liquidtouch.extraction import Extraction
+    from liquidtouch.extraction_plot import plot_extraction
 
     def no_backend_switch(*args, **kwargs):
         raise AssertionError("a library must not call matplotlib.use")

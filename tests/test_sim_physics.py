@@ -10,9 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.signal import butter, hilbert, sosfiltfilt
 
+from liquidtouch._core.containers import get_container
+from liquidtouch._core.liquids import get_liquid, sugar_mass_fraction
 from liquidtouch.errors import CatalogueError, LiquidTouchError
-from liquidtouch.sim.containers import get_container
-from liquidtouch.sim.liquids import get_liquid, sugar_mass_fraction
 from liquidtouch.sim.slosh import integrate, slosh_system
 from liquidtouch.sim.trial import simulate_trial
 

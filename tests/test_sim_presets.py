@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from liquidtouch._core.liquids import get_liquid
 from liquidtouch.cli import main
 from liquidtouch.errors import CatalogueError
 from liquidtouch.io.dataset import read_trial_meta
-from liquidtouch.sim.liquids import get_liquid
 from liquidtouch.sim.presets import TrialSpec, get_preset, preset_names, simulate_dataset
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.trial_io import FORCE_COLUMNS, write_trial

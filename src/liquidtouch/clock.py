@@ -11,11 +11,19 @@ interpolation's phase against the frames then drifts through the decay and moves
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from liquidtouch.errors import SignalError
-from liquidtouch.tracking.detect import as_number
+from liquidtouch._core.checks import as_number
+from liquidtouch.errors import SignalError, VideoError
+
+if TYPE_CHECKING:
+    from liquidtouch.tracking.tracks import MarkerTracks
+
+RATE_TOLERANCE = 0.01  # relative frame-rate difference allowed between the videos of a trial
+SPAN_TOLERANCE = 0.05  # fraction of the longest video the others may not cover
 
 
 def finite_array(x: object, what: str, min_ndim: int) -> np.ndarray:
@@ -72,3 +80,39 @@ def uniform_clock(t: np.ndarray, end_s: float | None = None) -> tuple[np.ndarray
     end = float(t[-1] if end_s is None else end_s) - float(t[0])
     n = int(np.floor(end / step + 1e-6)) + 1
     return np.arange(n) * step, 1.0 / step
+
+
+def check_consistent(tracks: Sequence[MarkerTracks]) -> None:
+    """The videos of one trial must be one recording: VideoError otherwise.
+
+    Their frame rates (the period fitted to all timestamps,
+    :func:`~liquidtouch.clock.frame_period`) agree within :data:`RATE_TOLERANCE`,
+    and their time spans (on the trial's shared clock, ``MarkerTracks.start_s``)
+    overlap over all but :data:`SPAN_TOLERANCE` of the longest (at least two frame
+    periods). Frame counts may differ: sensors drop frames independently.
+    """
+    if len(tracks) < 2:
+        return
+    try:
+        periods = [frame_period(tr.t) for tr in tracks]
+    except SignalError:  # bad timestamps: the signal says so, per sensor
+        return
+    rates = [1.0 / p for p in periods]
+    for tr, rate in zip(tracks[1:], rates[1:], strict=True):
+        if not abs(rate - rates[0]) <= RATE_TOLERANCE * rates[0]:
+            raise VideoError(
+                f"videos of one trial differ in frame rate: {tracks[0].sensor} {rates[0]:.3f} "
+                f"fps, {tr.sensor} {rate:.3f} fps; give the videos of one recording"
+            )
+    starts = [float(tr.start_s) for tr in tracks]
+    ends = [s + float(tr.t[-1] - tr.t[0]) for s, tr in zip(starts, tracks, strict=True)]
+    longest = max(e - s for s, e in zip(starts, ends, strict=True))
+    overlap = min(ends) - max(starts)
+    if longest - overlap > max(2 * max(periods), SPAN_TOLERANCE * longest):
+        spans = ", ".join(
+            f"{tr.sensor} {s:.2f}–{e:.2f} s" for tr, s, e in zip(tracks, starts, ends, strict=True)
+        )
+        raise VideoError(
+            f"videos of one trial differ in length: {spans} (together {max(overlap, 0):.2f} s); "
+            "give the videos of one recording"
+        )

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from liquidtouch.tracking.detect import as_number
+from liquidtouch._core.checks import as_number
 
 AUTO = "auto"
 """``FitSettings.start`` value: fit from the start of the free decay (:func:`free_decay`)."""

@@ -30,9 +30,9 @@ import math
 
 import numpy as np
 
+from liquidtouch._core.checks import as_number
 from liquidtouch.clock import check_times, finite_array
 from liquidtouch.errors import SignalError
-from liquidtouch.tracking.detect import as_number
 
 MIN_FREE_DECAY_S = 2.0
 DRIFT_CUTOFF_HZ = 0.3  # slower than this is slip drift, not slosh

@@ -31,9 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from liquidtouch._core.checks import as_number
 from liquidtouch.clock import check_times, finite_array, frame_period, uniform_clock
 from liquidtouch.errors import MarkerError, SignalError
-from liquidtouch.tracking.detect import as_number
 from liquidtouch.tracking.tracks import MarkerTracks
 
 __all__ = [

@@ -36,6 +36,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from liquidtouch._core import atomic
 from liquidtouch.acquire.cameras import (
     DEFAULT_READ_TIMEOUT_S,
     Camera,
@@ -66,7 +67,6 @@ from liquidtouch.acquire.recording_run import record
 from liquidtouch.acquire.recording_summary import RecordingSummary, SensorSummary, summarise
 from liquidtouch.acquire.writer_pool import MAX_BACKLOG_S, WRITER_FINISH_S, WriterPool
 from liquidtouch.errors import DeviceError, LiquidTouchError, OutputError
-from liquidtouch.io import atomic
 from liquidtouch.io.dataset import META_NAME
 
 __all__ = [

@@ -20,9 +20,10 @@ from pathlib import Path
 import pandas as pd
 
 from liquidtouch import __version__
-from liquidtouch.batch.executors import open_executor, run_each
+from liquidtouch._core import atomic
+from liquidtouch._core.pool import open_executor, run_each
+from liquidtouch._core.progress import progress_bar
 from liquidtouch.errors import LiquidTouchError
-from liquidtouch.io import atomic
 from liquidtouch.io.dataset import (
     FEATURES_NAME,
     META_NAME,
@@ -32,7 +33,6 @@ from liquidtouch.io.dataset import (
     trial_path,
 )
 from liquidtouch.io.tables import FEATURE_COLUMNS
-from liquidtouch.progress import progress_bar
 
 #: Bump when extraction or fitting changes in a way that changes features.
 FEATURES_VERSION = 4

@@ -247,11 +247,11 @@ def write_outputs(
 
     The figure is drawn first; if anything fails no output is written.
     """
-    from liquidtouch.io import atomic
+    from liquidtouch._core import atomic
 
     figure = None
     if plot is not None:
-        from liquidtouch.extraction import plot_extraction
+        from liquidtouch.extraction_plot import plot_extraction
 
         figure = plot_extraction(result)
     with contextlib.ExitStack() as stack:

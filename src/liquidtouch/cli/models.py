@@ -103,12 +103,12 @@ def train(
     as_json: options.Json = False,
 ) -> None:
     """Train one regressor per --target on a features table and save them in one model file."""
+    from liquidtouch._core.progress import progress_bar
     from liquidtouch.cli.format import number
     from liquidtouch.io.tables import numeric_column
     from liquidtouch.models.held_out import regression_errors, selection_summary, split_rows
     from liquidtouch.models.modelfile import save_model
     from liquidtouch.models.property_model import train_regression
-    from liquidtouch.progress import progress_bar
 
     kind = str(model)
     table, X, skipped = _read_training_table(features)

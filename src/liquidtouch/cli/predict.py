@@ -60,8 +60,8 @@ def predict(
     """
     import numpy as np
 
+    from liquidtouch._core import atomic
     from liquidtouch.batch.inputs import read_prediction_input
-    from liquidtouch.io import atomic
     from liquidtouch.io.tables import feature_matrix
     from liquidtouch.models.feature_rows import error_messages, failed_rows, row_list
     from liquidtouch.models.modelfile import load_model

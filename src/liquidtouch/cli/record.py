@@ -98,10 +98,10 @@ def record(
     NAME.timestamps.csv). meta.json gets the measured fps, the labels and each
     sensor's start time; dropped and duplicated frames are counted and printed.
     """
+    from liquidtouch._core.progress import on_terminal
     from liquidtouch.acquire.recorder import record as run_record
     from liquidtouch.errors import DeviceError
     from liquidtouch.io.labels import typed_labels
-    from liquidtouch.progress import on_terminal
 
     if not 0 < seconds <= 3600 or not math.isfinite(seconds):
         raise DeviceError(f"--seconds must be in (0, 3600], got {seconds:g}")

@@ -187,6 +187,7 @@ def run_trial_command(
     and the arm's and gripper's readings. On any error or Ctrl-C the arm stops, the
     gripper KEEPS holding the bottle (put it down yourself) and no trial is written.
     """
+    from liquidtouch._core.progress import on_terminal
     from liquidtouch.acquire.arm import RigArm, open_arm
     from liquidtouch.acquire.gripper import open_gripper
     from liquidtouch.acquire.protocol import (
@@ -197,7 +198,6 @@ def run_trial_command(
     )
     from liquidtouch.errors import LiquidTouchError
     from liquidtouch.io.labels import typed_labels
-    from liquidtouch.progress import on_terminal
 
     params = load_protocol(protocol) if protocol is not None else ProtocolParameters()
     if seconds is not None:

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from liquidtouch._core import atomic
 from liquidtouch.experiments.paper import CITATION, PaperValue
-from liquidtouch.io import atomic
 
 SUMMARY_COLUMNS = ["experiment", "metric", "ours", "paper", "unit", "note", "paper source"]
 

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError
 
+from liquidtouch._core import atomic
 from liquidtouch.errors import DatasetError
-from liquidtouch.io import atomic
 
 META_NAME = "meta.json"
 MANIFEST_NAME = "manifest.csv"

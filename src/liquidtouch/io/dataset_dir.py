@@ -18,8 +18,8 @@ import os
 from collections.abc import Iterator
 from pathlib import Path
 
+from liquidtouch._core import atomic
 from liquidtouch.errors import DatasetError
-from liquidtouch.io import atomic
 from liquidtouch.io.dataset import MANIFEST_NAME, read_manifest
 
 DATASET_MARKER = ".liquidtouch-dataset"

@@ -10,8 +10,8 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from liquidtouch._core import atomic
 from liquidtouch.errors import OutputError
-from liquidtouch.io import atomic
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

@@ -77,8 +77,8 @@ def check_labels(
     """
     import difflib
 
-    from liquidtouch.sim.containers import CONTAINERS
-    from liquidtouch.sim.liquids import LIQUIDS
+    from liquidtouch._core.containers import CONTAINERS
+    from liquidtouch._core.liquids import LIQUIDS
 
     catalogue = {"liquid": list(LIQUIDS), "container": list(CONTAINERS)}
     out: dict[str, object] = dict.fromkeys(LABEL_COLUMNS)

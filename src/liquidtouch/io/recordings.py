@@ -25,8 +25,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from liquidtouch._core import atomic
 from liquidtouch.errors import DatasetError
-from liquidtouch.io import atomic
 from liquidtouch.io.dataset import TrialMeta, read_trial_meta, write_trial_meta
 from liquidtouch.io.dataset_dir import (
     DATASET_FORMAT,
@@ -249,7 +249,7 @@ def _umask() -> int:
 
 def _check_trial(tmp: Path, kind: str) -> None:
     """Read the new trial as the extraction will (sources, frame rates, tracks)."""
-    from liquidtouch.extraction import resolve_sources
+    from liquidtouch.io.sources import resolve_sources
     from liquidtouch.io.trial_tracks import read_trial_tracks
 
     meta = read_trial_meta(tmp)

@@ -214,7 +214,7 @@ class _TopicWriter:
         self.count += 1
 
     def finish(self, origin_ns: int, time_source: str) -> BagTopic:
-        from liquidtouch.io import atomic
+        from liquidtouch._core import atomic
         from liquidtouch.io.frames import TIMESTAMPS_NAME
 
         if self.count < 2:

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from liquidtouch._core import atomic
 from liquidtouch.errors import TableError
-from liquidtouch.io import atomic
 
 #: largest CSV file liquidtouch parses (signal CSV, feature tables) [bytes]; a signal CSV
 #: at the fit's limit of samples (``fit.oscillation.MAX_SAMPLES``) takes ~25 MiB

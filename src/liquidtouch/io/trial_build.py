@@ -243,7 +243,7 @@ def build_from_markers(
     """
     import numpy as np
 
-    from liquidtouch.extraction import check_consistent
+    from liquidtouch.clock import check_consistent
     from liquidtouch.io.marker_csv import read_marker_csv
     from liquidtouch.io.trial_tracks import TRACKS_NAME
     from liquidtouch.tracking.tracks import save_tracks
@@ -271,8 +271,8 @@ def build_from_bag(
     ``fps`` [Hz] default: the first topic's median rate; ``time_source``: ``header``
     or ``bag`` stamps; ``progress``: a progress bar on stderr.
     """
+    from liquidtouch._core.progress import progress_bar
     from liquidtouch.io.rosbag import import_bag
-    from liquidtouch.progress import progress_bar
 
     with progress_bar(f"importing {bag.name}", None, enabled=progress) as advance:
         imported = import_bag(

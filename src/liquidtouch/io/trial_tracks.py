@@ -112,7 +112,7 @@ def stored_tracks(
                 f"the sensors are {', '.join(names)}"
             )
         tracks = [tr for tr in tracks if tr.sensor in set(wanted)]
-    from liquidtouch.extraction import check_consistent
+    from liquidtouch.clock import check_consistent
 
     check_consistent(tracks)
     return tracks

@@ -6,7 +6,7 @@ Every source yields :class:`LiveFrame` objects in time order across its sensors:
 read as fast as possible), from which the estimator's lag is measured.
 
 - :func:`replay_frames`: video files, image folders or one trial directory
-  (:func:`~liquidtouch.extraction.resolve_sources`), merged by timestamp; with
+  (:func:`~liquidtouch.io.sources.resolve_sources`), merged by timestamp; with
   ``realtime`` each frame is handed on when it is due at the pace of its own
   timestamps (a recording re-lived), else at once.
 - :func:`camera_frames`: live cameras (:func:`~liquidtouch.acquire.cameras.open_camera`
@@ -58,9 +58,9 @@ def replay_frames(
     Sensors of a trial are placed on its shared clock (``sensor_start_s``), else
     aligned on their first frames.
     """
-    from liquidtouch.extraction import resolve_sources, select_sensors
     from liquidtouch.io.dataset import trial_sensor_starts
     from liquidtouch.io.frames import iter_frames
+    from liquidtouch.io.sources import resolve_sources, select_sensors
 
     if not 0 < float(speed) < math.inf:
         raise DeviceError(f"the replay speed must be a number > 0, got {speed!r}")

@@ -13,8 +13,8 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 
+from liquidtouch._core.checks import as_number
 from liquidtouch.errors import ModelFileError, SignalError
-from liquidtouch.tracking.detect import as_number
 
 #: targets the fit itself reports, without a model
 FIT_TARGETS = ("decay_rate", "angular_frequency")

@@ -33,7 +33,7 @@ FrameCallback = Callable[[LiveFrame, np.ndarray, np.ndarray], None]
 def sensor_names(sources: Sequence[PathLike], *, fps: float | None = None) -> list[str]:
     """The sensor names the frames of ``sources`` will carry (:func:`open_frames`)."""
     if all(is_recording(s) for s in sources):
-        from liquidtouch.extraction import resolve_sources
+        from liquidtouch.io.sources import resolve_sources
 
         return [name for name, _, _ in resolve_sources(list(sources), fps=fps)]
     from liquidtouch.acquire.capture import default_names

@@ -16,9 +16,10 @@ import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.utils.validation import check_is_fitted
 
+from liquidtouch._core.checks import check_positive
 from liquidtouch.errors import ModelFileError, TableError
 from liquidtouch.models.kernel_limits import check_kernel_rows, single_threaded_blas
-from liquidtouch.models.validation import check_positive, mean_and_scale, validate_X, validate_X_y
+from liquidtouch.models.validation import mean_and_scale, validate_X, validate_X_y
 
 MIN_ROWS_PER_CLASS = 3
 # Moderate values first: on a tie of cross-validated accuracy (small, well-separated

@@ -14,8 +14,9 @@ from typing import Any
 
 import numpy as np
 
+from liquidtouch._core.checks import check_positive
 from liquidtouch.errors import TableError
-from liquidtouch.models.validation import check_features, check_positive
+from liquidtouch.models.validation import check_features
 
 #: Widening of the training domain on each side, as a fraction of the training span
 #: (test points of a grid experiment lie a little beyond the training extremes).

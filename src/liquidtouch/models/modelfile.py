@@ -26,8 +26,8 @@ from typing import Any
 import numpy as np
 
 from liquidtouch import __version__
+from liquidtouch._core import atomic
 from liquidtouch.errors import LiquidTouchError, ModelFileError
-from liquidtouch.io import atomic
 from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.models.classifier import LiquidClassifier
 from liquidtouch.models.modelfile_checks import (

@@ -26,9 +26,9 @@ from typing import Any
 import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
+from liquidtouch._core.checks import check_positive
 from liquidtouch.errors import TableError
 from liquidtouch.models.regressors import GPRegressor
-from liquidtouch.models.validation import check_positive
 
 GRAVITY_M_S2 = 9.81
 # effective container lengths searched when fitting k = π / L

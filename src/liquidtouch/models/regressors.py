@@ -39,6 +39,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
+from liquidtouch._core.checks import check_int
 from liquidtouch.errors import ModelFileError, TableError
 from liquidtouch.models.kernel_limits import (
     MAX_KERNEL_ROWS,
@@ -51,7 +52,7 @@ from liquidtouch.models.quadratic import (
     QuadraticRegressor,
     n_quadratic_terms,
 )
-from liquidtouch.models.validation import check_int, mean_and_scale, validate_X, validate_X_y
+from liquidtouch.models.validation import mean_and_scale, validate_X, validate_X_y
 
 __all__ = [
     "LENGTH_SCALE_BOUNDS",

@@ -17,10 +17,11 @@ from typing import Any
 
 import numpy as np
 
+from liquidtouch._core.checks import check_positive
 from liquidtouch.errors import TableError
 from liquidtouch.models.kernel_limits import single_threaded_blas
 from liquidtouch.models.property_model import FeatureMap, PropertyModel
-from liquidtouch.models.validation import check_features, check_positive
+from liquidtouch.models.validation import check_features
 
 MIN_TUNE_ROWS = 4  # four parameters (α1, α2, β1, β2)
 START_ALPHA1 = (0.5, 1.0, 2.0)  # decay-rate scales tried as starts (walls damp differently)

@@ -15,7 +15,6 @@ Two levels:
 
 from __future__ import annotations
 
-import numbers
 from typing import Any
 
 import numpy as np
@@ -59,23 +58,6 @@ def check_features(X: Any, n_columns: int = len(FEATURE_COLUMNS)) -> np.ndarray:
         )
     _check_finite(X, "features")
     return X
-
-
-def check_int(value: Any, name: str, minimum: int) -> int:
-    """``value`` as an int >= ``minimum``; :class:`TableError` otherwise (bools refused)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise TableError(f"{name} must be an integer >= {minimum}; got {value!r}")
-    return int(value)
-
-
-def check_positive(value: Any, name: str, allow_zero: bool = False) -> float:
-    """``value`` as a finite float > 0 (>= 0 with ``allow_zero``); :class:`TableError` otherwise."""
-    ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and np.isfinite(value)
-    if not ok or value < 0 or (value == 0 and not allow_zero):
-        raise TableError(
-            f"{name} must be a finite number {'>=' if allow_zero else '>'} 0; got {value!r}"
-        )
-    return float(value)
 
 
 def _validate_data(estimator: Any, **kwargs: Any) -> Any:

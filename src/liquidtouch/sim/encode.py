@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from liquidtouch._core.atomic import atomic_path
 from liquidtouch.errors import LiquidTouchError
-from liquidtouch.io.atomic import atomic_path
 
 PTS_RATE_HZ = 90_000
 """Time base of the videos' timestamps (1/90000 s)."""

@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
+from liquidtouch._core.atomic import atomic_path
 from liquidtouch.errors import DatasetError, LiquidTouchError
-from liquidtouch.io.atomic import atomic_path
 from liquidtouch.io.dataset import TRUTH_TRACKS_NAME
 from liquidtouch.sim.camera_timing import frame_timestamps
 from liquidtouch.sim.encode import X264_PARAMS

@@ -32,9 +32,9 @@ from typing import Any
 
 import numpy as np
 
-from liquidtouch.batch.executors import open_executor, run_each
+from liquidtouch._core.pool import open_executor, run_each
+from liquidtouch._core.progress import progress_bar
 from liquidtouch.errors import CatalogueError, DatasetError, OutputError
-from liquidtouch.progress import progress_bar
 
 
 @dataclass(frozen=True)

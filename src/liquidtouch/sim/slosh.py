@@ -47,8 +47,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from liquidtouch.sim.containers import Container
-from liquidtouch.sim.liquids import LiquidProperties
+from liquidtouch._core.containers import Container
+from liquidtouch._core.liquids import LiquidProperties
 
 GRAVITY_M_S2 = 9.81
 NONLINEAR_GAIN = 8.0  # κ1: relative growth of the damping per squared wave steepness

@@ -2,7 +2,7 @@
 
 A trial is a lift, a lateral minimum-jerk push and a hold
 (:mod:`liquidtouch.sim.activation`) of a container of liquid
-(:mod:`liquidtouch.sim.liquids`, :mod:`liquidtouch.sim.containers`) whose
+(:mod:`liquidtouch._core.liquids`, :mod:`liquidtouch._core.containers`) whose
 sloshing (:mod:`liquidtouch.sim.slosh`) loads the gels and the wrist
 (:mod:`liquidtouch.sim.grasp`). The random conditions of a trial and their
 calibration are described in :mod:`liquidtouch.sim.variability`.
@@ -17,12 +17,12 @@ from functools import partial
 
 import numpy as np
 
+from liquidtouch._core.containers import get_container
+from liquidtouch._core.liquids import MAX_SUGAR_CONCENTRATION, get_liquid
 from liquidtouch.errors import CatalogueError, LiquidTouchError
 from liquidtouch.io.dataset import LABEL_COLUMNS, TRUTH_COLUMNS
 from liquidtouch.sim.activation import min_jerk_acceleration
-from liquidtouch.sim.containers import get_container
 from liquidtouch.sim.grasp import finger_loads, net_loads, wrist_wrench
-from liquidtouch.sim.liquids import MAX_SUGAR_CONCENTRATION, get_liquid
 from liquidtouch.sim.loads import FingerLoads
 from liquidtouch.sim.slosh import integrate, sinusoid_response, slosh_system
 from liquidtouch.sim.variability import TrialParameters, Variability, draw_parameters

@@ -6,7 +6,7 @@ Files: ``force.csv`` (time, per-finger shear force and twist), ``wrench.csv``
 last so that its presence means the trial is complete, ``meta.json``.
 
 The whole directory is built beside the target and renamed into place at the
-end (:func:`liquidtouch.io.atomic.atomic_directory`): a failed or interrupted
+end (:func:`liquidtouch._core.atomic.atomic_directory`): a failed or interrupted
 write leaves an existing trial exactly as it was. An existing directory is only
 replaced if it holds nothing but trial files.
 """
@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from liquidtouch.io import atomic
+from liquidtouch._core import atomic
 from liquidtouch.io.dataset import (
     FORCE_COLUMNS,
     FORCE_NAME,

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from liquidtouch._core.checks import as_number
 from liquidtouch.errors import MarkerError
 from liquidtouch.tracking.centroid import refine_centroids
 
@@ -231,16 +232,6 @@ def _check_options(
             raise MarkerError(
                 f"{name} must be a finite number {limit}, got {value!r}; the default is {default}"
             )
-
-
-def as_number(value: object) -> float:
-    """``value`` as a float; NaN (fails every range check) when it is not a real number."""
-    if isinstance(value, bool):
-        return float("nan")
-    try:
-        return float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        return float("nan")
 
 
 def _pair(value: object, name: str) -> tuple[float, float]:

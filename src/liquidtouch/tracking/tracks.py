@@ -253,7 +253,7 @@ def save_tracks(path: str | Path, tracks: list[MarkerTracks]) -> None:
     ``<name>/valid``, ``<name>/reference`` and ``<name>/start_s`` (a 0-D float;
     files without it read as 0).
     """
-    from liquidtouch.io import atomic
+    from liquidtouch._core import atomic
 
     arrays: dict[str, np.ndarray] = {"sensors": np.array([tr.sensor for tr in tracks], dtype=str)}
     for tr in tracks:
@@ -310,7 +310,7 @@ def save_tracks_csv(path: str | Path, tracks: list[MarkerTracks]) -> None:
     """
     import pandas as pd
 
-    from liquidtouch.io import atomic
+    from liquidtouch._core import atomic
 
     parts = []
     for tr in tracks:

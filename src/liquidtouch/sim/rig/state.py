@@ -47,7 +47,7 @@ from typing import Any
 
 import numpy as np
 
-from liquidtouch.sim.containers import get_container
+from liquidtouch._core.containers import get_container
 from liquidtouch.sim.gelsight import (
     SENSOR_NAMES,
     contact_geometry,
