@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from liquidtouch.io.frames import image_files, video_info
 from liquidtouch.tracking.tracks import MarkerTracks
 
 #: codecs (FFmpeg names; image folders by format) that store frames without loss
@@ -116,7 +117,6 @@ class CodecCheck:
 
 def source_codec(path: str | Path) -> str:
     """FFmpeg codec name of a video file, or the image format of an image folder."""
-    from liquidtouch.io.frames import image_files, video_info
 
     path = Path(path)
     if path.is_dir():

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from liquidtouch.fit.plot import as_axes_list
+from liquidtouch.io.figures import save_figure
+
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
@@ -24,8 +27,6 @@ def plot_extraction(
     pyplot: no backend is selected). ``path``: also save the figure there,
     atomically (format from the suffix, PNG without one). Returns the figure.
     """
-    from liquidtouch.fit.plot import as_axes_list
-    from liquidtouch.io.figures import save_figure
 
     tracks, signal = extraction.tracks, extraction.signal
     columns = max(2, len(tracks))

@@ -14,6 +14,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from liquidtouch._core.checks import as_number
+from liquidtouch.errors import SignalError
+from liquidtouch.fit.oscillation import (
+    LOSSES,
+    MIN_DURATION_S,
+    MODELS,
+    NOISE_MODELS,
+    fit_oscillation,
+    validate_signal,
+)
+from liquidtouch.segment import free_decay
 
 AUTO = "auto"
 """``FitSettings.start`` value: fit from the start of the free decay (:func:`free_decay`)."""
@@ -42,8 +52,6 @@ class FitSettings:
     start: float | str = AUTO
 
     def __post_init__(self) -> None:
-        from liquidtouch.errors import SignalError
-        from liquidtouch.fit.oscillation import LOSSES, MODELS, NOISE_MODELS
 
         for name, value, choices in (
             ("loss", self.loss, LOSSES),
@@ -96,7 +104,6 @@ class FitSettings:
 
     def fit(self, t: np.ndarray, u: np.ndarray) -> object:
         """:func:`~liquidtouch.fit.oscillation.fit_oscillation` of :meth:`window` of ``(t, u)``."""
-        from liquidtouch.fit.oscillation import fit_oscillation
 
         return fit_oscillation(*self.window(t, u), **self.fit_options())
 
@@ -113,11 +120,8 @@ def fit_window(
     samples at ``t >= start`` (before the first sample: all of them), at least
     ``MIN_DURATION_S`` of them.
     """
-    from liquidtouch.errors import SignalError
-    from liquidtouch.fit.oscillation import MIN_DURATION_S, _validate
-    from liquidtouch.segment import free_decay
 
-    t, u = _validate(t, u)
+    t, u = validate_signal(t, u)
     if start == AUTO:
         return free_decay(t, u)
     start = as_number(start)

@@ -17,7 +17,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from liquidtouch.errors import SignalError
-from liquidtouch.io.dataset import WRENCH_NAME, read_wrench_csv
+from liquidtouch.fit.oscillation import fit_oscillation
+from liquidtouch.fit_settings import AUTO, FitSettings
+from liquidtouch.io.dataset import WRENCH_NAME, read_trial_meta, read_wrench_csv
+from liquidtouch.signal import first_component, lowpass
 
 if TYPE_CHECKING:
     from liquidtouch.fit_settings import FitSettings
@@ -34,7 +37,6 @@ def wrench_signal(
     ``t_s`` (n,) [s] and ``force_n`` (n, 3) [N] are the wrist samples; ``lowpass_hz``
     [Hz] is the zero-phase low-pass cut-off applied before the principal component.
     """
-    from liquidtouch.signal import first_component, lowpass
 
     rate = 1.0 / float(np.median(np.diff(t_s)))
     if rate < 2 * lowpass_hz:
@@ -63,10 +65,6 @@ def wrench_features(
     ``meta.json`` records, ``push_end_s``: the robot knows when it pushed).
     """
     import dataclasses
-
-    from liquidtouch.fit.oscillation import fit_oscillation
-    from liquidtouch.fit_settings import AUTO, FitSettings
-    from liquidtouch.io.dataset import read_trial_meta
 
     fit = FitSettings() if fit_settings is None else fit_settings
     t_s, force_n = read_wrench_csv(Path(trial_dir) / WRENCH_NAME)

@@ -24,6 +24,8 @@ from liquidtouch._core import atomic
 from liquidtouch._core.pool import open_executor, run_each
 from liquidtouch._core.progress import progress_bar
 from liquidtouch.errors import LiquidTouchError
+from liquidtouch.extraction import extract_trial
+from liquidtouch.fit_settings import FitSettings
 from liquidtouch.io.dataset import (
     FEATURES_NAME,
     META_NAME,
@@ -33,6 +35,8 @@ from liquidtouch.io.dataset import (
     trial_path,
 )
 from liquidtouch.io.tables import FEATURE_COLUMNS
+from liquidtouch.signal import check_signal_options
+from liquidtouch.wrench import wrench_features
 
 #: Bump when extraction or fitting changes in a way that changes features.
 FEATURES_VERSION = 4
@@ -73,8 +77,6 @@ def feature_settings(
     (a number: the wrist forces are always low-passed) and ``fit``; ``wrench-best-effort``:
     the same, fitted even where the wrist signal shows no oscillation.
     """
-    from liquidtouch.fit_settings import FitSettings
-    from liquidtouch.signal import check_signal_options
 
     if source not in SOURCES:
         raise LiquidTouchError(
@@ -100,7 +102,6 @@ def feature_settings(
 
 
 def _fit_settings(settings: dict[str, object]):
-    from liquidtouch.fit_settings import FitSettings
 
     fit = dict(settings["fit"])
     return FitSettings(**{**fit, "band_hz": tuple(fit["band_hz"])})
@@ -114,13 +115,10 @@ def trial_features(
     ``settings``: the keyword arguments of :func:`feature_settings` (defaults: the
     paper's extraction and fit).
     """
-    from liquidtouch.extraction import extract_trial
 
     chosen = feature_settings(source, **settings)
     fit = _fit_settings(chosen)
     if source != "gelsight":
-        from liquidtouch.wrench import wrench_features
-
         return wrench_features(
             trial_dir,
             lowpass_hz=chosen["lowpass_hz"],

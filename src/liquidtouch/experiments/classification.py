@@ -16,6 +16,7 @@ import pandas as pd
 from liquidtouch.experiments.common import X, pyplot, save_figure, split, usable
 from liquidtouch.experiments.paper import CLASSIFICATION_ACCURACY, PaperValue
 from liquidtouch.experiments.report import ExperimentResult, Headline
+from liquidtouch.models.property_model import train_classifier
 
 
 def classify(table: pd.DataFrame) -> tuple[object, pd.DataFrame, float, int]:
@@ -25,7 +26,6 @@ def classify(table: pd.DataFrame) -> tuple[object, pd.DataFrame, float, int]:
     accuracy (a test trial whose features could not be extracted counts as
     wrong: the robot got no answer) and the number of such failed trials.
     """
-    from liquidtouch.models.property_model import train_classifier
 
     train = usable(split(table, "train"))
     test_all = split(table, "test")

@@ -23,6 +23,9 @@ from liquidtouch.experiments.classification import classify, correct_note
 from liquidtouch.experiments.common import pyplot, save_figure, split, usable
 from liquidtouch.experiments.paper import FORCE_TORQUE_ACCURACY
 from liquidtouch.experiments.report import ExperimentResult, Headline
+from liquidtouch.extraction import extract_signal
+from liquidtouch.io.dataset import WRENCH_NAME, read_wrench_csv
+from liquidtouch.wrench import wrench_signal
 
 SENSORS = ("GelSight", "wrist F/T", "wrist F/T, best-effort fit")
 
@@ -83,9 +86,6 @@ def _example_trial(gelsight: pd.DataFrame, wrench: pd.DataFrame) -> str | None:
 
 def _signals_panels(axes, trial_dir: Path, fit_row: pd.Series | None) -> None:
     """GelSight u(t) and the wrist forces of one trial, on a shared time axis."""
-    from liquidtouch.extraction import extract_signal
-    from liquidtouch.io.dataset import WRENCH_NAME, read_wrench_csv
-    from liquidtouch.wrench import wrench_signal
 
     signal = extract_signal(trial_dir)
     axes[0].plot(signal.t, signal.u, color="tab:blue", lw=1.2, label="GelSight u(t)")

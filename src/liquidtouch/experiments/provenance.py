@@ -10,6 +10,8 @@ import sys
 from importlib import metadata
 from pathlib import Path
 
+from liquidtouch import __version__
+
 #: (label, distribution names to try) of the libraries the results depend on.
 LIBRARIES = (
     ("numpy", ("numpy",)),
@@ -83,7 +85,6 @@ def machine() -> str:
 
 def provenance(**extra: object) -> dict[str, str]:
     """Ordered provenance items; ``extra`` (seeds, sensor, workers...) goes after the date."""
-    from liquidtouch import __version__
 
     items = {
         "liquidtouch": __version__,

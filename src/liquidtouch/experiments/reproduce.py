@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from liquidtouch.batch.features import extract_features
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.experiments import (
     classification,
@@ -29,8 +30,11 @@ from liquidtouch.experiments import (
     sugar,
     transfer,
 )
+from liquidtouch.experiments.provenance import provenance
 from liquidtouch.experiments.report import ExperimentResult, summary_table, write_report
 from liquidtouch.io.dataset import MANIFEST_NAME
+from liquidtouch.sim.presets import get_preset, simulate_dataset
+from liquidtouch.sim.sensors import get_sensor_profile
 
 DATASETS = ("classification", "sugar", "other-liquids", "containers")
 #: the classification dataset's wrist feature tables: feature source -> file name
@@ -75,7 +79,6 @@ def seeded_specs(preset: str, *, quick: bool, seed: int = 0) -> list:
     base seed gives every trial a different, still deterministic, seed (the same
     trials and labels, other noise and variability).
     """
-    from liquidtouch.sim.presets import get_preset
 
     specs = get_preset(preset, quick=quick)
     if seed == 0:
@@ -99,8 +102,6 @@ def prepare_dataset(
     seed: int = 0,
 ) -> dict[str, pd.DataFrame]:
     """Simulate ``preset`` into ``root`` unless it is there; return its feature tables."""
-    from liquidtouch.batch.features import extract_features
-    from liquidtouch.sim.presets import simulate_dataset
 
     if not (root / MANIFEST_NAME).is_file():
         specs = seeded_specs(preset, quick=quick, seed=seed)
@@ -225,7 +226,6 @@ def reproduce(
     reused by the next run with the same data directory, size and seed. ``seed``
     is the base seed of the simulated trials and of the experiments' random draws.
     """
-    from liquidtouch.sim.sensors import get_sensor_profile
 
     out = Path(out_dir)
     data = Path(data_dir) if data_dir is not None else default_data_dir(out)
@@ -268,7 +268,6 @@ def reproduce(
         f"models). {failure_note(features)} "
         f"Time: {timing}; total {sum(seconds.values()):.0f} s with {jobs} worker(s)."
     )
-    from liquidtouch.experiments.provenance import provenance
 
     info = provenance(
         **{

@@ -26,11 +26,11 @@ from liquidtouch.experiments.common import (
 )
 from liquidtouch.experiments.paper import SUGAR_TEST_MAE, UNITS
 from liquidtouch.experiments.report import ExperimentResult, Headline
+from liquidtouch.models.property_model import MODEL_KINDS, train_regression
 
 
 def train_models(train: pd.DataFrame, kind: str, targets=tuple(TARGETS)):
     """One model of ``kind`` (gpr, quadratic, physics-gpr) for ``targets`` on ``train``."""
-    from liquidtouch.models.property_model import train_regression
 
     return train_regression(X(train), {t: train[t].to_numpy(float) for t in targets}, model=kind)
 
@@ -48,7 +48,6 @@ def run(
 
     ``kinds``: the regressor kinds to compare (default: all of ``MODEL_KINDS``).
     """
-    from liquidtouch.models.property_model import MODEL_KINDS
 
     kinds = MODEL_KINDS if kinds is None else kinds
     start = time.perf_counter()

@@ -28,6 +28,7 @@ from liquidtouch.experiments.common import (
 from liquidtouch.experiments.paper import TRANSFER_POINTS
 from liquidtouch.experiments.report import ExperimentResult, Headline
 from liquidtouch.experiments.sugar import train_models
+from liquidtouch.models.transfer import fit_transfer
 
 SIZES = (5, 10, 15, 20, 40, 60, 100)
 REPEATS = 10  # random tuning draws per size: the quick set has few cuboid trials
@@ -38,7 +39,6 @@ def run(source_model, cuboid: pd.DataFrame, out_dir: Path, seed: int = 0) -> Exp
 
     ``seed``: the random draws of tuning trials.
     """
-    from liquidtouch.models.transfer import fit_transfer
 
     start = time.perf_counter()
     cuboid = usable(cuboid)

@@ -87,9 +87,10 @@ MIN_OSCILLATION_SNR = 30.0
 MAX_SLOW_STD_RATIO = 4.0
 
 
-def _validate(
+def validate_signal(
     t: np.ndarray, u: np.ndarray, min_duration_s: float = MIN_DURATION_S
 ) -> tuple[np.ndarray, np.ndarray]:
+    """``(t, u)`` as float arrays if they are a usable signal [s]; SignalError otherwise."""
     try:
         t = np.asarray(t, dtype=float)
         u = np.asarray(u, dtype=float)
@@ -233,7 +234,7 @@ def fit_oscillation(
         raise SignalError(f"unknown noise model {noise!r}; use one of {', '.join(NOISE_MODELS)}")
     if not 0 < delta_rel < math.inf:
         raise SignalError(f"delta_rel must be a finite number > 0 (got {delta_rel}); 1 is usual")
-    t, u = _validate(t, u, min_duration_s)
+    t, u = validate_signal(t, u, min_duration_s)
     band = _band(band_hz, t)
     tau = t - t[0]
     x = tau / tau[-1]

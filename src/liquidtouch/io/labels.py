@@ -17,6 +17,8 @@ import math
 import re
 from collections.abc import Mapping, Sequence
 
+from liquidtouch._core.containers import CONTAINERS
+from liquidtouch._core.liquids import LIQUIDS
 from liquidtouch.errors import DatasetError
 from liquidtouch.io.dataset import LABEL_COLUMNS, NUMERIC_LABELS
 
@@ -76,9 +78,6 @@ def check_labels(
     e.g. those of the dataset's manifest. See the module doc for the rules.
     """
     import difflib
-
-    from liquidtouch._core.containers import CONTAINERS
-    from liquidtouch._core.liquids import LIQUIDS
 
     catalogue = {"liquid": list(LIQUIDS), "container": list(CONTAINERS)}
     out: dict[str, object] = dict.fromkeys(LABEL_COLUMNS)

@@ -23,6 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from liquidtouch.errors import TableError
+from liquidtouch.io.signal_csv import check_csv_bounds, shorten
+from liquidtouch.tracking.track import marker_spacing
 from liquidtouch.tracking.tracks import MarkerTracks
 
 MARKER_CSV_COLUMNS = ("frame", "row", "col", "x0", "y0", "x", "y")
@@ -46,8 +48,6 @@ def read_marker_csv(
     (the SDK's initial positions), else each marker's first position. Raises
     :class:`~liquidtouch.errors.TableError` for a file that is not such a CSV.
     """
-    from liquidtouch.io.signal_csv import check_csv_bounds, shorten
-    from liquidtouch.tracking.track import marker_spacing
 
     path = Path(path)
     if not path.is_file():
@@ -110,8 +110,6 @@ def _read_marker_table(path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
     """Column names and the raw (stripped string) columns of a marker CSV."""
     import pandas as pd
 
-    from liquidtouch.io.signal_csv import shorten
-
     try:
         with path.open(encoding="utf-8") as handle:
             first = next((line for line in handle if line.strip()), "")
@@ -171,7 +169,6 @@ def _as_floats(values: np.ndarray, name: str, where: str, *, allow_missing: bool
     bad |= np.isinf(out)
     if bad.any():
         k = int(np.argmax(bad))
-        from liquidtouch.io.signal_csv import shorten
 
         raise TableError(
             f"{where}: column {name} must hold numbers; data row {k + 1} has {shorten(values[k])!r}"

@@ -38,6 +38,7 @@ from liquidtouch.io.dataset_dir import (
     manifest_rows,
 )
 from liquidtouch.io.labels import LOG10_TOLERANCE, check_labels, parse_label_options
+from liquidtouch.io.sources import resolve_sources
 from liquidtouch.io.trial_build import (
     TRIAL_PREFIX,
     build_from_bag,
@@ -48,6 +49,7 @@ from liquidtouch.io.trial_build import (
     check_trial_name,
     default_trial_name,
 )
+from liquidtouch.io.trial_tracks import read_trial_tracks
 
 __all__ = [
     "DATASET_FORMAT",
@@ -249,8 +251,6 @@ def _umask() -> int:
 
 def _check_trial(tmp: Path, kind: str) -> None:
     """Read the new trial as the extraction will (sources, frame rates, tracks)."""
-    from liquidtouch.io.sources import resolve_sources
-    from liquidtouch.io.trial_tracks import read_trial_tracks
 
     meta = read_trial_meta(tmp)
     if kind == "markers":

@@ -20,7 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
+from liquidtouch._core import atomic
 from liquidtouch.errors import DatasetError
+from liquidtouch.io.frames import TIMESTAMPS_NAME
 
 ROS_HINT = "pip install 'liquidtouch[ros]'"
 IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
@@ -214,8 +216,6 @@ class _TopicWriter:
         self.count += 1
 
     def finish(self, origin_ns: int, time_source: str) -> BagTopic:
-        from liquidtouch._core import atomic
-        from liquidtouch.io.frames import TIMESTAMPS_NAME
 
         if self.count < 2:
             raise DatasetError(

@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 from liquidtouch.errors import TableError
+from liquidtouch.io.signal_csv import check_csv_bounds, shorten
 
 FEATURE_COLUMNS: tuple[str, str] = ("decay_rate", "angular_frequency")
 
@@ -27,7 +28,6 @@ def read_table(path: str | os.PathLike[str]) -> pd.DataFrame:
     ``MAX_CSV_BYTES`` (64 MiB) and ``MAX_CSV_COLUMNS`` (1000) columns, checked
     before parsing.
     """
-    from liquidtouch.io.signal_csv import check_csv_bounds, shorten
 
     path = Path(path)
     if not path.is_file():

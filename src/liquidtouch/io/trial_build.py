@@ -18,9 +18,22 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from liquidtouch._core.progress import progress_bar
+from liquidtouch.clock import check_consistent
 from liquidtouch.errors import DatasetError
 from liquidtouch.io.dataset import FEATURES_NAME, MANIFEST_NAME, META_NAME, trial_path
+from liquidtouch.io.frames import (
+    IMAGE_SUFFIXES,
+    TIMESTAMPS_NAME,
+    image_files,
+    read_folder_timestamps,
+    video_info,
+)
 from liquidtouch.io.labels import MAX_NAME
+from liquidtouch.io.marker_csv import read_marker_csv
+from liquidtouch.io.rosbag import import_bag
+from liquidtouch.io.trial_tracks import TRACKS_NAME
+from liquidtouch.tracking.tracks import save_tracks
 
 TRIAL_PREFIX = "trial-"
 _NAME_PART = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
@@ -90,14 +103,6 @@ class _Source:
 
 def _inspect_source(path: Path) -> _Source:
     import numpy as np
-
-    from liquidtouch.io.frames import (
-        IMAGE_SUFFIXES,
-        TIMESTAMPS_NAME,
-        image_files,
-        read_folder_timestamps,
-        video_info,
-    )
 
     if not path.exists():
         raise DatasetError(f"{path} does not exist; give video files or image folders")
@@ -172,7 +177,6 @@ def build_from_files(
     One input per sensor; ``names`` default to the file or folder stems. ``fps``
     [Hz] default: the first video's stream rate, or a folder's ``timestamps.csv`` rate.
     """
-    from liquidtouch.io.frames import TIMESTAMPS_NAME
 
     items = [_inspect_source(p) for p in paths]
     seen: dict[object, Path] = {}
@@ -243,11 +247,6 @@ def build_from_markers(
     """
     import numpy as np
 
-    from liquidtouch.clock import check_consistent
-    from liquidtouch.io.marker_csv import read_marker_csv
-    from liquidtouch.io.trial_tracks import TRACKS_NAME
-    from liquidtouch.tracking.tracks import save_tracks
-
     names = names or check_sensor_names([_stem(p) for p in paths])
     tracks = [read_marker_csv(p, fps=fps, sensor=n) for p, n in zip(paths, names, strict=True)]
     check_consistent(tracks)
@@ -271,8 +270,6 @@ def build_from_bag(
     ``fps`` [Hz] default: the first topic's median rate; ``time_source``: ``header``
     or ``bag`` stamps; ``progress``: a progress bar on stderr.
     """
-    from liquidtouch._core.progress import progress_bar
-    from liquidtouch.io.rosbag import import_bag
 
     with progress_bar(f"importing {bag.name}", None, enabled=progress) as advance:
         imported = import_bag(

@@ -16,8 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
+from liquidtouch.clock import check_consistent
 from liquidtouch.errors import DatasetError, VideoError
-from liquidtouch.tracking.tracks import MarkerTracks
+from liquidtouch.io.dataset import META_NAME, read_trial_meta
+from liquidtouch.tracking.tracks import MarkerTracks, load_tracks
 
 TRACKS_NAME = "tracks.npz"
 """File name of imported marker tracks in a trial directory (``meta.json`` ``tracks``)."""
@@ -29,8 +31,6 @@ def read_trial_tracks(trial_dir: str | os.PathLike[str], meta: object = None) ->
     Raises :class:`~liquidtouch.errors.DatasetError` if the trial lists no tracks
     or the file is missing, damaged or inconsistent.
     """
-    from liquidtouch.io.dataset import read_trial_meta
-    from liquidtouch.tracking.tracks import load_tracks
 
     trial = Path(trial_dir)
     meta = read_trial_meta(trial) if meta is None else meta
@@ -90,7 +90,6 @@ def stored_tracks(
     its ``tracks.npz`` instead of tracking videos. ``sensors`` selects sensors by
     name (:class:`~liquidtouch.errors.VideoError` for unknown ones).
     """
-    from liquidtouch.io.dataset import META_NAME, read_trial_meta
 
     items = [paths] if isinstance(paths, str | os.PathLike) else list(paths)  # type: ignore[call-overload]
     if len(items) != 1 or not isinstance(items[0], str | os.PathLike):
@@ -112,7 +111,6 @@ def stored_tracks(
                 f"the sensors are {', '.join(names)}"
             )
         tracks = [tr for tr in tracks if tr.sensor in set(wanted)]
-    from liquidtouch.clock import check_consistent
 
     check_consistent(tracks)
     return tracks

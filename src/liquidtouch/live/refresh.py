@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from liquidtouch.errors import LiquidTouchError, NoOscillationError
+from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.fit_settings import AUTO, FitSettings
 from liquidtouch.segment import MIN_PUSH_SNR, free_decay_start, push_snr
 from liquidtouch.signal import tactile_signal
@@ -110,7 +111,6 @@ def refresh(
     partial stream (too few frames, no oscillation yet) are reported in
     ``message``, not raised.
     """
-    from liquidtouch.fit.oscillation import fit_oscillation
 
     settings = FitSettings() if fit_settings is None else fit_settings
     empty = np.zeros(0)

@@ -32,8 +32,9 @@ from liquidtouch._core.atomic import atomic_path
 from liquidtouch.errors import DatasetError, LiquidTouchError
 from liquidtouch.io.dataset import TRUTH_TRACKS_NAME
 from liquidtouch.sim.camera_timing import frame_timestamps
-from liquidtouch.sim.encode import X264_PARAMS
+from liquidtouch.sim.encode import X264_PARAMS, encode_video
 from liquidtouch.sim.loads import FingerLoads
+from liquidtouch.sim.render import iter_frames, make_background
 from liquidtouch.sim.sensors import SensorProfile, get_sensor_profile
 
 SENSOR_NAMES = ("left", "right")
@@ -284,8 +285,6 @@ def write_sensor_videos(
     ``x264_params`` overrides the encoder options (default
     :data:`liquidtouch.sim.encode.X264_PARAMS`; ``""`` gives x264's lossy defaults).
     """
-    from liquidtouch.sim.encode import encode_video
-    from liquidtouch.sim.render import iter_frames, make_background
 
     profile = get_sensor_profile(sensor)
     out_dir = Path(out_dir)

@@ -35,6 +35,10 @@ import numpy as np
 from liquidtouch._core.pool import open_executor, run_each
 from liquidtouch._core.progress import progress_bar
 from liquidtouch.errors import CatalogueError, DatasetError, OutputError
+from liquidtouch.io.dataset import write_manifest
+from liquidtouch.sim.sensors import get_sensor_profile
+from liquidtouch.sim.trial import simulate_trial
+from liquidtouch.sim.trial_io import check_trial_dir, write_trial
 
 
 @dataclass(frozen=True)
@@ -171,8 +175,6 @@ def run_spec(spec: TrialSpec, root: str, video: bool, sensor: str = "default") -
     The trial directory is checked before the simulation and replaced as a
     whole at the end (:func:`~liquidtouch.sim.trial_io.write_trial`).
     """
-    from liquidtouch.sim.trial import simulate_trial
-    from liquidtouch.sim.trial_io import check_trial_dir, write_trial
 
     check_trial_dir(Path(root) / spec.name)
     trial = simulate_trial(seed=spec.seed, **spec.kwargs)
@@ -212,8 +214,6 @@ def simulate_dataset(
     last: after a failure or Ctrl-C the trials already finished are complete,
     no trial is half-written, and the manifest is not (re)written.
     """
-    from liquidtouch.io.dataset import write_manifest
-    from liquidtouch.sim.sensors import get_sensor_profile
 
     specs = get_preset(preset, quick=quick) if isinstance(preset, str) else list(preset)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:

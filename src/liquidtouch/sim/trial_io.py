@@ -34,6 +34,7 @@ from liquidtouch.io.dataset import (
 )
 from liquidtouch.io.figures import save_figure
 from liquidtouch.sim.encode import X264_PARAMS
+from liquidtouch.sim.gelsight import write_sensor_videos
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import CAMERA_FPS, SimulatedTrial
 
@@ -148,8 +149,6 @@ def write_trial(
         sensors: list[str] = []
         fps = CAMERA_FPS
         if video:
-            from liquidtouch.sim.gelsight import write_sensor_videos
-
             recording = write_sensor_videos(
                 trial.loads, tmp, sensor=sensor, seed=trial.seed, x264_params=x264_params
             )

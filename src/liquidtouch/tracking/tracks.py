@@ -37,7 +37,9 @@ from typing import Any
 
 import numpy as np
 
-from liquidtouch.errors import MarkerError, VideoError
+from liquidtouch._core import atomic
+from liquidtouch._core.numbers import percent
+from liquidtouch.errors import MarkerError, OutputError, VideoError
 from liquidtouch.tracking.centroid import THRESHOLD_FRACTION, Refined, refine_centroids
 from liquidtouch.tracking.detect import (
     Detections,
@@ -87,7 +89,7 @@ __all__ = [
 ]
 
 
-@dataclass
+@dataclass(repr=False)
 class MarkerTracks:
     """Tracked markers of one sensor video.
 
@@ -105,6 +107,8 @@ class MarkerTracks:
         trial (a recording's ``meta.json`` ``sensor_start_s``); 0 when unknown, and
         sensors are then aligned on their first frames. Frame ``k`` is at
         ``start_s + t[k] - t[0]`` on that clock.
+
+    Its repr is one short line: sensor, frames × markers and the valid share.
     """
 
     t: np.ndarray
@@ -116,6 +120,14 @@ class MarkerTracks:
     diameter_px: float = float("nan")
     first_frame: np.ndarray | None = field(default=None, repr=False)
     start_s: float = 0.0
+
+    def __repr__(self) -> str:
+        valid = np.asarray(self.valid)
+        share = percent(valid.mean(), 0) if valid.size else percent(None)
+        return (
+            f"MarkerTracks(sensor={self.sensor!r}, {len(self.t)} frames × "
+            f"{self.n_markers} markers, {share} valid)"
+        )
 
     @property
     def n_markers(self) -> int:
@@ -253,7 +265,6 @@ def save_tracks(path: str | Path, tracks: list[MarkerTracks]) -> None:
     ``<name>/valid``, ``<name>/reference`` and ``<name>/start_s`` (a 0-D float;
     files without it read as 0).
     """
-    from liquidtouch._core import atomic
 
     arrays: dict[str, np.ndarray] = {"sensors": np.array([tr.sensor for tr in tracks], dtype=str)}
     for tr in tracks:
@@ -290,7 +301,6 @@ TRACKS_CSV_COLUMNS = ("t", "sensor", "marker", "x", "y", "valid")
 
 def tracks_format(path: str | Path) -> str:
     """``"npz"`` or ``"csv"`` from the suffix of ``path``; OutputError for any other suffix."""
-    from liquidtouch.errors import OutputError
 
     suffix = Path(path).suffix.lower()
     if suffix not in TRACKS_FORMATS:
@@ -309,8 +319,6 @@ def save_tracks_csv(path: str | Path, tracks: list[MarkerTracks]) -> None:
     lost) and ``valid`` (1, or 0 where lost); rows by sensor, frame, marker.
     """
     import pandas as pd
-
-    from liquidtouch._core import atomic
 
     parts = []
     for tr in tracks:
