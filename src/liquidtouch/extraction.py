@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from liquidtouch._core.numbers import fixed, number, with_uncertainty
 from liquidtouch._core.progress import progress_bar
 from liquidtouch.clock import check_consistent
 from liquidtouch.codec_check import check_codec
@@ -38,15 +39,34 @@ __all__ = [
 PathLike = str | os.PathLike[str]
 
 
-@dataclass
+@dataclass(repr=False)
 class Extraction:
-    """Everything ``extract`` computed: per-sensor tracks, the signal and its fit."""
+    """Everything ``extract`` computed: per-sensor tracks, the signal and its fit.
+
+    Its repr is one short line: the sensors, the signal's length and λ, ω ± std.
+    """
 
     tracks: list[MarkerTracks]
     signal: TactileSignal
     fit: object  # liquidtouch.fit.oscillation.OscillationFit
     #: is the recording's codec biasing λ? (``liquidtouch.codec_check.CodecCheck``)
     diagnostics: object = None
+
+    def __repr__(self) -> str:
+        sensors = [tr.sensor for tr in self.tracks]
+        signal = self.signal
+        head = (
+            f"Extraction(sensors={sensors!r}, {len(signal.t)} samples at "
+            f"{number(signal.fps, 3)} fps, {signal.n_markers} markers"
+        )
+        fit = self.fit
+        if fit is None:
+            return head + ", not fitted)"
+        decay = with_uncertainty(fit.decay_rate, fit.decay_rate_std)
+        omega = with_uncertainty(fit.angular_frequency, fit.angular_frequency_std)
+        return (
+            f"{head}, decay_rate={decay} 1/s, angular_frequency={omega} rad/s, r2={fixed(fit.r2)})"
+        )
 
     def to_dict(self) -> dict[str, object]:
         """The fit's keys plus ``explained_variance``, ``n_markers``, ``fps``, ``frames``

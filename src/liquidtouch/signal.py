@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from liquidtouch._core.checks import as_number
+from liquidtouch._core.numbers import fixed, number
 from liquidtouch.clock import check_times, finite_array, frame_period, uniform_clock
 from liquidtouch.errors import MarkerError, SignalError
 from liquidtouch.tracking.tracks import MarkerTracks
@@ -51,7 +52,7 @@ __all__ = [
 MIN_SELECTED = 2
 
 
-@dataclass
+@dataclass(repr=False)
 class TactileSignal:
     """The tactile signal of one trial.
 
@@ -65,6 +66,8 @@ class TactileSignal:
     fps : sample rate of ``t`` [Hz].
     motion : (T, n, 2) filtered displacement of the chosen markers [px].
     lowpass_hz : cut-off of the low-pass filter [Hz] (``None``: no filter).
+
+    Its repr is one short line: samples, rate, duration, markers, explained variance.
     """
 
     t: np.ndarray
@@ -75,6 +78,14 @@ class TactileSignal:
     fps: float
     motion: np.ndarray
     lowpass_hz: float | None = 3.0
+
+    def __repr__(self) -> str:
+        n = len(self.t)
+        duration = float(self.t[-1] - self.t[0]) if n > 1 else 0.0
+        return (
+            f"TactileSignal({n} samples, {number(self.fps, 3)} fps, {number(duration, 3)} s, "
+            f"{self.n_markers} markers, explained_variance={fixed(self.explained_variance, 3)})"
+        )
 
     @property
     def n_markers(self) -> int:

@@ -1,6 +1,8 @@
 """The ground floor: what every stage shares, importing nothing of liquidtouch above it.
 
 - :mod:`~liquidtouch._core.checks`: number checks (:func:`as_number`, range checks);
+- :mod:`~liquidtouch._core.numbers`: numbers as text (a value rounded to its
+  uncertainty), shared by the command line and the results' reprs;
 - :mod:`~liquidtouch._core.atomic`: atomic writes (temp file, then rename) and
   deferred Ctrl-C while a write is swapped in;
 - :mod:`~liquidtouch._core.progress`: the one progress bar (rich, stderr);

@@ -7,13 +7,14 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from liquidtouch._core.numbers import fixed, with_uncertainty
 from liquidtouch.fit.amplitude import amplitude_damped_cosine
 from liquidtouch.fit.model import damped_cosine, quadratic_drift
 
 __all__ = ["OscillationFit"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class OscillationFit:
     """Result of :func:`fit_oscillation`. Rates in 1/s, angular frequencies in rad/s.
 
@@ -28,6 +29,8 @@ class OscillationFit:
     (0 when the data do not support a gain: then λ0 is the single-mode λ),
     ``damping_gain_std`` its standard error and ``damping_exponent`` p (2 or 1).
     All three are NaN for the other models.
+
+    Its repr is one short line: λ and ω rounded to their std, the model and R².
     """
 
     decay_rate: float
@@ -56,6 +59,14 @@ class OscillationFit:
     damping_gain: float = math.nan
     damping_gain_std: float = math.nan
     damping_exponent: float = math.nan
+
+    def __repr__(self) -> str:
+        return (
+            f"OscillationFit(decay_rate={with_uncertainty(self.decay_rate, self.decay_rate_std)}"
+            " 1/s, angular_frequency="
+            f"{with_uncertainty(self.angular_frequency, self.angular_frequency_std)} rad/s, "
+            f"model={self.model!r}, r2={fixed(self.r2)})"
+        )
 
     @property
     def frequency_hz(self) -> float:

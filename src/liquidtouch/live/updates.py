@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from liquidtouch._core.numbers import number, with_uncertainty
+
 #: the stream's phases: no push yet, the push is under way, the free decay is being fitted, ended
 PHASES = ("waiting", "push", "decay", "done")
 
@@ -28,7 +30,7 @@ def _numbers(values: np.ndarray) -> list[float | None]:
     return [_number(v) for v in np.asarray(values, dtype=float).tolist()]
 
 
-@dataclass
+@dataclass(repr=False)
 class LiveUpdate:
     """One estimate of the stream (rates 1/s, angular frequencies rad/s, times s).
 
@@ -62,6 +64,9 @@ class LiveUpdate:
     signal_t_s, signal_u, signal_fit : the tactile signal [s, px] on the decay clock
         (0 at the free-decay start, negative before) and the fitted curve (NaN
         where not fitted), for plots.
+
+    Its repr is one short line: the phase, λ and ω rounded to their std, the
+    predictions and classes.
     """
 
     t_s: float = math.nan
@@ -84,6 +89,20 @@ class LiveUpdate:
     signal_t_s: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     signal_u: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     signal_fit: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+
+    def __repr__(self) -> str:
+        parts = [
+            f"phase={self.phase!r}",
+            f"t_s={number(self.t_s, 3)}",
+            f"decay_rate={with_uncertainty(self.decay_rate, self.decay_rate_std)} 1/s",
+            "angular_frequency="
+            f"{with_uncertainty(self.angular_frequency, self.angular_frequency_std)} rad/s",
+        ]
+        parts += [f"{t}={with_uncertainty(m, s)}" for t, (m, s) in self.predicted.items()]
+        parts += [f"{label}={name!r}" for label, (name, _) in self.classified.items()]
+        if self.final:
+            parts.append("final=True")
+        return f"LiveUpdate({', '.join(parts)})"
 
     def std_of(self, target: str) -> float:
         """The std of ``target`` (``decay_rate``, ``angular_frequency`` or a model target)."""

@@ -64,7 +64,15 @@ class PropertyModel:
     ``domain`` is the :class:`TrainingDomain`; by default the box of the
     estimators' training features (``X_train_``) with :data:`DOMAIN_MARGIN`, or
     ``None`` (no check) if an estimator does not expose its training features.
+
+    :meth:`get_params` / :meth:`set_params` read and replace the constructor
+    arguments in the scikit-learn style (``PropertyModel(**m.get_params())`` is
+    an equivalent model). Its repr is one line: kind, targets, estimator kind,
+    training rows and the accepted (λ, ω) domain.
     """
+
+    #: the constructor's parameters, in its order (what :meth:`get_params` returns)
+    _PARAMS = ("regressors", "classifier", "label", "feature_map", "domain")
 
     def __init__(
         self,
@@ -98,6 +106,54 @@ class PropertyModel:
         self.domain = domain
         #: what made the model (versions, training-table hash), set by ``load_model``
         self.provenance: dict[str, str] | None = None
+
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """The constructor arguments: ``regressors``, ``classifier``, ``label``, ``feature_map``,
+        ``domain`` (the one in use: the default is the training features' box).
+
+        ``deep`` is accepted for scikit-learn compatibility; the fitted estimators
+        are returned as they are, not expanded into ``classifier__C`` etc. (changing
+        their hyperparameters would not refit them). The ``regressors`` dict is a copy.
+        """
+        return {
+            "regressors": dict(self.regressors),
+            "classifier": self.classifier,
+            "label": self.label,
+            "feature_map": self.feature_map,
+            "domain": self.domain,
+        }
+
+    def set_params(self, **params: Any) -> PropertyModel:
+        """Replace constructor arguments (checked as the constructor checks them); ``self``.
+
+        Raises :class:`TableError` for an unknown parameter or an invalid combination.
+        The :attr:`provenance` is kept.
+        """
+        unknown = sorted(set(params) - set(self._PARAMS))
+        if unknown:
+            raise TableError(
+                f"PropertyModel has no parameter {', '.join(map(repr, unknown))}; "
+                f"its parameters: {', '.join(self._PARAMS)}"
+            )
+        merged = {**self.get_params(), **params}
+        provenance = self.provenance
+        fresh = PropertyModel(**merged)  # validate before changing anything
+        self.__dict__.update(fresh.__dict__)
+        self.provenance = provenance
+        return self
+
+    def __repr__(self) -> str:
+        estimators = list(self.regressors.values()) or [self.classifier]
+        names = {kind: name for name, kind in REGRESSORS.items()}
+        names[LiquidClassifier] = "svm"
+        kinds = sorted({names.get(type(e), type(e).__name__) for e in estimators})
+        rows = sorted({int(np.shape(getattr(e, "X_train_", ()))[0]) for e in estimators})
+        row_text = str(rows[0]) if len(rows) == 1 else f"{rows[0]}–{rows[-1]}"
+        transfer = "" if self.feature_map.is_identity else ", container transfer"
+        return (
+            f"PropertyModel({self.kind}, targets={self.targets!r}, model={'+'.join(kinds)!r}, "
+            f"{row_text} training rows, {self.describe_domain()}{transfer})"
+        )
 
     @property
     def kind(self) -> str:
