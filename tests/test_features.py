@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import shutil
 from pathlib import Path
 
@@ -44,9 +45,12 @@ def _fresh_copy(dataset: Path, tmp_path: Path) -> Path:
     return copy
 
 
-def test_features_match_truth_and_bad_trial_is_reported(dataset: Path, tmp_path: Path) -> None:
+def test_features_match_truth_and_bad_trial_is_reported(
+    dataset: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
     root = _fresh_copy(dataset, tmp_path)
-    table = extract_features(root, jobs=1, progress=False).set_index("trial")
+    with caplog.at_level(logging.INFO, logger="liquidtouch.batch"):
+        table = extract_features(root, jobs=1, progress=False).set_index("trial")
     good = table.loc[[name for name, *_ in TRIALS]]
     assert (good["error"] == "").all()
     np.testing.assert_allclose(good["angular_frequency"], good["true_angular_frequency"], rtol=0.01)
@@ -57,6 +61,9 @@ def test_features_match_truth_and_bad_trial_is_reported(dataset: Path, tmp_path:
     assert good["explained_variance"].min() > 0.8
     bad = table.loc["b/corrupt"]
     assert "left.mp4" in bad["error"] and np.isnan(bad["decay_rate"])
+    failed = [r for r in caplog.records if r.levelno == logging.WARNING]
+    assert [r.getMessage().split(":")[0] for r in failed] == ["trial b/corrupt failed"]
+    assert sum("extracted" in r.getMessage() for r in caplog.records) == len(TRIALS)
     written = (root / "features.csv").read_text()
     assert written.splitlines()[0].startswith("trial,")
 

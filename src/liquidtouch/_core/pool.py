@@ -14,6 +14,7 @@ exits quietly: no worker tracebacks, no half-written outputs.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import signal
 from collections.abc import Callable, Hashable, Iterator, Mapping
@@ -21,6 +22,8 @@ from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_complet
 from typing import Any
 
 from liquidtouch.errors import LiquidTouchError
+
+logger = logging.getLogger(__name__)
 
 
 class SerialExecutor(Executor):
@@ -63,6 +66,7 @@ def open_executor(
             raise LiquidTouchError(
                 f"cannot reach the Dask scheduler at {dask_address}: {exc}"
             ) from None
+        logger.info("running on the Dask cluster at %s", dask_address)
         try:
             yield client.get_executor()
         finally:
@@ -70,10 +74,12 @@ def open_executor(
     elif jobs == 1:
         yield SerialExecutor()
     else:
+        logger.info("running on a pool of %d worker processes", jobs)
         pool = ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker)
         try:
             yield pool
         except BaseException:
+            logger.info("stopping the worker pool")
             _stop_pool(pool)
             raise
         pool.shutdown(wait=True)

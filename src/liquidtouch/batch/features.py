@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import math
 from collections.abc import Callable
 from pathlib import Path
@@ -37,6 +38,8 @@ from liquidtouch.io.dataset import (
 from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.signal import check_signal_options
 from liquidtouch.wrench import wrench_features
+
+logger = logging.getLogger(__name__)
 
 #: Bump when extraction or fitting changes in a way that changes features.
 FEATURES_VERSION = 4
@@ -243,10 +246,12 @@ def extract_features(
         try:
             fingerprint = _fingerprint(tdir, source, settings)
         except LiquidTouchError as exc:
+            logger.warning("trial %s: %s", trial, exc)
             results[trial] = {"features": {}, "error": str(exc)}
             continue
         cached = _read_cache(_cache_file(root, trial, source), fingerprint)
         if cached is not None:
+            logger.debug("trial %s: cached", trial)
             results[trial] = cached
         else:
             todo[trial] = (tdir, fingerprint)
@@ -263,6 +268,10 @@ def extract_features(
                     entry = {"fingerprint": todo[trial][1], **result}
                     atomic.write_json(_cache_file(root, trial, source), entry)
                 results[trial] = result
+                if result["error"]:
+                    logger.warning("trial %s failed: %s", trial, result["error"])
+                else:
+                    logger.info("trial %s extracted", trial)
                 if on_trial is not None:
                     on_trial(trial, result)
                 advance()
@@ -286,4 +295,5 @@ def extract_features(
     if write:
         out_path = Path(out) if out is not None else root / FEATURES_NAME
         atomic.write_text(out_path, table.to_csv(index=False))
+        logger.info("wrote %s (%d trials, %d computed)", out_path, len(table), len(todo))
     return table

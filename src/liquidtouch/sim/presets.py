@@ -24,6 +24,7 @@ arguments, split, seed). Sizes and ranges follow Huang, Guo, Yuan (RSS 2022):
 
 from __future__ import annotations
 
+import logging
 import os
 import zlib
 from dataclasses import dataclass, field
@@ -39,6 +40,8 @@ from liquidtouch.io.dataset import write_manifest
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.trial_io import check_trial_dir, write_trial
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -245,7 +248,9 @@ def simulate_dataset(
             for name, future in run_each(pool, run_spec, tasks):
                 try:
                     rows[name] = future.result()
+                    logger.info("trial %s simulated", name)
                 except Exception as exc:  # a bad trial must not kill the batch
+                    logger.warning("trial %s failed: %s: %s", name, type(exc).__name__, exc)
                     failures.append((name, f"{type(exc).__name__}: {exc}"))
                 advance()
     except BaseException:  # Ctrl-C: remove the directories this call made and left empty
