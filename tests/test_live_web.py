@@ -116,6 +116,26 @@ def test_stream_sends_history_then_new_updates_then_end() -> None:
     assert [(e[0], e[2]) for e in resumed] == [("update", "3"), ("update", "4"), ("end", None)]
 
 
+def test_app_state_lifespan_and_log(caplog: pytest.LogCaptureFixture) -> None:
+    """Module-level endpoints over ``app.state``; the lifespan and the clients are logged."""
+    from liquidtouch.live import web
+
+    hub = LiveHub()
+    app = create_app(hub)
+    assert app.state.hub is hub and app.state.readers == 0 and not app.state.stopping.is_set()
+    assert {route.endpoint for route in app.routes} == {web.page, web.events, web.frame}
+    hub.publish(update(0))
+    hub.close()
+    with caplog.at_level("INFO", logger="liquidtouch.live.web"), TestClient(app) as client:
+        events = parse_events(client.get("/stream").text)
+    assert [e[0] for e in events] == ["update", "end"]
+    assert app.state.stopping.is_set() and app.state.readers == 0  # the shutdown ended streams
+    messages = [r.getMessage() for r in caplog.records if r.name == "liquidtouch.live.web"]
+    assert messages[0] == "live view: serving" and messages[-1].startswith("live view: stopped")
+    assert any("connected (1 watching)" in m for m in messages)
+    assert any("disconnected (0 watching)" in m for m in messages)
+
+
 def test_history_is_thinned_not_cut() -> None:
     hub = LiveHub(max_updates=10)
     for i in range(100):

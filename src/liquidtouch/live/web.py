@@ -12,14 +12,21 @@ Three routes, nothing else (any other path is a 404, any other method a 405):
 - ``GET /frame/{sensor}.jpg``: the sensor's newest frame with its marker
   displacement arrows (JPEG).
 
-:func:`start_server` runs it with uvicorn on a background thread, bound to
-127.0.0.1 unless told otherwise.
+The endpoints (:func:`page`, :func:`events`, :func:`frame`) are module-level
+functions reading what they share from ``request.app.state`` (the hub, the stop
+signal, the page, the count of open streams), set by :func:`create_app`;
+:func:`lifespan` does the startup and shutdown work (the shutdown ends the open
+streams). Server events (a client connected or disconnected, errors) go to the
+``liquidtouch.live.web`` logger. :func:`start_server` runs the app with uvicorn
+on a background thread, bound to 127.0.0.1 unless told otherwise.
 """
 
 from __future__ import annotations
 
+import contextlib
 import ipaddress
 import json
+import logging
 import socket
 import threading
 import time
@@ -28,6 +35,7 @@ from pathlib import Path
 
 import anyio
 from starlette.applications import Starlette
+from starlette.datastructures import State
 from starlette.middleware import Middleware
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 from starlette.requests import Request
@@ -36,6 +44,8 @@ from starlette.routing import Route
 
 from liquidtouch.errors import OutputError
 from liquidtouch.live.hub import LiveHub
+
+logger = logging.getLogger(__name__)
 
 PAGE_PATH = Path(__file__).with_name("static") / "live.html"
 #: the page may run its own inline script and style and fetch from its own origin, nothing else
@@ -49,11 +59,115 @@ POLL_S = 0.1
 KEEPALIVE_S = 15.0
 #: Host headers accepted when bound to loopback (a DNS-rebinding page gets a 400)
 LOOPBACK_HOSTS = ["127.0.0.1", "localhost", "::1", "[::1]"]
+#: every response is live: never cached
+NO_STORE = {"Cache-Control": "no-store"}
 
 
 def _event(name: str, data: str, seq: int | None = None) -> str:
     head = f"id: {seq}\n" if seq is not None else ""
     return f"{head}event: {name}\ndata: {data}\n\n"
+
+
+# endpoints: module-level, the shared state in ``request.app.state`` (see create_app)
+
+
+async def page(request: Request) -> Response:
+    """``GET /``: the self-contained page, under its Content-Security-Policy."""
+    headers = {**NO_STORE, "Content-Security-Policy": CSP}
+    return HTMLResponse(request.app.state.page, headers=headers)
+
+
+async def events(request: Request) -> Response:
+    """``GET /stream``: the server-sent events, resuming after ``Last-Event-ID``."""
+    try:
+        seq = int(request.headers.get("last-event-id", "0"))
+    except ValueError:
+        seq = 0
+    headers = {**NO_STORE, "X-Accel-Buffering": "no"}
+    stream = _watched(request.app.state, seq, request.client)
+    return StreamingResponse(stream, media_type="text/event-stream", headers=headers)
+
+
+async def frame(request: Request) -> Response:
+    """``GET /frame/{sensor}.jpg``: the sensor's newest frame with its arrows (404: no such)."""
+    sensor = request.path_params["sensor"]
+    try:
+        jpeg = await anyio.to_thread.run_sync(request.app.state.hub.frame_jpeg, sensor)
+    except Exception:
+        logger.exception("live view: the frame of sensor %r could not be drawn", sensor)
+        raise
+    if jpeg is None:
+        return Response("no such sensor", status_code=404, media_type="text/plain")
+    return Response(jpeg, media_type="image/jpeg", headers=NO_STORE)
+
+
+async def _watched(state: State, seq: int, client: object) -> AsyncIterator[str]:
+    """The event stream of one browser, counted in ``state.readers`` while it is open."""
+    yield "retry: 1000\n\n"  # a browser that lost the stream retries after 1 s
+    state.readers += 1
+    logger.info("live view: %s connected (%d watching)", _who(client), state.readers)
+    try:
+        async for event in _news(state.hub, state.stopping, seq):
+            yield event
+    except Exception:
+        logger.exception("live view: the event stream of %s failed", _who(client))
+        raise
+    finally:
+        state.readers -= 1
+        logger.info("live view: %s disconnected (%d watching)", _who(client), state.readers)
+
+
+async def _news(hub: LiveHub, stopping: threading.Event, seq: int) -> AsyncIterator[str]:
+    """The events after update ``seq``: updates, frame versions, keep-alives, then ``end``."""
+    versions: dict[str, int] = {}
+    last_sent = time.monotonic()
+    while True:
+        # read ``stopping`` first: what was published before the stop is still sent
+        stopped = stopping.is_set()
+        items, closed = hub.updates_since(seq)
+        for item_seq, text in items:
+            yield _event("update", text, item_seq)
+            seq = item_seq
+        sent = bool(items)
+        if hub.frame_versions() != versions:
+            versions = hub.frame_versions()
+            yield _event("frames", json.dumps(versions))
+            sent = True
+        if (closed and not items) or stopped:
+            yield _event("end", "{}")  # the server stopping ends the stream too
+            return
+        if sent:
+            last_sent = time.monotonic()
+        elif time.monotonic() - last_sent > KEEPALIVE_S:
+            last_sent = time.monotonic()
+            yield ": keep-alive\n\n"
+        # block a worker thread, not the event loop, until an update or POLL_S
+        # (frames are looked at every POLL_S: the page shows them at ~10 Hz)
+        await anyio.to_thread.run_sync(hub.wait, seq, POLL_S)
+
+
+def _who(client: object) -> str:
+    """``host:port`` of a request's client, for the log."""
+    host, port = getattr(client, "host", None), getattr(client, "port", None)
+    return f"{host}:{port}" if host is not None else "a client"
+
+
+@contextlib.asynccontextmanager
+async def lifespan(app: Starlette) -> AsyncIterator[None]:
+    """Startup and shutdown of the app: log them; on shutdown end every open stream."""
+    logger.info("live view: serving")
+    try:
+        yield
+    finally:
+        app.state.stopping.set()
+        logger.info("live view: stopped (%d still watching)", app.state.readers)
+
+
+ROUTES = [
+    Route("/", page, methods=["GET"]),
+    Route("/stream", events, methods=["GET"]),
+    Route("/frame/{sensor}.jpg", frame, methods=["GET"]),
+]
 
 
 def create_app(
@@ -66,77 +180,17 @@ def create_app(
 
     ``allowed_hosts`` restricts the Host header (None: any); ``stopping``, once
     set, ends every open stream after what was already published (the server
-    is shutting down). ``app.state.readers`` counts the open streams (browsers
-    watching).
+    is shutting down; the app's shutdown sets it too). ``app.state`` holds the
+    ``hub``, ``stopping``, the ``page`` and ``readers``, the number of open
+    streams (browsers watching).
     """
-    page = PAGE_PATH.read_text(encoding="utf-8")
-    stopping = stopping or threading.Event()
-    no_store = {"Cache-Control": "no-store"}
-
-    async def index(request: Request) -> Response:
-        return HTMLResponse(page, headers={**no_store, "Content-Security-Policy": CSP})
-
-    async def stream(request: Request) -> Response:
-        try:
-            seq = int(request.headers.get("last-event-id", "0"))
-        except ValueError:
-            seq = 0
-
-        async def events() -> AsyncIterator[str]:
-            yield "retry: 1000\n\n"  # a browser that lost the stream retries after 1 s
-            app.state.readers += 1
-            try:
-                async for event in news():
-                    yield event
-            finally:
-                app.state.readers -= 1
-
-        async def news() -> AsyncIterator[str]:
-            nonlocal seq
-            versions: dict[str, int] = {}
-            last_sent = time.monotonic()
-            while True:
-                # read ``stopping`` first: what was published before the stop is still sent
-                stopped = stopping.is_set()
-                items, closed = hub.updates_since(seq)
-                for item_seq, text in items:
-                    yield _event("update", text, item_seq)
-                    seq = item_seq
-                sent = bool(items)
-                if hub.frame_versions() != versions:
-                    versions = hub.frame_versions()
-                    yield _event("frames", json.dumps(versions))
-                    sent = True
-                if (closed and not items) or stopped:
-                    yield _event("end", "{}")  # the server stopping ends the stream too
-                    return
-                if sent:
-                    last_sent = time.monotonic()
-                elif time.monotonic() - last_sent > KEEPALIVE_S:
-                    last_sent = time.monotonic()
-                    yield ": keep-alive\n\n"
-                # block a worker thread, not the event loop, until an update or POLL_S
-                # (frames are looked at every POLL_S: the page shows them at ~10 Hz)
-                await anyio.to_thread.run_sync(hub.wait, seq, POLL_S)
-
-        headers = {**no_store, "X-Accel-Buffering": "no"}
-        return StreamingResponse(events(), media_type="text/event-stream", headers=headers)
-
-    async def frame(request: Request) -> Response:
-        jpeg = await anyio.to_thread.run_sync(hub.frame_jpeg, request.path_params["sensor"])
-        if jpeg is None:
-            return Response("no such sensor", status_code=404, media_type="text/plain")
-        return Response(jpeg, media_type="image/jpeg", headers=no_store)
-
     middleware = []
     if allowed_hosts is not None:
         middleware.append(Middleware(TrustedHostMiddleware, allowed_hosts=allowed_hosts))
-    routes = [
-        Route("/", index, methods=["GET"]),
-        Route("/stream", stream, methods=["GET"]),
-        Route("/frame/{sensor}.jpg", frame, methods=["GET"]),
-    ]
-    app = Starlette(routes=routes, middleware=middleware)
+    app = Starlette(routes=ROUTES, middleware=middleware, lifespan=lifespan)
+    app.state.hub = hub
+    app.state.stopping = stopping or threading.Event()
+    app.state.page = PAGE_PATH.read_text(encoding="utf-8")
     app.state.readers = 0
     return app
 
@@ -211,7 +265,7 @@ def start_server(
         log_config=None,  # leave the application's logging alone
         log_level="warning",
         access_log=False,
-        lifespan="off",
+        lifespan="on",  # logs start and stop; its shutdown ends the streams
         server_header=False,
         timeout_graceful_shutdown=2,
     )
