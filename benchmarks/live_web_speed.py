@@ -37,7 +37,7 @@ def frame_speed(out: Path, repeats: int = 40) -> list[tuple[str, float, float]]:
     import liquidtouch as lt
     from liquidtouch.io.frames import iter_video
     from liquidtouch.live.hub import JPEG_QUALITY, LiveHub
-    from liquidtouch.tracking.tracks import detect_markers
+    from liquidtouch.tracking.detect import detect_markers
 
     rows = []
     trial = lt.simulate_trial("water", height_mm=25.0, seed=1, duration_s=3.0)

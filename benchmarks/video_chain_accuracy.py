@@ -32,8 +32,9 @@ from liquidtouch.extraction import extract
 from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.segment import free_decay
 from liquidtouch.signal import tactile_signal
-from liquidtouch.sim.trial import Variability, simulate_trial
+from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.trial_io import write_trial
+from liquidtouch.sim.variability import Variability
 from liquidtouch.tracking.tracks import MarkerTracks
 
 CASES = [  # (liquid, sugar concentration, height mm)

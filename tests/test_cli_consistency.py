@@ -134,7 +134,7 @@ def test_fit_of_extracted_whole_signal_equals_extract(dataset: Path, tmp_path: P
     ],
 )
 def test_fit_start_is_validated(tmp_path: Path, capsys, start: str, message: str) -> None:
-    from liquidtouch.fit.oscillation import example_signal
+    from liquidtouch.fit.example import example_signal
     from liquidtouch.io.signal_csv import write_signal_csv
 
     path = tmp_path / "s.csv"
@@ -145,7 +145,7 @@ def test_fit_start_is_validated(tmp_path: Path, capsys, start: str, message: str
 
 
 def test_fit_start_number_cuts_there(tmp_path: Path, capsys) -> None:
-    from liquidtouch.fit.oscillation import example_signal
+    from liquidtouch.fit.example import example_signal
     from liquidtouch.io.signal_csv import write_signal_csv
 
     path = tmp_path / "s.csv"
@@ -201,8 +201,8 @@ def test_fit_and_signal_options_are_declared_once(command: str) -> None:
 
 def test_choices_are_the_librarys_and_listed_in_help(capsys) -> None:
     from liquidtouch.batch.features import SOURCES
-    from liquidtouch.fit_settings import FitSettings
     from liquidtouch.fit.oscillation import LOSSES, MODELS, NOISE_MODELS
+    from liquidtouch.fit_settings import FitSettings
     from liquidtouch.models.property_model import MODEL_KINDS
 
     assert [c.value for c in options.LossChoice] == list(LOSSES)

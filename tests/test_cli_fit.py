@@ -9,7 +9,7 @@ import pytest
 
 from liquidtouch.cli import main
 from liquidtouch.errors import TableError
-from liquidtouch.fit.oscillation import EXAMPLE_PARAMETERS, example_signal
+from liquidtouch.fit.example import EXAMPLE_PARAMETERS, example_signal
 from liquidtouch.io.signal_csv import read_signal_csv, write_signal_csv
 
 KEYS = (

@@ -18,7 +18,9 @@ import pytest
 from liquidtouch.cli import main
 from liquidtouch.errors import DatasetError
 from liquidtouch.io.dataset import read_manifest, read_trial_meta
-from liquidtouch.io.recordings import DATASET_MARKER, add_trial, check_labels, init_dataset
+from liquidtouch.io.dataset_dir import DATASET_MARKER, init_dataset
+from liquidtouch.io.labels import check_labels
+from liquidtouch.io.recordings import add_trial
 
 LABELS = ("-l", "liquid=water", "-l", "height_mm=25", "-l", "container=grooved-cuboid")
 

@@ -23,8 +23,9 @@ from pathlib import Path
 import pytest
 
 from liquidtouch.extraction import extract
-from liquidtouch.sim.trial import Variability, simulate_trial
+from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.trial_io import write_trial
+from liquidtouch.sim.variability import Variability
 
 CLEAN_CASES = [  # (liquid, sugar concentration g/100 g water, nominal fill height mm)
     ("water", None, 18.0),

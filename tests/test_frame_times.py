@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from liquidtouch.acquire.frame_writers import _Ffv1Writer
 
 from liquidtouch.acquire.cameras import Frame
-from liquidtouch.acquire.frame_writers import _Ffv1Writer
 from liquidtouch.errors import VideoError
-from liquidtouch.io.frames import iter_video, video_sidecar
+from liquidtouch.io.frame_times import video_sidecar
+from liquidtouch.io.frames import iter_video
 
 
 def write_ffv1(directory, times):

@@ -32,19 +32,12 @@ from liquidtouch.io.dataset import write_manifest
 from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.models import modelfile
 from liquidtouch.models.classifier import LiquidClassifier
-from liquidtouch.models.modelfile import (
-    MAX_MODEL_FILE_BYTES,
-    document_sha256,
-    load_model,
-    model_to_dict,
-    save_model,
-)
-from liquidtouch.models.property_model import (
-    FeatureMap,
-    TrainingDomain,
-    train_regression,
-)
-from liquidtouch.models.regressors import MAX_KERNEL_ROWS, MAX_KERNEL_ROWS_TOTAL, GPRegressor
+from liquidtouch.models.feature_space import FeatureMap, TrainingDomain
+from liquidtouch.models.kernel_limits import MAX_KERNEL_ROWS, MAX_KERNEL_ROWS_TOTAL
+from liquidtouch.models.modelfile import MAX_MODEL_FILE_BYTES, load_model, model_to_dict, save_model
+from liquidtouch.models.modelfile_checks import document_sha256
+from liquidtouch.models.property_model import train_regression
+from liquidtouch.models.regressors import GPRegressor
 
 FEATURES = list(FEATURE_COLUMNS)
 SRC = Path(liquidtouch.__file__).resolve().parents[1]

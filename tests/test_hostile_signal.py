@@ -29,7 +29,8 @@ from liquidtouch.cli import main
 from liquidtouch.errors import OutputError, SignalError, TableError, VideoError
 from liquidtouch.extraction import extract, extract_signal
 from liquidtouch.fit.oscillation import MAX_SAMPLES, fit_oscillation
-from liquidtouch.io.frames import TIMESTAMPS_NAME, iter_video, read_folder_timestamps
+from liquidtouch.io.frame_times import TIMESTAMPS_NAME, read_folder_timestamps
+from liquidtouch.io.frames import iter_video
 from liquidtouch.io.signal_csv import MAX_CSV_BYTES, MAX_CSV_COLUMNS, read_signal_csv
 from liquidtouch.io.tables import read_table
 
@@ -90,8 +91,9 @@ def mini_trials(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """
     from liquidtouch.io.dataset import write_trial_meta
     from liquidtouch.sim.gelsight import write_sensor_videos
-    from liquidtouch.sim.trial import Variability, simulate_trial
+    from liquidtouch.sim.trial import simulate_trial
     from liquidtouch.sim.trial_io import trial_meta, write_trial
+    from liquidtouch.sim.variability import Variability
 
     root = tmp_path_factory.mktemp("mini")
     trial = simulate_trial("water", height_mm=25.0, seed=1, variability=Variability.none())
@@ -321,14 +323,14 @@ def test_extract_output_that_is_a_directory_fails_before_the_work(tmp_path, caps
 
 
 def test_extract_writes_no_output_when_a_later_step_fails(tmp_path, capsys, monkeypatch) -> None:
-    import liquidtouch.extraction
+    import liquidtouch.extraction_plot
 
     video = _write_video(tmp_path / "left.mp4", _frames(150, 30.0), 30.0)
 
     def broken_plot(*args, **kwargs):
         raise OutputError("cannot draw the figure")
 
-    monkeypatch.setattr(liquidtouch.extraction, "plot_extraction", broken_plot)
+    monkeypatch.setattr(liquidtouch.extraction_plot, "plot_extraction", broken_plot)
     outputs = {"--signal-out": tmp_path / "u.csv", "--tracks-out": tmp_path / "t.npz"}
     args = [x for pair in outputs.items() for x in pair]
     status, err = _run(capsys, "extract", video, "--json", "--plot", tmp_path / "f.png", *args)
@@ -439,7 +441,7 @@ def test_the_same_video_twice_is_refused(tmp_path, capsys) -> None:
 
 
 def test_flatness_is_relative_to_the_signal_s_scale() -> None:
-    from liquidtouch.fit.oscillation import example_signal
+    from liquidtouch.fit.example import example_signal
 
     t, u = example_signal()
     reference = fit_oscillation(t, u)

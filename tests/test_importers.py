@@ -35,8 +35,9 @@ def _run(capsys: pytest.CaptureFixture[str], *argv: object) -> tuple[int, str, s
 def simulated(tmp_path_factory: pytest.TempPathFactory):
     """A clean simulated water trial (9 s, GelSight Mini videos) and its video extraction."""
     from liquidtouch.extraction import extract
-    from liquidtouch.sim.trial import Variability, simulate_trial
+    from liquidtouch.sim.trial import simulate_trial
     from liquidtouch.sim.trial_io import write_trial
+    from liquidtouch.sim.variability import Variability
 
     trial = simulate_trial(
         "water", height_mm=25.0, seed=1, duration_s=9.0, variability=Variability.none()
@@ -191,7 +192,8 @@ def test_truth_tracks_as_gelsight_csv_give_the_true_decay(simulated, tmp_path: P
 
 def test_stored_tracks_select_sensors_and_refuse_damage(simulated, tmp_path: Path) -> None:
     _, directory, _ = simulated
-    from liquidtouch.io.recordings import add_trial, init_dataset
+    from liquidtouch.io.dataset_dir import init_dataset
+    from liquidtouch.io.recordings import add_trial
 
     root = init_dataset(tmp_path / "data")
     csvs = _write_truth_csv(directory / "truth_tracks.npz", tmp_path, header=True)
@@ -375,7 +377,7 @@ def test_bag_encodings_compressed_images_and_time_source(tmp_path: Path, ros1: b
 
 def test_bad_bags_are_refused(tmp_path: Path, capsys, monkeypatch) -> None:
     pytest.importorskip("rosbags")
-    from liquidtouch.io.recordings import init_dataset
+    from liquidtouch.io.dataset_dir import init_dataset
     from liquidtouch.io.rosbag import import_bag
 
     stamps = [EPOCH_NS + k * 40_000_000 for k in range(3)]
@@ -421,7 +423,8 @@ def test_marker_trial_copies_cleanly(simulated, tmp_path: Path) -> None:
     """A tracks trial is self-contained: copied elsewhere it extracts the same."""
     _, directory, _ = simulated
     from liquidtouch.extraction import extract_trial
-    from liquidtouch.io.recordings import add_trial, init_dataset
+    from liquidtouch.io.dataset_dir import init_dataset
+    from liquidtouch.io.recordings import add_trial
 
     root = init_dataset(tmp_path / "data")
     added = add_trial(

@@ -10,13 +10,8 @@ from helpers import grid, render_blobs
 from scipy.spatial import cKDTree
 
 from liquidtouch.errors import MarkerError, VideoError
-from liquidtouch.tracking.tracks import (
-    MarkerTracks,
-    detect_markers,
-    load_tracks,
-    save_tracks,
-    track_markers,
-)
+from liquidtouch.tracking.detect import detect_markers
+from liquidtouch.tracking.tracks import MarkerTracks, load_tracks, save_tracks, track_markers
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 REAL = SHARED / "data" / "real"

@@ -18,8 +18,8 @@ from liquidtouch.models import (
     train_classifier,
     train_regression,
 )
+from liquidtouch.models.feature_space import FeatureMap
 from liquidtouch.models.physics_prior import dispersion_height_mm, fit_wavenumber
-from liquidtouch.models.property_model import FeatureMap
 
 RNG = np.random.default_rng(0)
 X = np.column_stack([RNG.uniform(0.1, 1.3, 30), RNG.uniform(10.0, 14.0, 30)])

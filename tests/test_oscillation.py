@@ -11,12 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from liquidtouch.errors import NoOscillationError, SignalError
-from liquidtouch.fit.oscillation import (
-    EXAMPLE_PARAMETERS,
-    OscillationFit,
-    example_signal,
-    fit_oscillation,
-)
+from liquidtouch.fit.example import EXAMPLE_PARAMETERS, example_signal
+from liquidtouch.fit.oscillation import fit_oscillation
+from liquidtouch.fit.result import OscillationFit
 
 FPS = 30.0
 DURATION_S = 13.0

@@ -18,14 +18,16 @@ from benchmarks.synthetic_tables import (
 from liquidtouch.errors import TableError
 from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.models.classifier import LiquidClassifier
+from liquidtouch.models.feature_space import FeatureMap
 from liquidtouch.models.physics_prior import (
     PhysicsGPRegressor,
     dispersion_height_mm,
     fit_wavenumber,
     prior_for_target,
 )
-from liquidtouch.models.property_model import FeatureMap, train_classifier, train_regression
-from liquidtouch.models.regressors import GPRegressor, QuadraticRegressor
+from liquidtouch.models.property_model import train_classifier, train_regression
+from liquidtouch.models.quadratic import QuadraticRegressor
+from liquidtouch.models.regressors import GPRegressor
 from liquidtouch.models.transfer import fit_transfer
 
 FEATURES = list(FEATURE_COLUMNS)

@@ -19,12 +19,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from camera_frames import CodedFrames, dot_position, frame_number
-
 from liquidtouch.acquire.recorder import Recorder, record
+
 from liquidtouch.cli import main
 from liquidtouch.errors import DatasetError, DeviceError, OutputError
 from liquidtouch.io.dataset import read_trial_meta
-from liquidtouch.io.frames import read_folder_timestamps, read_frames
+from liquidtouch.io.frame_times import read_folder_timestamps
+from liquidtouch.io.frames import read_frames
 from liquidtouch.sim.rig.mjpeg import MjpegServer
 
 FPS = 30.0

@@ -33,7 +33,7 @@ import numpy as np
 
 from liquidtouch._core.checks import as_number
 from liquidtouch._core.numbers import fixed, number
-from liquidtouch.clock import check_times, finite_array, frame_period, uniform_clock
+from liquidtouch.clock import check_times, finite_array, uniform_clock
 from liquidtouch.errors import MarkerError, SignalError
 from liquidtouch.tracking.tracks import MarkerTracks
 
@@ -41,11 +41,9 @@ __all__ = [
     "TactileSignal",
     "check_signal_options",
     "first_component",
-    "frame_period",
     "lowpass",
     "resample_displacement",
     "tactile_signal",
-    "uniform_clock",
 ]
 
 #: fewest usable markers (over all sensors) a signal is built from

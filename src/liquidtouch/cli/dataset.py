@@ -42,7 +42,7 @@ def init_command(
     The directory holds only the marker file .liquidtouch-dataset until the first
     'dataset add' writes manifest.csv.
     """
-    from liquidtouch.io.recordings import init_dataset
+    from liquidtouch.io.dataset_dir import init_dataset
 
     root = init_dataset(directory)
     if as_json:
@@ -137,7 +137,8 @@ def add_command(
     failure leaves the dataset as it was.
     """
     from liquidtouch.cli.format import warn
-    from liquidtouch.io.recordings import add_trial, parse_label_options
+    from liquidtouch.io.labels import parse_label_options
+    from liquidtouch.io.recordings import add_trial
 
     added = add_trial(
         directory,

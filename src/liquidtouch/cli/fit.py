@@ -51,7 +51,8 @@ def fit(
     built-in example is fitted from its first sample unless --start is given; it is
     drawn from the paper's two-mode model (--model two-mode fits that model).
     """
-    from liquidtouch.fit.oscillation import example_signal, fit_oscillation
+    from liquidtouch.fit.example import example_signal
+    from liquidtouch.fit.oscillation import fit_oscillation
 
     if example == (signal is not None):
         raise SignalError("give either a SIGNAL.csv or --example (exactly one)")

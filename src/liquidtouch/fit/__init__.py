@@ -9,6 +9,8 @@ drift) and its loss, ``amplitude`` the model whose damping grows with the amplit
 damped test signals with known λ0, and ``plot`` the figure of a fit.
 """
 
-from liquidtouch.fit.oscillation import OscillationFit, example_signal, fit_oscillation
+from liquidtouch.fit.example import example_signal
+from liquidtouch.fit.oscillation import fit_oscillation
+from liquidtouch.fit.result import OscillationFit
 
 __all__ = ["OscillationFit", "example_signal", "fit_oscillation"]

@@ -60,11 +60,10 @@ import numpy as np
 
 from liquidtouch.errors import NoOscillationError, SignalError
 from liquidtouch.fit.amplitude import optimise_amplitude
-from liquidtouch.fit.example import EXAMPLE_PARAMETERS, example_signal
 from liquidtouch.fit.result import OscillationFit
 from liquidtouch.fit.solve import FitState, optimise_single_mode, optimise_two_mode
 
-__all__ = ["EXAMPLE_PARAMETERS", "OscillationFit", "example_signal", "fit_oscillation"]
+__all__ = ["fit_oscillation"]
 
 LOSSES = ("paper", "ls")
 MODELS = ("two-mode", "single-mode", "amplitude")

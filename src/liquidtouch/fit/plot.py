@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from liquidtouch.errors import LiquidTouchError
-from liquidtouch.fit.oscillation import OscillationFit
+from liquidtouch.fit.result import OscillationFit
 from liquidtouch.io.figures import save_figure
 
 if TYPE_CHECKING:

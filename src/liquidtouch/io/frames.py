@@ -36,31 +36,22 @@ import numpy as np
 
 from liquidtouch.errors import VideoError
 from liquidtouch.io.frame_times import (
-    TIMESTAMPS_NAME,
-    VIDEO_TIMESTAMPS_SUFFIX,
     folder_times,
-    read_folder_timestamps,
     video_sidecar,
     video_sidecar_times,
 )
 
 __all__ = [
     "IMAGE_SUFFIXES",
-    "TIMESTAMPS_NAME",
     "VIDEO_SUFFIXES",
-    "VIDEO_TIMESTAMPS_SUFFIX",
     "VideoInfo",
-    "folder_times",
     "image_files",
     "iter_camera",
     "iter_frames",
     "iter_image_folder",
     "iter_video",
-    "read_folder_timestamps",
     "read_frames",
     "video_info",
-    "video_sidecar",
-    "video_sidecar_times",
 ]
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")

@@ -29,18 +29,14 @@ from liquidtouch._core import atomic
 from liquidtouch.errors import DatasetError
 from liquidtouch.io.dataset import TrialMeta, read_trial_meta, write_trial_meta
 from liquidtouch.io.dataset_dir import (
-    DATASET_FORMAT,
-    DATASET_MARKER,
     append_manifest_row,
     dataset_lock,
-    init_dataset,
     is_dataset,
     manifest_rows,
 )
-from liquidtouch.io.labels import LOG10_TOLERANCE, check_labels, parse_label_options
+from liquidtouch.io.labels import check_labels
 from liquidtouch.io.sources import resolve_sources
 from liquidtouch.io.trial_build import (
-    TRIAL_PREFIX,
     build_from_bag,
     build_from_files,
     build_from_markers,
@@ -51,18 +47,7 @@ from liquidtouch.io.trial_build import (
 )
 from liquidtouch.io.trial_tracks import read_trial_tracks
 
-__all__ = [
-    "DATASET_FORMAT",
-    "DATASET_MARKER",
-    "LOG10_TOLERANCE",
-    "TRIAL_PREFIX",
-    "AddedTrial",
-    "add_trial",
-    "check_labels",
-    "init_dataset",
-    "is_dataset",
-    "parse_label_options",
-]
+__all__ = ["AddedTrial", "add_trial"]
 
 _SPLIT = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]*")
 

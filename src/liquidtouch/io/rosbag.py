@@ -22,7 +22,7 @@ import numpy as np
 
 from liquidtouch._core import atomic
 from liquidtouch.errors import DatasetError
-from liquidtouch.io.frames import TIMESTAMPS_NAME
+from liquidtouch.io.frame_times import TIMESTAMPS_NAME
 
 ROS_HINT = "pip install 'liquidtouch[ros]'"
 IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")

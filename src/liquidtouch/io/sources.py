@@ -15,7 +15,8 @@ from pathlib import Path
 from liquidtouch._core.checks import as_number
 from liquidtouch.errors import VideoError
 from liquidtouch.io.dataset import META_NAME, read_trial_meta
-from liquidtouch.io.frames import TIMESTAMPS_NAME, image_files
+from liquidtouch.io.frame_times import TIMESTAMPS_NAME
+from liquidtouch.io.frames import image_files
 
 PathLike = str | os.PathLike[str]
 

@@ -22,13 +22,8 @@ from liquidtouch._core.progress import progress_bar
 from liquidtouch.clock import check_consistent
 from liquidtouch.errors import DatasetError
 from liquidtouch.io.dataset import FEATURES_NAME, MANIFEST_NAME, META_NAME, trial_path
-from liquidtouch.io.frames import (
-    IMAGE_SUFFIXES,
-    TIMESTAMPS_NAME,
-    image_files,
-    read_folder_timestamps,
-    video_info,
-)
+from liquidtouch.io.frame_times import TIMESTAMPS_NAME, read_folder_timestamps
+from liquidtouch.io.frames import IMAGE_SUFFIXES, image_files, video_info
 from liquidtouch.io.labels import MAX_NAME
 from liquidtouch.io.marker_csv import read_marker_csv
 from liquidtouch.io.rosbag import import_bag

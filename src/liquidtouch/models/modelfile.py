@@ -30,33 +30,16 @@ from liquidtouch._core import atomic
 from liquidtouch.errors import LiquidTouchError, ModelFileError
 from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.models.classifier import LiquidClassifier
+from liquidtouch.models.feature_space import FeatureMap, TrainingDomain
 from liquidtouch.models.modelfile_checks import (
-    KERNEL_MODELS,
     document_sha256,
     training_sha256,
     validate_document,
 )
 from liquidtouch.models.modelfile_schema import FORMAT_NAME, FORMAT_VERSION, ModelFile
-from liquidtouch.models.property_model import (
-    REGRESSORS,
-    FeatureMap,
-    PropertyModel,
-    TrainingDomain,
-)
+from liquidtouch.models.property_model import REGRESSORS, PropertyModel
 
-__all__ = [
-    "FORMAT_NAME",
-    "FORMAT_VERSION",
-    "KERNEL_MODELS",
-    "MAX_MODEL_FILE_BYTES",
-    "ModelFile",
-    "document_sha256",
-    "load_model",
-    "model_from_dict",
-    "model_to_dict",
-    "save_model",
-    "training_sha256",
-]
+__all__ = ["MAX_MODEL_FILE_BYTES", "load_model", "model_from_dict", "model_to_dict", "save_model"]
 
 #: Largest model file read (checked before parsing). A model at the kernel-row limits
 #: (two GP targets of 2000 rows) is 0.25 MB; loading a hostile 2 MiB file of minimal rows

@@ -22,7 +22,6 @@ from liquidtouch.errors import TableError
 from liquidtouch.io.tables import FEATURE_COLUMNS, feature_matrix
 from liquidtouch.models.classifier import LiquidClassifier
 from liquidtouch.models.feature_space import (
-    DOMAIN_MARGIN,
     FeatureMap,
     TrainingDomain,
     input_interval,
@@ -34,12 +33,9 @@ from liquidtouch.models.regressors import GPRegressor
 from liquidtouch.models.validation import check_features
 
 __all__ = [
-    "DOMAIN_MARGIN",
     "MODEL_KINDS",
     "REGRESSORS",
-    "FeatureMap",
     "PropertyModel",
-    "TrainingDomain",
     "make_regressor",
     "train_classifier",
     "train_regression",

@@ -42,31 +42,12 @@ from sklearn.utils.validation import check_is_fitted
 from liquidtouch._core.checks import check_int
 from liquidtouch.errors import ModelFileError, TableError
 from liquidtouch.models.kernel_limits import (
-    MAX_KERNEL_ROWS,
-    MAX_KERNEL_ROWS_TOTAL,
     check_kernel_rows,
     single_threaded_blas,
 )
-from liquidtouch.models.quadratic import (
-    MIN_ROWS_QUADRATIC,
-    QuadraticRegressor,
-    n_quadratic_terms,
-)
 from liquidtouch.models.validation import mean_and_scale, validate_X, validate_X_y
 
-__all__ = [
-    "LENGTH_SCALE_BOUNDS",
-    "MAX_KERNEL_ROWS",
-    "MAX_KERNEL_ROWS_TOTAL",
-    "MIN_ROWS_GPR",
-    "MIN_ROWS_QUADRATIC",
-    "PREDICT_CHUNK_ROWS",
-    "GPRegressor",
-    "QuadraticRegressor",
-    "check_kernel_rows",
-    "n_quadratic_terms",
-    "single_threaded_blas",
-]
+__all__ = ["LENGTH_SCALE_BOUNDS", "MIN_ROWS_GPR", "PREDICT_CHUNK_ROWS", "GPRegressor"]
 
 MIN_ROWS_GPR = 5
 # RBF length scales in standardised input units. Labels are usually set on a grid

@@ -19,8 +19,9 @@ import numpy as np
 
 from liquidtouch._core.checks import check_positive
 from liquidtouch.errors import TableError
+from liquidtouch.models.feature_space import FeatureMap
 from liquidtouch.models.kernel_limits import single_threaded_blas
-from liquidtouch.models.property_model import FeatureMap, PropertyModel
+from liquidtouch.models.property_model import PropertyModel
 from liquidtouch.models.validation import check_features
 
 MIN_TUNE_ROWS = 4  # four parameters (α1, α2, β1, β2)

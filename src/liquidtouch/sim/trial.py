@@ -27,7 +27,7 @@ from liquidtouch.sim.loads import FingerLoads
 from liquidtouch.sim.slosh import integrate, sinusoid_response, slosh_system
 from liquidtouch.sim.variability import TrialParameters, Variability, draw_parameters
 
-__all__ = ["SimulatedTrial", "TrialParameters", "Variability", "simulate_trial"]
+__all__ = ["SimulatedTrial", "simulate_trial"]
 
 SAMPLE_RATE_HZ = 240.0
 DURATION_S = 13.0

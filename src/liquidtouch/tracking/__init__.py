@@ -6,6 +6,7 @@ from frame to frame, and ``tracks`` holds the result: positions [px] (T × N × 
 with a validity mask (lost markers are flagged, never invented).
 """
 
-from liquidtouch.tracking.tracks import MarkerTracks, detect_markers, track_markers
+from liquidtouch.tracking.detect import detect_markers
+from liquidtouch.tracking.tracks import MarkerTracks, track_markers
 
 __all__ = ["MarkerTracks", "detect_markers", "track_markers"]

@@ -40,22 +40,15 @@ import numpy as np
 from liquidtouch._core import atomic
 from liquidtouch._core.numbers import percent
 from liquidtouch.errors import MarkerError, OutputError, VideoError
-from liquidtouch.tracking.centroid import THRESHOLD_FRACTION, Refined, refine_centroids
 from liquidtouch.tracking.detect import (
-    Detections,
     as_grey,
-    background,
-    detect_markers,
-    window_half_size,
 )
 from liquidtouch.tracking.track import (
     AREA_CHANGE,
-    MIN_MARKERS,
     REACQUIRE_EVERY,
     SEARCH_FRACTION,
     MarkerTracker,
     marker_spacing,
-    match_one_to_one,
 )
 
 #: track_markers fails when all markers are lost in more than this fraction of the frames
@@ -65,27 +58,13 @@ MAX_ALL_LOST_FRACTION = 0.1
 MAX_FRAMES = 36_000
 
 __all__ = [
-    "AREA_CHANGE",
     "MAX_ALL_LOST_FRACTION",
-    "MIN_MARKERS",
-    "REACQUIRE_EVERY",
-    "SEARCH_FRACTION",
-    "THRESHOLD_FRACTION",
-    "Detections",
-    "MarkerTracker",
     "MarkerTracks",
-    "Refined",
-    "background",
-    "detect_markers",
     "load_tracks",
-    "marker_spacing",
-    "match_one_to_one",
-    "refine_centroids",
     "save_tracks",
     "save_tracks_csv",
     "track_markers",
     "tracks_format",
-    "window_half_size",
 ]
 
 
