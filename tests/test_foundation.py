@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import pkgutil
 
 import pytest
 
@@ -90,7 +91,7 @@ PUBLIC_API = {
     *("PropertyModel", "train_regression", "train_classifier", "fit_transfer"),
     *("save_model", "load_model", "TrialMeta", "read_trial_meta", "read_manifest"),
     *("extract_features", "simulate_trial", "write_trial", "simulate_dataset"),
-    *("write_sensor_videos", "FingerLoads", "reproduce"),
+    *("write_sensor_videos", "FingerLoads", "reproduce", "plot_extraction"),
 }
 
 
@@ -101,3 +102,33 @@ def test_public_api_is_pinned() -> None:
 
     assert callable(liquidtouch.extract) and liquidtouch.extract.__name__ == "extract"
     assert liquidtouch.fit_oscillation.__module__ == "liquidtouch.fit.oscillation"
+
+
+def test_each_public_name_is_its_stages_own() -> None:
+    """``lt.X`` is the object the stage that documents it exports, listed in its ``__all__``."""
+    for name in liquidtouch.__all__:
+        if name == "__version__":
+            continue
+        stage = importlib.import_module(f"liquidtouch.{liquidtouch._EXPORTS[name]}")
+        assert getattr(liquidtouch, name) is getattr(stage, name), name
+        assert name in stage.__all__, f"{name} not in {stage.__name__}.__all__"
+    assert liquidtouch.plot_extraction.__module__ == "liquidtouch.extraction_plot"
+
+
+def _is_private(name: str) -> bool:
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def test_no_private_name_in_any_all() -> None:
+    """Walk every liquidtouch module: each imports, and no ``__all__`` lists a ``_name``."""
+    names = ["liquidtouch"] + [
+        m.name for m in pkgutil.walk_packages(liquidtouch.__path__, "liquidtouch.")
+    ]
+    private = []
+    for module_name in names:
+        module = importlib.import_module(module_name)
+        exported = getattr(module, "__all__", [])
+        private += [f"{module_name}.{n}" for n in exported if _is_private(n)]
+        missing = [n for n in exported if not hasattr(module, n)]
+        assert missing == [], f"{module_name}.__all__ names what it lacks: {missing}"
+    assert len(names) > 100 and private == []

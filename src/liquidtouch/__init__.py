@@ -11,7 +11,10 @@ from typing import Any
 
 __version__ = "0.1.0"
 
-# public name -> module that defines it
+# public name -> the stage that exports and documents it: a stage package whose
+# ``__init__`` lists the name in its ``__all__`` (``fit``, ``tracking``, ``io``,
+# ``models``, ``batch``, ``sim``), or a plain module (``signal``, ``extraction``,
+# ``io.frames``, ...)
 _EXPORTS: dict[str, str] = {
     # errors
     "LiquidTouchError": "errors",
@@ -21,9 +24,9 @@ _EXPORTS: dict[str, str] = {
     "fit_oscillation": "fit",
     "OscillationFit": "fit",
     "example_signal": "fit",
-    "read_signal_csv": "io.signal_csv",
-    "write_signal_csv": "io.signal_csv",
     "plot_fit": "fit.plot",
+    "read_signal_csv": "io",
+    "write_signal_csv": "io",
     # video -> markers -> signal
     "iter_frames": "io.frames",
     "read_frames": "io.frames",
@@ -36,28 +39,29 @@ _EXPORTS: dict[str, str] = {
     "extract_signal": "extraction",
     "Extraction": "extraction",
     "free_decay": "segment",
+    "plot_extraction": "extraction_plot",
     # properties
     "GPRegressor": "models",
     "QuadraticRegressor": "models",
-    "PhysicsGPRegressor": "models.physics_prior",
-    "LiquidClassifier": "models.classifier",
-    "PropertyModel": "models.property_model",
-    "train_regression": "models.property_model",
-    "train_classifier": "models.property_model",
-    "fit_transfer": "models.transfer",
-    "save_model": "models.modelfile",
-    "load_model": "models.modelfile",
+    "PhysicsGPRegressor": "models",
+    "LiquidClassifier": "models",
+    "PropertyModel": "models",
+    "train_regression": "models",
+    "train_classifier": "models",
+    "fit_transfer": "models",
+    "save_model": "models",
+    "load_model": "models",
     # datasets and batch work
-    "TrialMeta": "io.dataset",
-    "read_trial_meta": "io.dataset",
-    "read_manifest": "io.dataset",
-    "extract_features": "batch.features",
+    "TrialMeta": "io",
+    "read_trial_meta": "io",
+    "read_manifest": "io",
+    "extract_features": "batch",
     # simulator
-    "simulate_trial": "sim.trial",
-    "write_trial": "sim.trial_io",
-    "simulate_dataset": "sim.presets",
-    "write_sensor_videos": "sim.gelsight",
-    "FingerLoads": "sim.loads",
+    "simulate_trial": "sim",
+    "write_trial": "sim",
+    "simulate_dataset": "sim",
+    "write_sensor_videos": "sim",
+    "FingerLoads": "sim",
     # experiments
     "reproduce": "experiments.reproduce",
 }

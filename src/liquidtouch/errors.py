@@ -7,6 +7,20 @@ exit status 2. Messages say what is wrong and what to do about it.
 
 from __future__ import annotations
 
+__all__ = [
+    "CatalogueError",
+    "DatasetError",
+    "DeviceError",
+    "LiquidTouchError",
+    "MarkerError",
+    "ModelFileError",
+    "NoOscillationError",
+    "OutputError",
+    "SignalError",
+    "TableError",
+    "VideoError",
+]
+
 
 class LiquidTouchError(ValueError):
     """Base class of all input errors raised by liquidtouch."""

@@ -15,6 +15,8 @@ if TYPE_CHECKING:
     from liquidtouch.signal import TactileSignal
     from liquidtouch.tracking.tracks import MarkerTracks
 
+__all__ = ["plot_extraction"]
+
 
 def plot_extraction(
     extraction: Extraction, path: PathLike | None = None, *, axes: object = None

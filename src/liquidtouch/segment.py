@@ -34,6 +34,17 @@ from liquidtouch._core.checks import as_number
 from liquidtouch.clock import check_times, finite_array
 from liquidtouch.errors import SignalError
 
+__all__ = [
+    "DRIFT_CUTOFF_HZ",
+    "MIN_FREE_DECAY_S",
+    "MIN_NOISE_S",
+    "MIN_PUSH_SNR",
+    "PUSH_GAP_S",
+    "free_decay",
+    "free_decay_start",
+    "push_snr",
+]
+
 MIN_FREE_DECAY_S = 2.0
 DRIFT_CUTOFF_HZ = 0.3  # slower than this is slip drift, not slosh
 #: a push's excursion stands at least this many noise levels above the signal before it

@@ -39,6 +39,17 @@ from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.signal import check_signal_options
 from liquidtouch.wrench import wrench_features
 
+__all__ = [
+    "CACHE_DIR",
+    "FEATURES_VERSION",
+    "FEATURE_ROW_COLUMNS",
+    "PROVENANCE_COLUMNS",
+    "SOURCES",
+    "extract_features",
+    "feature_settings",
+    "trial_features",
+]
+
 logger = logging.getLogger(__name__)
 
 #: Bump when extraction or fitting changes in a way that changes features.

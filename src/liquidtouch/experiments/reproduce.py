@@ -36,6 +36,19 @@ from liquidtouch.io.dataset import MANIFEST_NAME
 from liquidtouch.sim.presets import get_preset, simulate_dataset
 from liquidtouch.sim.sensors import get_sensor_profile
 
+__all__ = [
+    "DATASETS",
+    "WRENCH_TABLES",
+    "Reproduction",
+    "default_data_dir",
+    "failure_note",
+    "prepare_dataset",
+    "reproduce",
+    "run_experiments",
+    "seeded_specs",
+    "sensor_for",
+]
+
 DATASETS = ("classification", "sugar", "other-liquids", "containers")
 #: the classification dataset's wrist feature tables: feature source -> file name
 WRENCH_TABLES = {

@@ -23,6 +23,8 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
+__all__ = ["as_axes_list", "plot_fit"]
+
 
 def as_axes_list(axes: Axes | Sequence[Axes], allowed: tuple[int, ...], what: str) -> list[Axes]:
     """``axes`` (one Axes or a sequence/array of them) as a flat list of ``allowed`` length."""

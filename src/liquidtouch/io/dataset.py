@@ -19,6 +19,30 @@ from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError
 from liquidtouch._core import atomic
 from liquidtouch.errors import DatasetError
 
+__all__ = [
+    "FEATURES_NAME",
+    "FORCE_CHANNELS",
+    "FORCE_COLUMNS",
+    "FORCE_NAME",
+    "LABEL_COLUMNS",
+    "MANIFEST_NAME",
+    "META_NAME",
+    "NUMERIC_LABELS",
+    "TRIAL_FORMAT_VERSION",
+    "TRUTH_COLUMNS",
+    "TRUTH_TRACKS_NAME",
+    "WRENCH_COLUMNS",
+    "WRENCH_NAME",
+    "TrialMeta",
+    "read_manifest",
+    "read_trial_meta",
+    "read_wrench_csv",
+    "trial_path",
+    "trial_sensor_starts",
+    "write_manifest",
+    "write_trial_meta",
+]
+
 META_NAME = "meta.json"
 MANIFEST_NAME = "manifest.csv"
 FEATURES_NAME = "features.csv"

@@ -18,6 +18,18 @@ import numpy as np
 from liquidtouch._core import atomic
 from liquidtouch.errors import TableError
 
+__all__ = [
+    "MAX_CSV_BYTES",
+    "MAX_CSV_COLUMNS",
+    "MAX_HEADER_BYTES",
+    "MAX_MESSAGE_CHARS",
+    "check_csv_bounds",
+    "list_names",
+    "read_signal_csv",
+    "shorten",
+    "write_signal_csv",
+]
+
 #: largest CSV file liquidtouch parses (signal CSV, feature tables) [bytes]; a signal CSV
 #: at the fit's limit of samples (``fit.oscillation.MAX_SAMPLES``) takes ~25 MiB
 MAX_CSV_BYTES = 64 * 2**20

@@ -37,6 +37,20 @@ from liquidtouch.sim.loads import FingerLoads
 from liquidtouch.sim.render import iter_frames, make_background
 from liquidtouch.sim.sensors import SensorProfile, get_sensor_profile
 
+__all__ = [
+    "IMAGE_X_SIGN",
+    "SENSOR_NAMES",
+    "ContactGeometry",
+    "SensorRecording",
+    "SensorScene",
+    "contact_geometry",
+    "contact_offsets",
+    "marker_positions",
+    "marker_rest_positions",
+    "sensor_scene",
+    "write_sensor_videos",
+]
+
 SENSOR_NAMES = ("left", "right")
 IMAGE_X_SIGN = np.array([1.0, -1.0])
 """Image-x sign of world x for (left, right): the two cameras are mirrored."""

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+__all__ = ["FingerLoads"]
+
 
 @dataclass(frozen=True)
 class FingerLoads:

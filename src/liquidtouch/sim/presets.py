@@ -41,6 +41,23 @@ from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.trial_io import check_trial_dir, write_trial
 
+__all__ = [
+    "CLASS_LIQUIDS",
+    "CONTAINER_HEIGHTS_MM",
+    "OTHER_LIQUIDS",
+    "PRESETS",
+    "QUICK_SIZES",
+    "SUGAR_HEIGHTS_MM",
+    "TEST_CONCENTRATIONS",
+    "TRAIN_CONCENTRATIONS",
+    "DatasetResult",
+    "TrialSpec",
+    "get_preset",
+    "preset_names",
+    "run_spec",
+    "simulate_dataset",
+]
+
 logger = logging.getLogger(__name__)
 
 

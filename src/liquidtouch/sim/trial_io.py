@@ -48,6 +48,16 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
+__all__ = [
+    "PLOT_NAME",
+    "TRIAL_FILES",
+    "check_trial_dir",
+    "force_table",
+    "plot_trial",
+    "trial_meta",
+    "write_trial",
+]
+
 
 def _write_csv(path: Path, header: tuple[str, ...], table: np.ndarray) -> None:
     with atomic.atomic_path(path) as tmp:
