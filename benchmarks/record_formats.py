@@ -39,7 +39,7 @@ import cv2
 import numpy as np
 
 from liquidtouch.acquire.cameras import Frame
-from liquidtouch.acquire.recorder import _Ffv1Writer, _PngWriter
+from liquidtouch.acquire.recording import Ffv1Writer, PngWriter
 from liquidtouch.extraction import extract
 from liquidtouch.sim.encode import PTS_RATE_HZ, X264_PARAMS
 from liquidtouch.sim.gelsight import SENSOR_NAMES, sensor_scene
@@ -103,10 +103,10 @@ class RecorderFormat:
 
     def __init__(self, kind: str, directory: Path, name: str, fps: float, grey: bool) -> None:
         if kind == "ffv1":
-            self.writer = _Ffv1Writer(directory, name, 0.0)
+            self.writer = Ffv1Writer(directory, name, 0.0)
             self.writer.fps_hint = fps
         else:
-            self.writer = _PngWriter(directory, name, 0.0)
+            self.writer = PngWriter(directory, name, 0.0)
         self.grey = grey
         self.index = 0
 

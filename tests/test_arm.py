@@ -11,7 +11,7 @@ import types
 
 import pytest
 
-from liquidtouch.acquire.arm import (
+from liquidtouch.acquire.arms import (
     RigArm,
     SimArm,
     URArm,
@@ -20,7 +20,9 @@ from liquidtouch.acquire.arm import (
     open_arm,
 )
 from liquidtouch.errors import DeviceError
-from liquidtouch.sim.rig.arm_server import ArmError, ArmMove, ArmServer
+from liquidtouch.protocols.arm import ArmError
+from liquidtouch.sim.rig.arm_server import ArmServer
+from liquidtouch.sim.rig.interfaces import ArmMove
 
 START = [0.4, 0.0, 0.2, 0.0, math.pi, 0.0]
 

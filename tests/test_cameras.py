@@ -11,22 +11,25 @@ import time
 import urllib.error
 import urllib.request
 from fractions import Fraction
+from pathlib import Path
 
 import numpy as np
 import pytest
 from camera_frames import CodedFrames, dot_position, frame_number
 
-from liquidtouch.acquire import cameras
 from liquidtouch.acquire.cameras import (
     END,
+    PROFILES,
     CaptureSession,
     FrameStats,
     open_camera,
     parse_source,
     resolve_device_name,
+    sources,
 )
 from liquidtouch.errors import DeviceError
-from liquidtouch.sim.rig.mjpeg import BOUNDARY, MjpegServer
+from liquidtouch.protocols.mjpeg import BOUNDARY
+from liquidtouch.sim.rig.mjpeg import MjpegServer
 
 FPS = 30.0
 
@@ -229,7 +232,7 @@ def test_name_resolution_through_sysfs(tmp_path, monkeypatch) -> None:
         (tmp_path / f"video{index}").mkdir()
         (tmp_path / f"video{index}" / "name").write_text(name + "\n")
     (tmp_path / "v4l-subdev0").mkdir()
-    monkeypatch.setattr(cameras, "SYSFS_VIDEO4LINUX", tmp_path)
+    monkeypatch.setattr(sources, "SYSFS_VIDEO4LINUX", tmp_path)
     assert resolve_device_name("GelSight Mini") == 2  # the lowest node of that sensor
     assert resolve_device_name("gelsight mini") == 2
     assert resolve_device_name("digit") == 11
@@ -237,7 +240,7 @@ def test_name_resolution_through_sysfs(tmp_path, monkeypatch) -> None:
     assert (spec.kind, spec.target) == ("device", 2)
     with pytest.raises(DeviceError, match=r"found video0 \(Integrated Camera\)"):
         resolve_device_name("GelSight R1.5")
-    if not cameras.Path("/dev/video2").exists():
+    if not Path("/dev/video2").exists():
         with pytest.raises(DeviceError, match="/dev/video2 does not exist"):
             open_camera("name:GelSight Mini")
 
@@ -255,7 +258,7 @@ def test_source_strings() -> None:
 
 
 def test_profiles_crop_and_resize_like_the_sdk() -> None:
-    mini = cameras.PROFILES["mini"]
+    mini = PROFILES["mini"]
     assert (mini.width, mini.height, mini.fps) == (320, 240, 25.0)
     assert mini.capture == (3280, 2464, "MJPG")
     frame = np.full((2464, 3280, 3), 200, np.uint8)
@@ -270,10 +273,10 @@ def test_profiles_crop_and_resize_like_the_sdk() -> None:
     assert abs(x - 159.5) < 1 and abs(y - 119.5) < 1
     small = np.zeros((240, 320), np.uint8)
     assert mini.apply(small) is small  # already the sensor's size (a replayed recording)
-    assert cameras.PROFILES["r15"].apply(np.zeros((240, 320), np.uint8)).shape == (480, 640)
-    assert cameras.PROFILES["digit"].fps == 60.0
+    assert PROFILES["r15"].apply(np.zeros((240, 320), np.uint8)).shape == (480, 640)
+    assert PROFILES["digit"].fps == 60.0
     raw = np.zeros((7, 9, 3), np.uint8)
-    assert cameras.PROFILES["raw"].apply(raw) is raw
+    assert PROFILES["raw"].apply(raw) is raw
 
 
 def test_profile_applies_to_a_stream() -> None:

@@ -4,16 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from liquidtouch.acquire.frame_writers import _Ffv1Writer
 
 from liquidtouch.acquire.cameras import Frame
+from liquidtouch.acquire.recording import Ffv1Writer
 from liquidtouch.errors import VideoError
 from liquidtouch.io.frame_times import video_sidecar
 from liquidtouch.io.frames import iter_video
 
 
 def write_ffv1(directory, times):
-    writer = _Ffv1Writer(directory, "left", 0.0)
+    writer = Ffv1Writer(directory, "left", 0.0)
     rng = np.random.default_rng(0)
     for k, t_s in enumerate(times):
         image = rng.integers(0, 255, (48, 64), dtype=np.uint8)  # noise: no two frames alike

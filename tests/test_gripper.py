@@ -7,19 +7,20 @@ and records what it received.
 
 from __future__ import annotations
 
+import logging
 import socket
 import threading
 import time
 
 import pytest
 
-from liquidtouch.acquire.gripper import (
+from liquidtouch.acquire.device_link import parse_device_url
+from liquidtouch.acquire.grippers import (
     GCL_DEFAULT_PORT,
     GripperCommandError,
     SimGripper,
     Wsg50Gripper,
     open_gripper,
-    parse_device_url,
 )
 from liquidtouch.errors import DeviceError
 
@@ -118,6 +119,23 @@ def test_grip_sends_the_commands_and_waits_for_ack_then_fin(serve):
         "RELEASE(10.00,20.00)",
         "BYE()",
     ]
+
+
+def test_the_client_logs_its_connection_and_the_protocol_errors(serve, caplog):
+    def script(line):
+        if line.startswith("GRIP"):
+            return ["ERR E_RANGE_ERROR"]
+        return well_behaved(line)
+
+    caplog.set_level(logging.DEBUG, logger="liquidtouch.acquire")
+    server = serve(script)
+    with connect(server) as gripper, pytest.raises(GripperCommandError):
+        gripper.grip(25.0, 59.0, 50.0)
+    messages = [(r.name, r.levelname, r.getMessage()) for r in caplog.records]
+    where = "liquidtouch.acquire.grippers.wsg50"
+    assert (where, "INFO", f"connected to the gripper at 127.0.0.1:{server.port}") in messages
+    assert (where, "DEBUG", "gripper <- GRIP(25.00,59.00,50.00)") in messages
+    assert (where, "INFO", "gripper: GRIP answered ERR E_RANGE_ERROR") in messages
 
 
 def test_fin_before_ack_is_a_protocol_error(serve):

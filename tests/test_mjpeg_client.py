@@ -15,10 +15,13 @@ import numpy as np
 import pytest
 from camera_frames import CodedFrames, frame_number
 
-from liquidtouch.acquire.camera_devices import StreamEnded
-from liquidtouch.acquire.camera_profiles import get_profile
-from liquidtouch.acquire.cameras import open_camera
-from liquidtouch.acquire.mjpeg_client import MjpegCamera, SenderClock
+from liquidtouch.acquire.cameras import (
+    MjpegCamera,
+    SenderClock,
+    StreamEnded,
+    get_profile,
+    open_camera,
+)
 from liquidtouch.errors import DeviceError
 from liquidtouch.sim.rig.mjpeg import MjpegServer
 

@@ -257,7 +257,8 @@ def test_the_rig_does_not_import_the_lab_path_or_the_estimators():
         "liquidtouch.sim",
         "liquidtouch.io",
         "liquidtouch.errors",
-        "liquidtouch._core.progress",
+        "liquidtouch.protocols",
+        "liquidtouch._core",
     )
     assert [m for m in loaded if m != "liquidtouch" and not m.startswith(allowed)] == []
 
@@ -384,4 +385,26 @@ def test_run_trial_cli_refuses_bad_urls_before_moving(tmp_path, capsys):
     argv = ["run-trial", "--gripper", "sim://", "--arm", "sim://", "--camera", "0"]
     assert main([*argv, "--out", str(tmp_path / "t"), "--protocol", str(protocol)]) == 2
     assert "hold_s" in capsys.readouterr().err
+    assert not (tmp_path / "t").exists()
+
+
+def test_verbose_logs_the_lab_path_to_stderr(tmp_path, caplog):
+    """``-v`` turns on INFO logging (``-vv`` DEBUG); without it only warnings are shown."""
+    import logging
+
+    from liquidtouch.cli import configure_logging, main
+
+    argv = ["run-trial", "--gripper", "sim://", "--arm", "sim://", "--camera", "/nonexistent"]
+    argv += ["--out", str(tmp_path / "t")]
+    package = logging.getLogger("liquidtouch")
+    try:
+        assert main(argv) == 2
+        assert not [r for r in caplog.records if r.name.startswith("liquidtouch")]
+        assert main(["-v", *argv]) == 2
+        steps = [r.getMessage() for r in caplog.records if r.name == "liquidtouch.acquire.protocol"]
+        assert "trial step: cameras" in steps
+        assert package.level == logging.INFO
+        assert configure_logging(2) == logging.DEBUG == package.level
+    finally:
+        package.setLevel(logging.NOTSET)
     assert not (tmp_path / "t").exists()

@@ -7,12 +7,17 @@ deadline on every read (the WSG-50's GCL and the simulated rig's arm protocol).
 
 from __future__ import annotations
 
+import logging
 import socket
 import time
 from dataclasses import dataclass
 from urllib.parse import urlsplit
 
 from liquidtouch.errors import DeviceError
+
+__all__ = ["DeviceAddress", "LineConnection", "parse_device_url"]
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -57,12 +62,14 @@ class LineConnection:
         try:
             self._sock = socket.create_connection((host, port), timeout=connect_timeout_s)
         except OSError as exc:
+            logger.info("cannot connect to the %s at %s:%s: %s", what, host, port, exc)
             raise DeviceError(
                 f"cannot connect to the {what} at {host}:{port}: {exc.strerror or exc}; "
                 "check that it is powered, on the network and that the address is right"
             ) from None
         self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self.closed = False
+        logger.debug("TCP connection to the %s at %s:%s open", what, host, port)
 
     def send_line(self, line: str) -> None:
         """Send one line (the ``\\n`` is added)."""
@@ -73,6 +80,7 @@ class LineConnection:
             self._sock.sendall(line.encode("ascii") + b"\n")
         except OSError as exc:
             self.close()
+            logger.info("lost the connection to the %s while sending: %s", self.what, exc)
             raise DeviceError(
                 f"lost the connection to the {self.what} while sending {line!r}: "
                 f"{exc.strerror or exc}"
@@ -86,6 +94,7 @@ class LineConnection:
                 raise DeviceError(f"the connection to the {self.what} is closed")
             remaining = deadline - time.monotonic()
             if remaining <= 0:
+                logger.info("the %s did not answer within %.3g s", self.what, timeout_s)
                 raise DeviceError(
                     f"the {self.what} did not answer within {timeout_s:.3g} s "
                     f"(waiting for {waiting_for})"
@@ -97,12 +106,14 @@ class LineConnection:
                 continue
             except OSError as exc:
                 self.close()
+                logger.info("lost the connection to the %s: %s", self.what, exc)
                 raise DeviceError(
                     f"lost the connection to the {self.what} while waiting for {waiting_for}: "
                     f"{exc.strerror or exc}"
                 ) from None
             if not chunk:
                 self.close()
+                logger.info("the %s closed the connection", self.what)
                 raise DeviceError(
                     f"the {self.what} closed the connection while we waited for {waiting_for}"
                 )
@@ -119,5 +130,5 @@ class LineConnection:
             self.closed = True
             try:
                 self._sock.close()
-            except OSError:
-                pass
+            except OSError as exc:
+                logger.debug("closing the connection to the %s: %s", self.what, exc)

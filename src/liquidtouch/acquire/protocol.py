@@ -1,8 +1,8 @@
 """One trial on the robot: grasp, lift, record, push, hold, stop, lower, release.
 
-:func:`run_trial` drives a :class:`~liquidtouch.acquire.gripper.Gripper`, an
-:class:`~liquidtouch.acquire.arm.Arm` and the GelSight cameras (through
-:class:`~liquidtouch.acquire.recorder.Recorder`) through the paper's protocol
+:func:`run_trial` drives a :class:`~liquidtouch.acquire.grippers.Gripper`, an
+:class:`~liquidtouch.acquire.arms.Arm` and the GelSight cameras (through
+:class:`~liquidtouch.acquire.recording.Recorder`) through the paper's protocol
 (Huang, Guo, Yuan, RSS 2022: the gripper grasps the bottle with about 25 N, the
 arm lifts it, gives it a short lateral push and holds still while the sensors
 record the sloshing), with the parameters of :class:`ProtocolParameters` (a TOML
@@ -30,25 +30,25 @@ Putting the bottle down is then the operator's job.
 
 from __future__ import annotations
 
-import contextlib
+import logging
 import math
-import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from liquidtouch.acquire.arm import Arm
-from liquidtouch.acquire.gripper import GRIP_STATES, HOLDING, Gripper
+from liquidtouch.acquire.arms import Arm
+from liquidtouch.acquire.grippers import Gripper
 from liquidtouch.acquire.protocol_params import (
     MAX_PROTOCOL_BYTES,
     ProtocolParameters,
-    _first_error,
     load_protocol,
     protocol_from_mapping,
 )
+from liquidtouch.acquire.recording import Recorder
 from liquidtouch.errors import DeviceError
+from liquidtouch.protocols import gcl
 
 __all__ = [
     "AXES",
@@ -56,11 +56,12 @@ __all__ = [
     "ProtocolParameters",
     "TrialLog",
     "TrialRun",
-    "_first_error",
     "load_protocol",
     "protocol_from_mapping",
     "run_trial",
 ]
+
+logger = logging.getLogger(__name__)
 
 AXES = {"x": 0, "y": 1}
 
@@ -134,8 +135,6 @@ def _wait(seconds: float, check: Callable[[], None], step_s: float = 0.05) -> No
 
 
 def _make_recorder(camera_sources, out_dir, *, names, params, labels):
-    from liquidtouch.acquire.recorder import Recorder
-
     return Recorder(
         camera_sources,
         out_dir,
@@ -169,7 +168,7 @@ def run_trial(
 ) -> TrialRun:
     """Run one trial (module docstring: the steps and the safety rules); return it.
 
-    ``camera_sources`` go to the :class:`~liquidtouch.acquire.recorder.Recorder`
+    ``camera_sources`` go to the :class:`~liquidtouch.acquire.recording.Recorder`
     (``names``: the sensors' names, default ``left``, ``right``); ``labels`` become
     meta.json labels; ``extra_meta`` adds meta.json fields. ``on_step(name)`` is
     called as each step begins (for progress output). The trial directory
@@ -177,7 +176,12 @@ def run_trial(
     """
     params = ProtocolParameters() if params is None else params
     axis = AXES[params.push_axis]
-    step = on_step or (lambda _name: None)
+    report = on_step or (lambda _name: None)
+
+    def step(name: str) -> None:
+        logger.info("trial step: %s", name)
+        report(name)
+
     log = TrialLog()
     recorder = recorder_factory(
         list(camera_sources), out_dir, names=names, params=params, labels=dict(labels or {})
@@ -216,11 +220,11 @@ def run_trial(
         while True:
             recorder.check()
             reading = log.gripper(gripper, "holding")
-            if reading["grip_state"] != HOLDING:
+            if reading["grip_state"] != gcl.HOLDING:
                 state = reading["grip_state"]
                 raise DeviceError(
                     f"the gripper stopped holding the bottle during the hold (GRIPSTATE="
-                    f"{state} {GRIP_STATES.get(state, '?')})"
+                    f"{state} {gcl.GRIP_STATES.get(state, '?')})"
                 )
             log.pose(f"hold_{len(log.gripper_readings)}", arm)
             remaining = hold_end - time.monotonic()
@@ -262,17 +266,18 @@ def run_trial(
             **dict(extra_meta or {}),
         }
         trial_dir = recorder.finish(meta)
-    except BaseException:
+    except BaseException as exc:
+        logger.info(
+            "the trial failed (%s): stopping the arm, aborting the recording; the gripper "
+            "keeps holding the bottle",
+            exc or type(exc).__name__,
+        )
         failures: list[str] = []
         _safe(arm.stop, failures, "stopping the arm")
         _safe(recorder.abort, failures, "aborting the recording")
         # the gripper is deliberately left alone: it keeps holding the bottle
         if failures:
-            with contextlib.suppress(Exception):
-                print(
-                    "warning: clean-up after the failed trial: " + "; ".join(failures),
-                    file=sys.stderr,
-                )
+            logger.warning("clean-up after the failed trial: %s", "; ".join(failures))
         raise
     return TrialRun(
         trial_dir=Path(trial_dir),

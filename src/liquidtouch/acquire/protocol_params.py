@@ -13,7 +13,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from liquidtouch.acquire.arm import linear_move_duration
+from liquidtouch.acquire.arms import linear_move_duration
 from liquidtouch.errors import LiquidTouchError
 
 __all__ = ["MAX_PROTOCOL_BYTES", "ProtocolParameters", "load_protocol", "protocol_from_mapping"]

@@ -6,10 +6,14 @@ inside the commands so that ``--help`` stays fast. Every
 ``error: <message>`` on stderr and exit status 2; Ctrl-C becomes
 ``error: interrupted`` and exit status 130. Output-path options are checked
 as typed (:mod:`liquidtouch.cli.paths`): ``--out model.json/`` is refused.
+``-v`` / ``--verbose`` (before the command) shows the log on stderr: ``-v`` INFO
+(device connections, trial steps, recordings), ``-vv`` DEBUG (every command and reply);
+without it only warnings.
 """
 
 from __future__ import annotations
 
+import logging
 import sys
 
 import typer
@@ -54,13 +58,39 @@ def _version(value: bool) -> None:
         raise typer.Exit()
 
 
+LOG_FORMAT = "%(levelname)s %(name)s: %(message)s"
+"""How log records are shown on stderr."""
+
+
+def configure_logging(verbose: int) -> int:
+    """Log to stderr at WARNING (``verbose`` 0), INFO (1) or DEBUG (2 or more); return the level.
+
+    ``logging.basicConfig`` does nothing when the root logger already has handlers (an
+    application's, or pytest's), so the ``liquidtouch`` logger gets the level too.
+    """
+    level = (logging.WARNING, logging.INFO, logging.DEBUG)[min(max(verbose, 0), 2)]
+    logging.basicConfig(level=level, stream=sys.stderr, format=LOG_FORMAT)
+    if verbose:
+        logging.getLogger("liquidtouch").setLevel(level)
+    return level
+
+
 @app.callback()
 def _main(
     version: bool = typer.Option(
         False, "--version", callback=_version, is_eager=True, help="Print the version and exit."
     ),
+    verbose: int = typer.Option(
+        0,
+        "--verbose",
+        "-v",
+        count=True,
+        show_default=False,
+        help="Log to stderr: -v INFO (connections, steps), -vv DEBUG (every command).",
+    ),
 ) -> None:
     """liquidtouch: liquid properties from dynamic tactile sensing."""
+    configure_logging(verbose)
 
 
 for _module in (fit, simulate, extract, models, experiments, dataset, record, rig, live):

@@ -28,7 +28,7 @@ class ProfileChoice(StrEnum):
 
 
 class FormatChoice(StrEnum):
-    """``record --format`` (``acquire.recorder.FORMATS``)."""
+    """``record --format`` (``acquire.recording.FORMATS``)."""
 
     ffv1 = "ffv1"
     png = "png"
@@ -99,7 +99,7 @@ def record(
     sensor's start time; dropped and duplicated frames are counted and printed.
     """
     from liquidtouch._core.progress import on_terminal
-    from liquidtouch.acquire.recorder import record as run_record
+    from liquidtouch.acquire.recording import record as run_record
     from liquidtouch.errors import DeviceError
     from liquidtouch.io.labels import typed_labels
 

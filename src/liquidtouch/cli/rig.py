@@ -188,8 +188,8 @@ def run_trial_command(
     gripper KEEPS holding the bottle (put it down yourself) and no trial is written.
     """
     from liquidtouch._core.progress import on_terminal
-    from liquidtouch.acquire.arm import RigArm, open_arm
-    from liquidtouch.acquire.gripper import open_gripper
+    from liquidtouch.acquire.arms import RigArm, open_arm
+    from liquidtouch.acquire.grippers import open_gripper
     from liquidtouch.acquire.protocol import (
         ProtocolParameters,
         load_protocol,

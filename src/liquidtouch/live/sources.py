@@ -10,7 +10,7 @@ read as fast as possible), from which the estimator's lag is measured.
   ``realtime`` each frame is handed on when it is due at the pace of its own
   timestamps (a recording re-lived), else at once.
 - :func:`camera_frames`: live cameras (:func:`~liquidtouch.acquire.cameras.open_camera`
-  sources), each read on its own thread (:class:`~liquidtouch.acquire.capture.CaptureSession`).
+  sources), each read on its own thread (:class:`~liquidtouch.acquire.cameras.CaptureSession`).
 - :func:`open_frames`: either, from command-line sources.
 """
 
@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from liquidtouch.acquire.cameras import END, CaptureSession, open_camera
 from liquidtouch.errors import DeviceError
 
 #: how long a camera queue is polled before the next one is looked at [s]
@@ -102,8 +103,6 @@ def camera_frames(
     the generator is closed or ends (every source ended or failed; a failure is
     raised as :class:`DeviceError` after the frames before it).
     """
-    from liquidtouch.acquire.cameras import END, CaptureSession, open_camera
-
     cameras = []
     try:
         for source in sources:

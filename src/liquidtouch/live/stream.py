@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from liquidtouch.acquire.cameras import default_names
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.fit_settings import FitSettings
 from liquidtouch.live.estimator import REFRESH_S, LiveEstimator
@@ -36,8 +37,6 @@ def sensor_names(sources: Sequence[PathLike], *, fps: float | None = None) -> li
         from liquidtouch.io.sources import resolve_sources
 
         return [name for name, _, _ in resolve_sources(list(sources), fps=fps)]
-    from liquidtouch.acquire.capture import default_names
-
     return default_names(len(sources))
 
 

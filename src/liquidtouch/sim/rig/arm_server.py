@@ -1,68 +1,32 @@
-"""The simulated rig's arm endpoint: a line-based JSON-over-TCP protocol.
+"""The simulated rig's arm endpoint: a line-based JSON-over-TCP server.
 
-One JSON object per ``\\n``-terminated line, UTF-8. On connecting the server sends
-``{"server": "liquidtouch-rig-arm", "protocol": 1}``. Each request carries an ``id``
-(any integer the client chooses) and a ``cmd``; its reply carries the same ``id``,
-``"ok": true`` plus the result, or ``"ok": false`` plus an ``"error"`` text.
+The protocol is :mod:`liquidtouch.protocols.arm`, shared with its client
+:class:`liquidtouch.acquire.arms.RigArm`. One move at a time per connection; the
+connection keeps reading while it runs, so ``stop`` can end it.
 
-- ``{"cmd": "moveL", "pose": [x, y, z, rx, ry, rz], "speed": v, "acceleration": a}``:
-  a straight move of the tool (metres, rotation vector in radians, m/s, m/s²); the
-  reply (``"pose"``) comes when the move has ended. One move at a time per
-  connection; the connection keeps reading while it runs, so ``stop`` can end it.
-- ``{"cmd": "get_pose"}``: ``"pose"``.
-- ``{"cmd": "stop", "acceleration": a}``: stops a running move (whose request then
-  fails with ``"stopped"``); ``"pose"``.
-- ``{"cmd": "truth"}``: ``"truth"``, the simulated liquid's ground truth and labels.
-- ``{"cmd": "status"}``: ``"status"``, the rig's state.
-
-``liquidtouch.acquire.arm.RigArm`` is the client. The arm itself is an
-:class:`ArmModel` (the rig's: ``liquidtouch.sim.rig.rig.RigArmModel``).
+The arm itself is an :class:`~liquidtouch.sim.rig.interfaces.ArmModel` (the rig's:
+``liquidtouch.sim.rig.rig.RigArmModel``).
 """
 
 from __future__ import annotations
 
 import contextlib
-import json
+import logging
 import socket
 import threading
-from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
+from liquidtouch.protocols import arm as wire
+from liquidtouch.protocols.arm import ArmError
+from liquidtouch.sim.rig.interfaces import ArmModel, ArmMove
 from liquidtouch.sim.rig.line_server import LineServer
 
-PROTOCOL = 1
-SERVER_NAME = "liquidtouch-rig-arm"
-MAX_LINE = 65536
+__all__ = ["IDLE_TIMEOUT_S", "ArmServer"]
+
+logger = logging.getLogger(__name__)
+
 IDLE_TIMEOUT_S = 3600.0
-
-
-class ArmError(Exception):
-    """A refused or failed arm request (its text is the reply's ``error``)."""
-
-
-@dataclass
-class ArmMove:
-    """An accepted move: ``run(cancelled)`` blocks until it ends and returns the pose."""
-
-    run: Callable[[threading.Event], list[float]]
-    cancel: Callable[[], None]
-
-
-class ArmModel(Protocol):
-    """The simulated arm behind the server."""
-
-    def begin_move(self, pose: list[float], speed: float, acceleration: float) -> ArmMove:
-        """Validate and start a move; raise :class:`ArmError`."""
-
-    def pose(self) -> list[float]:
-        """The tool pose now."""
-
-    def truth(self) -> dict[str, Any]:
-        """Ground truth and labels of the simulated liquid."""
-
-    def status(self) -> dict[str, Any]:
-        """The rig's state."""
+"""A connection silent this long is closed (every socket wait is bounded)."""
 
 
 class _Connection:
@@ -74,25 +38,28 @@ class _Connection:
         self.cancelled = threading.Event()
 
     def send(self, message: dict[str, Any]) -> None:
-        data = json.dumps(message, allow_nan=False).encode() + b"\n"
+        data = wire.encode_message(message)
         with self.send_lock, contextlib.suppress(OSError):
             self.sock.sendall(data)
 
     def serve(self) -> None:
-        self.send({"server": SERVER_NAME, "protocol": PROTOCOL})
+        logger.info("rig arm client connected")
+        self.send(wire.greeting())
         self.sock.settimeout(IDLE_TIMEOUT_S)
         buffer = b""
         try:
             while not self.server.stopping.is_set():
                 try:
                     chunk = self.sock.recv(65536)
-                except OSError:  # timeouts included
+                except OSError as exc:  # timeouts included
+                    logger.info("rig arm connection ended: %s", exc)
                     break
                 if not chunk:
                     break
                 buffer += chunk
-                if len(buffer) > MAX_LINE and b"\n" not in buffer:
-                    self.send({"id": None, "ok": False, "error": "line too long"})
+                if len(buffer) > wire.MAX_LINE_BYTES and b"\n" not in buffer:
+                    logger.warning("rig arm client sent a line over %d bytes", wire.MAX_LINE_BYTES)
+                    self.send(wire.error_reply(None, "line too long"))
                     break
                 while b"\n" in buffer:
                     raw, _, buffer = buffer.partition(b"\n")
@@ -102,6 +69,7 @@ class _Connection:
             self.stop_move()
             with contextlib.suppress(OSError):
                 self.sock.close()
+            logger.info("rig arm client disconnected")
 
     def stop_move(self) -> None:
         move, thread = self.move, self.move_thread
@@ -112,44 +80,48 @@ class _Connection:
             thread.join(timeout=2.0)
 
     def handle(self, raw: bytes) -> None:
-        try:
-            request = json.loads(raw)
-        except (json.JSONDecodeError, UnicodeDecodeError):
-            request = None
-        if not isinstance(request, dict):
-            self.send({"id": None, "ok": False, "error": "not a JSON object"})
+        request = wire.decode(raw)
+        if request is None:
+            logger.warning("rig arm: a request that is not a JSON object: %r", raw[:80])
+            self.send(wire.error_reply(None, "not a JSON object"))
             return
         ident = request.get("id")
         if isinstance(ident, bool) or not isinstance(ident, int):
-            self.send({"id": None, "ok": False, "error": "id must be an integer"})
+            logger.warning("rig arm: a request without an integer id: %r", raw[:80])
+            self.send(wire.error_reply(None, "id must be an integer"))
             return
         cmd = request.get("cmd")
         model = self.server.model
+        logger.debug("rig arm: %s (id %s)", cmd, ident)
         try:
-            if cmd == "moveL":
+            if cmd == wire.MOVE_L:
                 self.start_move(ident, request)
                 return
-            if cmd == "get_pose":
+            if cmd == wire.GET_POSE:
                 result: dict[str, Any] = {"pose": model.pose()}
-            elif cmd == "stop":
+            elif cmd == wire.STOP:
                 self.stop_move()
                 result = {"pose": model.pose()}
-            elif cmd == "truth":
+            elif cmd == wire.TRUTH:
                 result = {"truth": model.truth()}
-            elif cmd == "status":
+            elif cmd == wire.STATUS:
                 result = {"status": model.status()}
             else:
-                raise ArmError(f"unknown cmd {cmd!r}; use moveL, get_pose, stop, truth or status")
+                raise ArmError(
+                    f"unknown cmd {cmd!r}; use {', '.join(wire.COMMANDS[:-1])} or "
+                    f"{wire.COMMANDS[-1]}"
+                )
         except ArmError as exc:
-            self.send({"id": ident, "ok": False, "error": str(exc)})
+            logger.info("rig arm refused %s: %s", cmd, exc)
+            self.send(wire.error_reply(ident, str(exc)))
             return
-        self.send({"id": ident, "ok": True, **result})
+        self.send(wire.ok_reply(ident, **result))
 
     def start_move(self, ident: int, request: dict[str, Any]) -> None:
         if self.move_thread is not None and self.move_thread.is_alive():
             raise ArmError("a move is running; stop it or wait for its reply")
         pose, speed, accel = request.get("pose"), request.get("speed"), request.get("acceleration")
-        if not isinstance(pose, list) or len(pose) != 6:
+        if not isinstance(pose, list) or len(pose) != wire.POSE_LENGTH:
             raise ArmError("pose must be a list of 6 numbers")
         try:
             values = [float(v) for v in pose]
@@ -167,14 +139,17 @@ class _Connection:
         try:
             pose = move.run(cancelled)
         except ArmError as exc:
-            self.send({"id": ident, "ok": False, "error": str(exc)})
+            logger.info("rig arm move failed: %s", exc)
+            self.send(wire.error_reply(ident, str(exc)))
         except Exception as exc:  # the simulation failed: tell the client, keep serving
-            self.send({"id": ident, "ok": False, "error": f"rig failure: {exc}"})
+            logger.exception("rig arm move failed in the simulation")
+            self.send(wire.error_reply(ident, f"rig failure: {exc}"))
         else:
             if cancelled.is_set():
-                self.send({"id": ident, "ok": False, "error": "stopped"})
+                logger.info("rig arm move stopped")
+                self.send(wire.error_reply(ident, wire.STOPPED))
             else:
-                self.send({"id": ident, "ok": True, "pose": pose})
+                self.send(wire.ok_reply(ident, pose=pose))
         finally:
             if self.move is move:
                 self.move = None
@@ -191,7 +166,7 @@ class ArmServer(LineServer):
 
     @property
     def url(self) -> str:
-        """``sim://host:port``, what ``liquidtouch.acquire.arm.open_arm`` takes."""
+        """``sim://host:port``, what ``liquidtouch.acquire.arms.open_arm`` takes."""
         return f"sim://{self.host}:{self.port}"
 
     def _connection(self, client: socket.socket) -> _Connection:

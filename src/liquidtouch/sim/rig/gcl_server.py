@@ -1,85 +1,43 @@
 """A TCP server speaking the Weiss WSG-50's text command interface (GCL), for the simulated rig.
 
-The protocol as served (a subset of the WSG's GCL; ``liquidtouch.acquire.gripper`` is
-the matching client): one command per ``\\n``-terminated ASCII line.
+The protocol (a subset of the WSG's GCL) is :mod:`liquidtouch.protocols.gcl`, shared
+with its client :class:`liquidtouch.acquire.grippers.Wsg50Gripper`. One motion at a
+time per connection, run on a worker thread so that ``STOP()`` can end it; a client
+that disconnects without ``BYE()`` raises a FAST STOP, as the real gripper does.
 
-- Motions ``HOME()``, ``GRIP(force, width, speed)``, ``RELEASE(pullback, speed)``,
-  ``MOVE(width, speed)``: ``ACK <CMD>`` at once, then ``FIN <CMD>`` when the fingers
-  stop; ``ERR <code>`` instead of the ACK when the command is refused (bad or missing
-  parameters, a FAST STOP pending, a motion already running), or instead of the FIN
-  when the motion fails (no part found) or is stopped (``E_CMD_ABORTED``).
-- ``STOP()``: stops a running motion, ``ACK STOP``. ``FSACK()``: acknowledges a FAST
-  STOP, ``ACK FSACK``. ``VERBOSE=1`` / ``VERBOSE=0``: echoed; verbose ERR lines add
-  ``: <text>``.
-- Queries ``POS?``, ``FORCE?``, ``SPEED?``, ``GRIPSTATE?``: ``<KEY>=<value>``.
-- ``BYE()``: ``ACK BYE``, then the server closes the connection. A client that
-  disconnects without it raises a FAST STOP, as the real gripper does: motion
-  commands are refused (``ERR E_ACCESS_DENIED``) until ``FSACK()``.
-- Anything else: ``ERR E_CMD_UNKNOWN``; a malformed call ``ERR E_CMD_FORMAT_ERROR``.
-
-The gripper itself (widths, forces, timing) is a :class:`GripperModel`; the rig's is
+The gripper itself (widths, forces, timing) is a
+:class:`~liquidtouch.sim.rig.interfaces.GripperModel`; the rig's is
 ``liquidtouch.sim.rig.rig.RigGripper``.
 """
 
 from __future__ import annotations
 
 import contextlib
-import re
+import logging
 import socket
 import threading
-from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Protocol
 
+from liquidtouch.protocols import gcl
+from liquidtouch.protocols.gcl import GclError
+from liquidtouch.sim.rig.interfaces import GripperModel, Motion
 from liquidtouch.sim.rig.line_server import LineServer
 
-MOTIONS = ("HOME", "GRIP", "RELEASE", "MOVE")
-QUERIES = ("POS", "FORCE", "SPEED", "GRIPSTATE")
+__all__ = ["IDLE_TIMEOUT_S", "MAX_LINE", "GclServer"]
+
+logger = logging.getLogger(__name__)
+
 MAX_LINE = 1024
+"""The longest command line accepted [bytes]."""
 IDLE_TIMEOUT_S = 3600.0
 """A connection silent this long is closed (every socket wait is bounded)."""
 
-_CALL = re.compile(r"^([A-Z]+)\((.*)\)$")
 
-
-class GclError(Exception):
-    """A GCL error reply: ``ERR <code>`` (``code`` like ``E_RANGE_ERROR``)."""
-
-    def __init__(self, code: str, text: str = ""):
-        super().__init__(code)
-        self.code, self.text = code, text
-
-
-@dataclass
-class Motion:
-    """A finger motion the model has accepted.
-
-    ``run(cancelled)`` blocks until the motion ends (checking the event), raises
-    :class:`GclError` if it fails; ``cancel()`` makes the model stop where it is.
-    """
-
-    run: Callable[[threading.Event], None]
-    cancel: Callable[[], None]
-
-
-class GripperModel(Protocol):
-    """The simulated gripper behind the server."""
-
-    def begin(self, command: str, args: list[float]) -> Motion:
-        """Validate and start a motion (``HOME``, ``GRIP``, ...); raise :class:`GclError`."""
-
-    def query(self, key: str) -> float:
-        """``POS`` [mm], ``FORCE`` [N], ``SPEED`` [mm/s] or ``GRIPSTATE``."""
-
-    def acknowledge(self) -> None:
-        """Clear a FAST STOP."""
-
-    def fast_stop(self) -> None:
-        """Raise a FAST STOP (a client left without ``BYE()``)."""
-
-
-def _format(value: float) -> str:
-    return str(int(value)) if float(value).is_integer() and abs(value) < 1e9 else f"{value:.3f}"
+def _peer(sock: socket.socket) -> str:
+    try:
+        host, port = sock.getpeername()[:2]
+    except OSError:
+        return "?"
+    return f"{host}:{port}"
 
 
 class _Connection:
@@ -99,25 +57,29 @@ class _Connection:
             self.sock.sendall(line.encode("ascii") + b"\n")
 
     def error(self, exc: GclError) -> None:
-        text = f": {exc.text}" if self.verbose and exc.text else ""
-        self.send(f"ERR {exc.code}{text}")
+        logger.debug("GCL: ERR %s (%s)", exc.code, exc.text)
+        self.send(gcl.error_reply(exc.code, exc.text if self.verbose else ""))
 
     def serve(self) -> None:
         buffer = b""
+        logger.info("GCL client connected from %s", _peer(self.sock))
         self.sock.settimeout(IDLE_TIMEOUT_S)
         try:
             while not self.server.stopping.is_set():
                 try:
                     chunk = self.sock.recv(4096)
                 except TimeoutError:
+                    logger.info("GCL client idle for %g s: closed", IDLE_TIMEOUT_S)
                     break
-                except OSError:
+                except OSError as exc:
+                    logger.debug("GCL connection: %s", exc)
                     break
                 if not chunk:
                     break
                 buffer += chunk
                 if len(buffer) > MAX_LINE and b"\n" not in buffer:
-                    self.send("ERR E_CMD_FORMAT_ERROR")
+                    logger.warning("GCL client sent a line over %d bytes: closed", MAX_LINE)
+                    self.send(gcl.error_reply(gcl.E_CMD_FORMAT_ERROR))
                     break
                 while b"\n" in buffer:
                     raw, _, buffer = buffer.partition(b"\n")
@@ -139,7 +101,10 @@ class _Connection:
     def close(self) -> None:
         self.stop_motion()
         if not self.said_bye and not self.server.stopping.is_set():
+            logger.warning("GCL client left without BYE(): FAST STOP raised")
             self.server.model.fast_stop()
+        else:
+            logger.info("GCL client disconnected")
         with contextlib.suppress(OSError):
             self.sock.close()
 
@@ -150,43 +115,45 @@ class _Connection:
             self.verbose = upper.endswith("1")
             self.send(f"VERBOSE={int(self.verbose)}")
             return False
-        if upper.endswith("?") and upper[:-1] in QUERIES:
+        if upper.endswith("?") and upper[:-1] in gcl.QUERIES:
+            key = upper[:-1]
             try:
-                self.send(f"{upper[:-1]}={_format(self.server.model.query(upper[:-1]))}")
+                self.send(gcl.query_reply(key, self.server.model.query(key)))
             except GclError as exc:
                 self.error(exc)
             return False
-        match = _CALL.match(upper.replace(" ", ""))
-        if match is None:
-            self.error(GclError("E_CMD_UNKNOWN", f"unknown command {line[:40]}"))
+        call = gcl.parse_call(line)
+        if call is None:
+            self.error(GclError(gcl.E_CMD_UNKNOWN, f"unknown command {line[:40]}"))
             return False
-        name, arg_text = match.groups()
+        name, arg_text = call
         try:
             args = [float(a) for a in arg_text.split(",")] if arg_text else []
         except ValueError:
-            self.error(GclError("E_CMD_FORMAT_ERROR", "parameters must be numbers"))
+            self.error(GclError(gcl.E_CMD_FORMAT_ERROR, "parameters must be numbers"))
             return False
-        if name == "BYE":
+        logger.debug("GCL: %s(%s)", name, arg_text)
+        if name == gcl.BYE:
             self.said_bye = True
-            self.send("ACK BYE")
+            self.send(gcl.reply(gcl.ACK, gcl.BYE))
             return True
-        if name == "FSACK":
+        if name == gcl.FSACK:
             self.server.model.acknowledge()
-            self.send("ACK FSACK")
+            self.send(gcl.reply(gcl.ACK, gcl.FSACK))
             return False
-        if name == "STOP":
+        if name == gcl.STOP:
             self.stop_motion()
-            self.send("ACK STOP")
+            self.send(gcl.reply(gcl.ACK, gcl.STOP))
             return False
-        if name in MOTIONS:
+        if name in gcl.MOTIONS:
             self.start_motion(name, args)
             return False
-        self.error(GclError("E_CMD_UNKNOWN", f"unknown command {name}"))
+        self.error(GclError(gcl.E_CMD_UNKNOWN, f"unknown command {name}"))
         return False
 
     def start_motion(self, name: str, args: list[float]) -> None:
         if self.motion_thread is not None and self.motion_thread.is_alive():
-            self.error(GclError("E_ALREADY_RUNNING", "a motion is running; STOP() it first"))
+            self.error(GclError(gcl.E_ALREADY_RUNNING, "a motion is running; STOP() it first"))
             return
         try:
             motion = self.server.model.begin(name, args)
@@ -195,7 +162,7 @@ class _Connection:
             return
         self.motion = motion
         self.cancelled = threading.Event()
-        self.send(f"ACK {name}")
+        self.send(gcl.reply(gcl.ACK, name))
         self.motion_thread = threading.Thread(
             target=self._run_motion, args=(name, motion, self.cancelled), daemon=True
         )
@@ -208,9 +175,9 @@ class _Connection:
             self.error(exc)
         else:
             if cancelled.is_set():
-                self.error(GclError("E_CMD_ABORTED", "stopped"))
+                self.error(GclError(gcl.E_CMD_ABORTED, "stopped"))
             else:
-                self.send(f"FIN {name}")
+                self.send(gcl.reply(gcl.FIN, name))
         finally:
             if self.motion is motion:
                 self.motion = None
@@ -231,7 +198,7 @@ class GclServer(LineServer):
 
     @property
     def url(self) -> str:
-        """``wsg50://host:port``, what ``liquidtouch.acquire.gripper.open_gripper`` takes."""
+        """``wsg50://host:port``, what ``liquidtouch.acquire.grippers.open_gripper`` takes."""
         return f"wsg50://{self.host}:{self.port}"
 
     def _connection(self, client: socket.socket) -> _Connection:

@@ -9,9 +9,14 @@ made by the subclass's ``_connection``. ``stop()`` closes everything.
 from __future__ import annotations
 
 import contextlib
+import logging
 import socket
 import threading
 from typing import Any, Protocol, Self
+
+__all__ = ["LineConnection", "LineServer"]
+
+logger = logging.getLogger(__name__)
 
 
 class LineConnection(Protocol):
@@ -46,6 +51,7 @@ class LineServer:
         sock = socket.create_server((self.host, self.port))
         sock.settimeout(0.2)
         self._sock, self.port = sock, sock.getsockname()[1]
+        logger.info("%s listening on %s:%d", self.thread_name, self.host, self.port)
         self._thread = threading.Thread(target=self._accept, name=self.thread_name, daemon=True)
         self._thread.start()
         return self
@@ -57,7 +63,9 @@ class LineServer:
                 client, _ = self._sock.accept()
             except TimeoutError:
                 continue
-            except OSError:
+            except OSError as exc:
+                if not self.stopping.is_set():
+                    logger.warning("%s stopped accepting: %s", self.thread_name, exc)
                 break
             client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             connection = self._connection(client)

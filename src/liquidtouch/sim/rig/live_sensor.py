@@ -64,7 +64,7 @@ class LiveSensor:
 
     def render(self, positions: np.ndarray, offset: np.ndarray, contact: bool) -> np.ndarray:
         """The BGR frame (H, W, 3) with markers at ``positions`` and the imprint if ``contact``."""
-        import cv2
+        import cv2  # why: OpenCV is heavy; imported when the first frame is rendered
 
         with self._lock:
             generator, used = self._frames.get(contact, (None, FRAME_BLOCK))

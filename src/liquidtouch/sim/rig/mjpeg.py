@@ -4,8 +4,10 @@ A GelSight R1.5 is a Raspberry Pi that streams its camera with mjpg-streamer:
 ``GET /stream`` (mjpg-streamer: ``/?action=stream``) answers with
 ``multipart/x-mixed-replace; boundary=...`` and then one JPEG part per frame,
 each with ``Content-Type: image/jpeg``, ``Content-Length`` and ``X-Timestamp``
-headers, for as long as the client stays connected. :class:`MjpegServer` does
-the same on the loopback interface from a Python frame source, so the whole
+headers, for as long as the client stays connected (the protocol:
+:mod:`liquidtouch.protocols.mjpeg`, shared with the client
+:mod:`liquidtouch.acquire.cameras.mjpeg`). :class:`MjpegServer` does the same on the
+loopback interface from a Python frame source, so the whole
 recording path (OpenCV/FFmpeg client, capture threads, recorder) can be run and
 timed without hardware.
 
@@ -30,6 +32,7 @@ capture time.
 
 from __future__ import annotations
 
+import logging
 import math
 import threading
 import time
@@ -40,9 +43,12 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 import numpy as np
 
 from liquidtouch.errors import DeviceError
+from liquidtouch.protocols import mjpeg as wire
 
-BOUNDARY = "liquidtouchframe"
-"""The multipart boundary between JPEG parts."""
+__all__ = ["CLIENT_QUEUE_S", "CLIENT_TIMEOUT_S", "STREAM_PATH", "MjpegServer"]
+
+logger = logging.getLogger(__name__)
+
 STREAM_PATH = "/stream"
 CLIENT_TIMEOUT_S = 5.0
 """Socket timeout [s] of a client connection: a stalled client is dropped after this."""
@@ -82,25 +88,23 @@ class _Handler(BaseHTTPRequestHandler):
     def _stream(self) -> None:
         owner = self.server.owner
         self.send_response(200)
-        self.send_header("Content-Type", f"multipart/x-mixed-replace; boundary={BOUNDARY}")
+        self.send_header("Content-Type", wire.content_type())
         self.send_header("Cache-Control", "no-cache, no-store, must-revalidate")
         self.send_header("Pragma", "no-cache")
         self.send_header("Connection", "close")
         self.end_headers()
         pending = owner._subscribe()
+        logger.info("MJPEG client %s connected", self.client_address[0])
         try:
             while not owner._stopping.is_set():
                 part = owner._next_part(pending)
                 if part is None:
                     continue
                 _, t_s, jpeg = part
-                head = (
-                    f"--{BOUNDARY}\r\nContent-Type: image/jpeg\r\n"
-                    f"Content-Length: {len(jpeg)}\r\nX-Timestamp: {t_s:.6f}\r\n\r\n"
-                ).encode("ascii")
-                self.wfile.write(head + jpeg + b"\r\n")
+                self.wfile.write(wire.part_head(len(jpeg), t_s) + jpeg + wire.PART_END)
                 self.wfile.flush()
-        except (OSError, ValueError):  # the client went away (or the socket timed out)
+        except (OSError, ValueError) as exc:  # the client went away (or the socket timed out)
+            logger.info("MJPEG client %s left: %s", self.client_address[0], exc)
             return
         finally:
             owner._unsubscribe(pending)
@@ -223,7 +227,7 @@ class MjpegServer:
     # --- producer -----------------------------------------------------------------------
 
     def _produce(self) -> None:
-        import cv2
+        import cv2  # why: OpenCV is heavy; imported when the stream starts
 
         period = 1.0 / self.fps
         due = time.monotonic()
@@ -235,7 +239,9 @@ class MjpegServer:
                 self._stopping.wait(min(due - now, _WAIT_S))
                 continue
             if now > due + period:  # fell behind: skip whole frames, as a camera drops them
-                due += period * math.floor((now - due) / period)
+                skipped = math.floor((now - due) / period)
+                logger.debug("MJPEG producer fell behind: %d frame slots skipped", skipped)
+                due += period * skipped
             # A camera exposes on its own clock, whatever its host is busy with: the frame's
             # time is its slot on the frame lattice (the producer may wake late under load)
             t_s = due
@@ -250,6 +256,7 @@ class MjpegServer:
                 if not ok:
                     raise DeviceError("cv2.imencode could not encode the frame as JPEG")
             except BaseException as exc:  # kept for the caller; the stream ends
+                logger.warning("MJPEG frame source failed, the stream ends: %s", exc)
                 self.error = exc
                 self._stopping.set()
                 with self._cond:

@@ -6,25 +6,30 @@ run-trial`` with its gripper, arm and camera clients -- can be run end to end on
 machine. :class:`RigServer` puts a :class:`Rig` on the network: the gripper as a GCL
 server (:mod:`~liquidtouch.sim.rig.gcl_server`, the WSG's real protocol), the arm as a
 JSON line endpoint (:mod:`~liquidtouch.sim.rig.arm_server`) and the two sensors as
-MJPEG streams (:class:`~liquidtouch.sim.rig.mjpeg.MjpegServer`).
+MJPEG streams (:class:`~liquidtouch.sim.rig.mjpeg.MjpegServer`); the protocols are
+those of :mod:`liquidtouch.protocols`, shared with the clients in
+:mod:`liquidtouch.acquire`.
 
 The parts, by concept: :mod:`~liquidtouch.sim.rig.state` (the physical state machine,
 :class:`Rig`, and what it simulates), :mod:`~liquidtouch.sim.rig.fingers` (the
 gripper's commands), :mod:`~liquidtouch.sim.rig.kinematics` (arm and finger motions in
-time), :mod:`~liquidtouch.sim.rig.live_sensor` (rendering the gels frame by frame) and
-this module (serving); the names are re-exported here.
+time), :mod:`~liquidtouch.sim.rig.live_sensor` (rendering the gels frame by frame),
+:mod:`~liquidtouch.sim.rig.interfaces` (what the servers need of the rig) and this
+module (serving); the names are re-exported here.
 """
 
 from __future__ import annotations
 
-import contextlib
+import logging
 from typing import Any
 
 from liquidtouch.sim.gelsight import SENSOR_NAMES
-from liquidtouch.sim.rig.arm_server import ArmMove, ArmServer
+from liquidtouch.sim.rig.arm_server import ArmServer
 from liquidtouch.sim.rig.fingers import CLAMP_TRAVEL_MM, OPEN_WIDTH_MM
-from liquidtouch.sim.rig.gcl_server import GclServer, Motion
+from liquidtouch.sim.rig.gcl_server import GclServer
+from liquidtouch.sim.rig.interfaces import ArmMove, Motion
 from liquidtouch.sim.rig.kinematics import move_duration
+from liquidtouch.sim.rig.mjpeg import MjpegServer
 from liquidtouch.sim.rig.state import (
     HOME_POSE,
     LIFT_OFF_MM,
@@ -49,9 +54,11 @@ __all__ = [
     "move_duration",
 ]
 
+logger = logging.getLogger(__name__)
+
 
 class RigGripper:
-    """The rig's gripper as the GCL server sees it (``gcl_server.GripperModel``)."""
+    """The rig's gripper as the GCL server sees it (``interfaces.GripperModel``)."""
 
     def __init__(self, rig: Rig):
         self.rig = rig
@@ -70,7 +77,7 @@ class RigGripper:
 
 
 class RigArmModel:
-    """The rig's arm as the arm server sees it (``arm_server.ArmModel``)."""
+    """The rig's arm as the arm server sees it (``interfaces.ArmModel``)."""
 
     def __init__(self, rig: Rig):
         self.rig = rig
@@ -112,10 +119,8 @@ class RigServer:
         self.rig, self.host = rig, host
         self.gcl = GclServer(RigGripper(rig), host=host, port=gripper_port)
         self.arm = ArmServer(RigArmModel(rig), host=host, port=arm_port)
-        self.streams: list[Any] = []
+        self.streams: list[MjpegServer] = []
         if cameras:
-            from liquidtouch.sim.rig.mjpeg import MjpegServer
-
             self.streams = [
                 MjpegServer(
                     (lambda t_s, i=i: rig.frame(i, t_s)),  # the scene at the frame's stamp
@@ -136,17 +141,27 @@ class RigServer:
             self.arm.start()
             for stream in self.streams:
                 stream.start()
-        except BaseException:
+        except BaseException as exc:
+            logger.info("the rig could not start: %s", exc or type(exc).__name__)
             self.stop()
             raise
+        logger.info(
+            "rig serving: gripper %s, arm %s, %d camera streams",
+            self.gcl.url,
+            self.arm.url,
+            len(self.streams),
+        )
         return self
 
     def stop(self) -> None:
         for stream in self.streams:
-            with contextlib.suppress(Exception):
+            try:
                 stream.stop()
+            except Exception as exc:  # stopping the rest anyway
+                logger.warning("stopping a camera stream failed: %s", exc)
         self.arm.stop()
         self.gcl.stop()
+        logger.info("rig stopped")
 
     def endpoints(self) -> dict[str, Any]:
         """Where to reach the rig, and its truth (JSON-ready)."""

@@ -40,6 +40,7 @@ push (the simulated push always completes).
 
 from __future__ import annotations
 
+import logging
 import math
 import threading
 import time
@@ -48,6 +49,8 @@ from typing import Any
 import numpy as np
 
 from liquidtouch._core.containers import get_container
+from liquidtouch.protocols import gcl
+from liquidtouch.protocols.arm import ArmError
 from liquidtouch.sim.gelsight import (
     SENSOR_NAMES,
     contact_geometry,
@@ -55,12 +58,16 @@ from liquidtouch.sim.gelsight import (
     marker_positions,
     marker_rest_positions,
 )
-from liquidtouch.sim.rig.arm_server import ArmError, ArmMove
 from liquidtouch.sim.rig.fingers import OPEN_WIDTH_MM, FingerCommands
+from liquidtouch.sim.rig.interfaces import ArmMove
 from liquidtouch.sim.rig.kinematics import ArmMotion, FingerMotion, move_duration
 from liquidtouch.sim.rig.live_sensor import LiveSensor, loads_near
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import SimulatedTrial, simulate_trial
+
+__all__ = ["HOME_POSE", "LIFT_OFF_MM", "REACH_M", "TRIAL_DURATION_S", "WALL_MM", "Rig"]
+
+logger = logging.getLogger(__name__)
 
 WALL_MM = 2.0
 """The simulated container's wall thickness [mm]: outer width = inner width + 2 walls."""
@@ -116,7 +123,7 @@ class Rig(FingerCommands):
         # gripper
         self.width_mm = OPEN_WIDTH_MM
         self.grip_force_n = 0.0
-        self.grip_state = 0
+        self.grip_state = gcl.IDLE
         self.holding = False
         self.fast_stop = False
         self._finger_motion: FingerMotion | None = None
@@ -159,7 +166,8 @@ class Rig(FingerCommands):
             return motion.pose_at(now) if motion is not None else list(self._pose)
 
     def begin_move(self, pose: list[float], speed: float, acceleration: float) -> ArmMove:
-        """Validate a ``moveL`` and return the move (``arm_server.ArmModel``)."""
+        """Validate a ``moveL`` and return the move (``interfaces.ArmModel``); refusals raise
+        :class:`~liquidtouch.protocols.arm.ArmError`."""
         if not all(math.isfinite(v) for v in pose):
             raise ArmError("the pose must be 6 finite numbers")
         if not (0 < speed <= 3.0 and 0 < acceleration <= 150.0):
@@ -203,6 +211,11 @@ class Rig(FingerCommands):
                 motion.t0 = now
                 self._arm_motion = motion
                 if trial is not None:
+                    logger.info(
+                        "rig: push of %.1f mm over %.3f s starts the simulated trial",
+                        dx * 1e3,
+                        duration,
+                    )
                     self.trial, self._push_at = trial, now
                     if self._lifted_since is None:
                         self._lifted_since = now
@@ -311,7 +324,7 @@ class Rig(FingerCommands):
                 "gripper": {
                     "width_mm": round(self._width(now), 3),
                     "force_n": self.grip_force_n,
-                    "grip_state": 7 if self.fast_stop else self.grip_state,
+                    "grip_state": gcl.ERROR if self.fast_stop else self.grip_state,
                     "holding": self.holding,
                     "fast_stop": self.fast_stop,
                 },

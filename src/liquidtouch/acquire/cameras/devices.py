@@ -5,21 +5,21 @@ Part of :mod:`liquidtouch.acquire.cameras` (see its docstring for sources and cl
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import sys
 import threading
 import time
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from liquidtouch.acquire.camera_profiles import CameraProfile
+from liquidtouch.acquire.cameras.profiles import CameraProfile
 from liquidtouch.errors import DeviceError
 
-if TYPE_CHECKING:
-    from liquidtouch.acquire.cameras import SourceSpec
+logger = logging.getLogger(__name__)
 
 DEFAULT_READ_TIMEOUT_S = 2.0
 """How long :meth:`Camera.read` waits for a frame before raising :class:`DeviceError` [s]."""
@@ -35,6 +35,15 @@ MAX_WARMUP_S = 5.0
 
 class StreamEnded(DeviceError):
     """A finite source (a replayed video file, a closed stream) has no more frames."""
+
+
+@dataclass(frozen=True)
+class SourceSpec:
+    """A parsed camera source: ``kind`` is ``device``, ``url`` or ``file``."""
+
+    kind: str
+    target: int | str
+    text: str
 
 
 # --- cameras ----------------------------------------------------------------------------
@@ -114,7 +123,7 @@ class OpenCVCamera(Camera):
         open_timeout_s: float = DEFAULT_OPEN_TIMEOUT_S,
         read_timeout_s: float = DEFAULT_READ_TIMEOUT_S,
     ) -> None:
-        import cv2
+        import cv2  # why: OpenCV is heavy; imported when a camera is opened
 
         self.source = spec.text
         self.profile = profile
@@ -151,7 +160,7 @@ class OpenCVCamera(Camera):
 
     @staticmethod
     def _configure(capture, profile: CameraProfile) -> None:
-        import cv2
+        import cv2  # why: OpenCV is heavy; imported when a camera is opened
 
         if profile.capture is not None:
             width, height, fourcc = profile.capture
@@ -174,6 +183,7 @@ class OpenCVCamera(Camera):
             else:
                 ok, frame = False, None
         if not ok or frame is None:
+            logger.debug("camera %s: no frame (grabbed=%s)", self.source, grabbed)
             if self._spec.kind == "url" and time.monotonic() - start < timeout_s:
                 raise StreamEnded(f"stream {self.source} ended (the server closed it)")
             raise DeviceError(
@@ -186,12 +196,19 @@ class OpenCVCamera(Camera):
         """The V4L2 buffer timestamp when it is on the monotonic clock, else ``grabbed_at``."""
         if self._device_clock is False:
             return grabbed_at
-        import cv2
+        import cv2  # why: OpenCV is heavy; imported when a camera is opened
 
         stamp = float(self._capture.get(cv2.CAP_PROP_POS_MSEC) or 0.0) / 1000.0
         plausible = 0.0 <= grabbed_at - stamp < 1.0  # captured before we got it, not long ago
         if self._device_clock is None:
             self._device_clock = plausible
+            logger.info(
+                "camera %s: %s",
+                self.source,
+                "driver timestamps on the monotonic clock"
+                if plausible
+                else "stamped when grabbed (the driver's timestamps are on another clock)",
+            )
         return stamp if self._device_clock and plausible else grabbed_at
 
     def close(self) -> None:
@@ -204,19 +221,19 @@ class OpenCVCamera(Camera):
 def _quiet_capture(target: int | str, backend: int, params: list[int]):
     """``cv2.VideoCapture(target, backend, params)`` without OpenCV's warnings on stderr
     (a failure becomes one :class:`DeviceError` instead)."""
-    import cv2
+    import cv2  # why: OpenCV is heavy; imported when a camera is opened
 
     if backend == cv2.CAP_FFMPEG:  # FFmpeg's own messages ("Connection refused"): quiet
         os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
-    logging = getattr(getattr(cv2, "utils", None), "logging", None)
-    previous = logging.getLogLevel() if logging else None
+    cv_log = getattr(getattr(cv2, "utils", None), "logging", None)
+    previous = cv_log.getLogLevel() if cv_log else None
     try:
-        if logging:
-            logging.setLogLevel(logging.LOG_LEVEL_ERROR)
+        if cv_log:
+            cv_log.setLogLevel(cv_log.LOG_LEVEL_ERROR)
         return cv2.VideoCapture(target, backend, params)
     finally:
-        if logging and previous is not None:
-            logging.setLogLevel(previous)
+        if cv_log and previous is not None:
+            cv_log.setLogLevel(previous)
 
 
 class FileCamera(Camera):
@@ -228,7 +245,7 @@ class FileCamera(Camera):
     """
 
     def __init__(self, path: str, profile: CameraProfile, *, speed: float = 1.0) -> None:
-        import av
+        import av  # why: PyAV is heavy; imported when a video is replayed
 
         self.source = str(path)
         self.profile = profile
@@ -259,7 +276,7 @@ class FileCamera(Camera):
         return False
 
     def _next_decoded(self) -> tuple[float, np.ndarray]:
-        import av
+        import av  # why: PyAV is heavy; imported when a video is replayed
 
         try:
             frame = next(self._frames)
@@ -291,6 +308,7 @@ class FileCamera(Camera):
             due = self._t_start + rel
             wait = due - time.monotonic()
             if wait > timeout_s:
+                logger.info("video %s: a gap of %.3f s in the file", self.source, wait)
                 time.sleep(timeout_s)
                 raise DeviceError(
                     f"video {self.source}: no frame within {timeout_s:g} s (a gap in the file)"

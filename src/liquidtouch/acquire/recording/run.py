@@ -1,20 +1,20 @@
 """Record for a given time: :func:`record`, the convenience wrapper around
-:class:`~liquidtouch.acquire.recorder.Recorder` (see its module docstring).
+:class:`~liquidtouch.acquire.recording.recorder.Recorder` (see its module docstring).
 """
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
-from liquidtouch.acquire.recording_summary import RecordingSummary
+from liquidtouch.acquire.recording.recorder import Recorder
+from liquidtouch.acquire.recording.summary import RecordingSummary
 from liquidtouch.errors import DeviceError
 
-if TYPE_CHECKING:
-    from liquidtouch.acquire.recorder import Recorder
+logger = logging.getLogger(__name__)
 
 __all__ = ["record"]
 
@@ -39,8 +39,6 @@ def record(
     """
     if seconds is not None and not 0 < float(seconds) < math.inf:
         raise DeviceError(f"the recording length must be a positive number of seconds: {seconds}")
-    from liquidtouch.acquire.recorder import Recorder
-
     with Recorder(sources, out_dir, **kwargs) as recorder:  # type: ignore[arg-type]
         recorder.start()
         start = time.monotonic()
@@ -49,6 +47,7 @@ def record(
             if seconds is not None and elapsed >= seconds:
                 break
             if recorder.ended:
+                logger.info("every source has ended after %.2f s", elapsed)
                 break
             recorder.check()
             if on_progress is not None:

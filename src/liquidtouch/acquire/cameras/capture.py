@@ -5,6 +5,7 @@ Part of :mod:`liquidtouch.acquire.cameras` (see its docstring for drops and dupl
 
 from __future__ import annotations
 
+import logging
 import math
 import queue
 import threading
@@ -14,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from liquidtouch.acquire.camera_devices import (
+from liquidtouch.acquire.cameras.devices import (
     DEFAULT_READ_TIMEOUT_S,
     DROP_GAP_PERIODS,
     MAX_WARMUP_S,
@@ -22,6 +23,8 @@ from liquidtouch.acquire.camera_devices import (
     StreamEnded,
 )
 from liquidtouch.errors import DeviceError
+
+logger = logging.getLogger(__name__)
 
 # --- statistics -------------------------------------------------------------------------
 
@@ -165,8 +168,10 @@ class CameraThread(threading.Thread):
                 self.sink(Frame(self.sensor, index, t_s, image, duplicate))
                 index += 1
         except StreamEnded as exc:
+            logger.info("sensor %s: %s (after %d frames)", self.sensor, exc, index)
             self.end_reason = exc
         except BaseException as exc:
+            logger.info("sensor %s: camera failed after %d frames: %s", self.sensor, index, exc)
             self.error = exc
         finally:
             self.ended.set()
@@ -264,11 +269,21 @@ class CaptureSession:
         for thread in self.threads:
             thread.join(timeout=timeout_s)
             if thread.is_alive():
+                logger.info("camera %s did not stop within %g s", thread.sensor, timeout_s)
                 thread.error = thread.error or DeviceError(
                     f"camera {thread.sensor} did not stop within {timeout_s:g} s"
                 )
         for name in self.names:
             self.queues[name].put(END)
+        for thread in self.threads if logger.isEnabledFor(logging.INFO) else ():
+            stats = thread.stats
+            logger.info(
+                "sensor %s: %d frames, %d dropped, %d duplicated",
+                thread.sensor,
+                stats.frames,
+                stats.drops,
+                stats.duplicates,
+            )
 
     def close(self) -> None:
         """Stop, then release every camera."""

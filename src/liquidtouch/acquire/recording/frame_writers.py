@@ -1,6 +1,6 @@
 """The recorder's per-sensor frame writers: FFV1 in Matroska, or PNG folders, with timestamps.
 
-Used by :class:`liquidtouch.acquire.recorder.Recorder` (see its module docstring).
+Used by :class:`liquidtouch.acquire.recording.Recorder` (see its module docstring).
 """
 
 from __future__ import annotations
@@ -12,12 +12,22 @@ from pathlib import Path
 
 import numpy as np
 
-from liquidtouch.acquire.cameras import (
-    Frame,
-)
+from liquidtouch.acquire.cameras import Frame
 from liquidtouch.errors import OutputError
 from liquidtouch.io.frame_times import TIMESTAMPS_NAME as PNG_TIMESTAMPS_NAME
 from liquidtouch.io.frame_times import VIDEO_TIMESTAMPS_SUFFIX as TIMESTAMPS_SUFFIX
+
+__all__ = [
+    "FFV1_OPTIONS",
+    "PNG_COMPRESSION",
+    "PNG_TIMESTAMPS_NAME",
+    "PTS_RATE_HZ",
+    "TIMESTAMPS_SUFFIX",
+    "VIDEO_SUFFIX",
+    "Ffv1Writer",
+    "FrameWriter",
+    "PngWriter",
+]
 
 VIDEO_SUFFIX = ".mkv"
 PTS_RATE_HZ = 1_000_000
@@ -28,10 +38,7 @@ PNG_COMPRESSION = 1
 """zlib level of PNG frames (1: fast, within ~5 % of the best size for camera images)."""
 
 
-# --- writers ----------------------------------------------------------------------------
-
-
-class _Writer:
+class FrameWriter:
     """Encodes one sensor's frames into ``directory`` and keeps their timestamps."""
 
     def __init__(self, directory: Path, name: str, t0_s: float) -> None:
@@ -56,6 +63,9 @@ class _Writer:
     def close(self) -> None:
         """Flush the encoder and write the timestamps file."""
 
+    def discard(self) -> None:
+        """Close any open output without flushing it (the recording is being aborted)."""
+
     def timestamps_csv(self) -> str:
         buffer = io.StringIO()
         writer = csv.writer(buffer, lineterminator="\n")
@@ -65,7 +75,7 @@ class _Writer:
         return buffer.getvalue()
 
 
-class _Ffv1Writer(_Writer):
+class Ffv1Writer(FrameWriter):
     """FFV1 (lossless) in Matroska; each frame's PTS is its time since the sensor's first frame."""
 
     def __init__(self, directory: Path, name: str, t0_s: float, *, threads: int = 1) -> None:
@@ -82,7 +92,7 @@ class _Ffv1Writer(_Writer):
         return self.path.name
 
     def _open(self, image: np.ndarray, fps: float) -> None:
-        import av
+        import av  # why: PyAV is heavy; imported when recording starts
 
         self._container = av.open(str(self.path), mode="w", format="matroska")
         stream = self._container.add_stream("ffv1", rate=Fraction(fps).limit_denominator(1000))
@@ -94,7 +104,7 @@ class _Ffv1Writer(_Writer):
         self._stream = stream
 
     def _encode(self, image: np.ndarray, index: int, t_s: float) -> None:
-        import av
+        import av  # why: PyAV is heavy; imported when recording starts
 
         if self._container is None:
             self._open(image, self.fps_hint)
@@ -120,8 +130,13 @@ class _Ffv1Writer(_Writer):
             self.timestamps_csv(), encoding="utf-8"
         )
 
+    def discard(self) -> None:
+        if self._container is not None:
+            self._container.close()
+            self._container = None
 
-class _PngWriter(_Writer):
+
+class PngWriter(FrameWriter):
     """A folder of PNG images ``000000.png``, ... with ``timestamps.csv`` (absolute t_s)."""
 
     def __init__(self, directory: Path, name: str, t0_s: float) -> None:
@@ -134,7 +149,7 @@ class _PngWriter(_Writer):
         return self.folder.name
 
     def _encode(self, image: np.ndarray, index: int, t_s: float) -> None:
-        import cv2
+        import cv2  # why: OpenCV is heavy; imported when recording starts
 
         path = self.folder / f"{index:06d}.png"
         if not cv2.imwrite(str(path), image, [int(cv2.IMWRITE_PNG_COMPRESSION), PNG_COMPRESSION]):

@@ -11,8 +11,6 @@ import numpy as np
 
 from liquidtouch.errors import DeviceError
 
-# --- sensor profiles --------------------------------------------------------------------
-
 
 @dataclass(frozen=True)
 class CameraProfile:
@@ -41,7 +39,7 @@ class CameraProfile:
         h, w = frame.shape[:2]
         if (w, h) == (self.width, self.height):
             return frame
-        import cv2
+        import cv2  # why: OpenCV is heavy; only a resized profile needs it
 
         if self.crop_fraction:
             dy, dx = int(h * self.crop_fraction), int(w * self.crop_fraction)

@@ -1,24 +1,28 @@
-"""The client of the simulated rig's arm endpoint (protocol: :mod:`liquidtouch.acquire.arm`)."""
+"""The client of the simulated rig's arm endpoint (protocol: :mod:`liquidtouch.protocols.arm`)."""
 
 from __future__ import annotations
 
 import contextlib
 import itertools
-import json
+import logging
 import threading
 import time
 from collections.abc import Sequence
 from typing import Any
 
-from liquidtouch.acquire.arm_motion import check_move, check_pose, linear_move_duration
+from liquidtouch.acquire.arms.motion import check_move, check_pose, linear_move_duration
 from liquidtouch.acquire.device_link import LineConnection
 from liquidtouch.errors import DeviceError
+from liquidtouch.protocols import arm as wire
 
-RIG_ARM_PROTOCOL = 1
+__all__ = ["RigArm"]
+
+logger = logging.getLogger(__name__)
 
 
 class RigArm:
-    """The simulated rig's arm endpoint, ``sim://HOST:PORT`` (protocol: :mod:`.arm`)."""
+    """The simulated rig's arm endpoint, ``sim://HOST:PORT`` (protocol:
+    :mod:`liquidtouch.protocols.arm`)."""
 
     def __init__(
         self,
@@ -37,25 +41,27 @@ class RigArm:
         )
         try:
             hello = self._read_json(self.reply_timeout_s, "the rig arm's greeting")
-            if hello.get("server") != "liquidtouch-rig-arm":
+            if hello.get("server") != wire.SERVER_NAME:
                 raise DeviceError(f"{host}:{port} is not a liquidtouch rig arm (said {hello!r})")
-            if hello.get("protocol") != RIG_ARM_PROTOCOL:
+            if hello.get("protocol") != wire.PROTOCOL_VERSION:
                 raise DeviceError(
                     f"the rig arm speaks protocol {hello.get('protocol')!r}, this liquidtouch "
-                    f"{RIG_ARM_PROTOCOL}; run the same liquidtouch version on both sides"
+                    f"{wire.PROTOCOL_VERSION}; run the same liquidtouch version on both sides"
                 )
-        except BaseException:
+        except BaseException as exc:
+            logger.info("rig arm at %s:%s: %s", host, port, exc or type(exc).__name__)
             self._conn.close()
             raise
+        logger.info(
+            "connected to the rig arm at %s:%s (protocol %s)", host, port, hello["protocol"]
+        )
 
     def _read_json(self, timeout_s: float, waiting_for: str) -> dict[str, Any]:
         line = self._conn.read_line(timeout_s, waiting_for)
-        try:
-            message = json.loads(line)
-        except json.JSONDecodeError:
-            message = None
-        if not isinstance(message, dict):
+        message = wire.decode(line)
+        if message is None:
             self._conn.close()
+            logger.info("rig arm sent a line that is not a JSON object: %r", line[:80])
             raise DeviceError(f"the rig arm sent a line that is not a JSON object: {line[:80]!r}")
         return message
 
@@ -64,7 +70,7 @@ class RigArm:
         timeout_s = self.reply_timeout_s if timeout_s is None else timeout_s
         with self._lock:
             ident = next(self._ids)
-            self._conn.send_line(json.dumps({"id": ident, "cmd": cmd, **fields}))
+            self._conn.send_line(wire.encode_request(ident, cmd, **fields))
             deadline = time.monotonic() + timeout_s
             while True:
                 remaining = deadline - time.monotonic()
@@ -73,12 +79,14 @@ class RigArm:
                 reply = self._read_json(remaining, f"the reply to {cmd}")
                 if reply.get("id") == ident:
                     break
+                logger.debug("rig arm: skipped a reply to an older request: %r", reply)
         if not reply.get("ok"):
+            logger.info("rig arm refused %s: %s", cmd, reply.get("error"))
             raise DeviceError(f"the rig arm refused {cmd}: {reply.get('error', 'no reason given')}")
         return reply
 
     def get_pose(self) -> list[float]:
-        return check_pose(self.request("get_pose")["pose"], "arm's reported pose")
+        return check_pose(self.request(wire.GET_POSE)["pose"], "arm's reported pose")
 
     def move_linear(
         self, pose: Sequence[float], speed_m_s: float, acceleration_m_s2: float
@@ -88,28 +96,29 @@ class RigArm:
         duration = linear_move_duration(distance, speed_m_s, acceleration_m_s2)
         try:
             reply = self.request(
-                "moveL",
+                wire.MOVE_L,
                 timeout_s=2.0 * duration + self.reply_timeout_s,
                 pose=target,
                 speed=float(speed_m_s),
                 acceleration=float(acceleration_m_s2),
             )
-        except BaseException:
+        except BaseException as exc:
+            logger.info("rig arm move failed (%s): stopping the arm", exc or type(exc).__name__)
             with contextlib.suppress(DeviceError):
                 self.stop()
             raise
         return check_pose(reply["pose"], "arm's reported pose")
 
     def stop(self, deceleration_m_s2: float = 2.0) -> None:
-        self.request("stop", acceleration=float(deceleration_m_s2))
+        self.request(wire.STOP, acceleration=float(deceleration_m_s2))
 
     def truth(self) -> dict[str, Any]:
         """The simulated liquid's ground truth (λ, ω) and labels."""
-        return self.request("truth")["truth"]
+        return self.request(wire.TRUTH)["truth"]
 
     def status(self) -> dict[str, Any]:
         """The rig's state (gripper, arm, trial clock)."""
-        return self.request("status")["status"]
+        return self.request(wire.STATUS)["status"]
 
     def close(self) -> None:
         self._conn.close()

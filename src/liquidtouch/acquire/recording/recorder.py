@@ -32,6 +32,7 @@ lost because an encoder fell more than :data:`MAX_BACKLOG_S` behind the camera
 from __future__ import annotations
 
 import contextlib
+import logging
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -46,48 +47,15 @@ from liquidtouch.acquire.cameras import (
     get_profile,
     open_camera,
 )
-from liquidtouch.acquire.frame_writers import (
-    FFV1_OPTIONS,
-    PNG_COMPRESSION,
-    PNG_TIMESTAMPS_NAME,
-    PTS_RATE_HZ,
-    TIMESTAMPS_SUFFIX,
-    VIDEO_SUFFIX,
-    _Ffv1Writer,
-    _PngWriter,
-    _Writer,
-)
-from liquidtouch.acquire.recording_meta import (
-    RESERVED_META,
-    _check_meta_fields,
-    _validate_meta,
-    build_meta,
-)
-from liquidtouch.acquire.recording_run import record
-from liquidtouch.acquire.recording_summary import RecordingSummary, SensorSummary, summarise
-from liquidtouch.acquire.writer_pool import MAX_BACKLOG_S, WRITER_FINISH_S, WriterPool
+from liquidtouch.acquire.recording.meta import build_meta, check_meta_fields, validate_meta
+from liquidtouch.acquire.recording.summary import RecordingSummary, summarise
+from liquidtouch.acquire.recording.writer_pool import WriterPool
 from liquidtouch.errors import DeviceError, LiquidTouchError, OutputError
 from liquidtouch.io.dataset import META_NAME
 
-__all__ = [
-    "FFV1_OPTIONS",
-    "FORMATS",
-    "MAX_BACKLOG_S",
-    "PNG_COMPRESSION",
-    "PNG_TIMESTAMPS_NAME",
-    "PTS_RATE_HZ",
-    "RESERVED_META",
-    "TIMESTAMPS_SUFFIX",
-    "VIDEO_SUFFIX",
-    "WRITER_FINISH_S",
-    "Recorder",
-    "RecordingSummary",
-    "SensorSummary",
-    "_Ffv1Writer",
-    "_PngWriter",
-    "_Writer",
-    "record",
-]
+__all__ = ["FORMATS", "Recorder"]
+
+logger = logging.getLogger(__name__)
 
 FORMATS = ("ffv1", "png")
 
@@ -147,8 +115,8 @@ class Recorder:
             raise DeviceError(f"unknown recording format {fmt!r}; choose one of {FORMATS}")
         self.fmt = fmt
         self.labels = dict(labels or {})
-        _check_meta_fields(self.labels, "label")
-        _validate_meta({"fps": 30.0, **self.labels})
+        check_meta_fields(self.labels, "label")
+        validate_meta({"fps": 30.0, **self.labels})
         self.grey = bool(grey)
         self.warmup_frames = warmup_frames
         self.read_timeout_s = float(read_timeout_s)
@@ -187,7 +155,8 @@ class Recorder:
                 self.cameras, self.names, read_timeout_s=self.read_timeout_s
             )
             self.session.prime()
-        except BaseException:
+        except BaseException as exc:
+            logger.info("opening the cameras failed: %s", exc or type(exc).__name__)
             if self.session is not None:
                 self.session.stop()
             self._close_cameras()
@@ -200,7 +169,8 @@ class Recorder:
             raise DeviceError(f"this recorder is already {self._state}")
         try:
             self.open()
-            import av  # noqa: F401 - imported now, not by a writer thread while recording
+            # why: imported now, not by a writer thread while recording
+            import av  # noqa: F401
             import cv2  # noqa: F401
 
             self._stack = contextlib.ExitStack()
@@ -210,6 +180,7 @@ class Recorder:
             self._pool.start(self.session, self.cameras, self.names, self._tmp, self.fmt, t0)
             self._state = "recording"
             self.session.start()
+            logger.info("recording %s into %s (%s)", ", ".join(self.names), self._tmp, self.fmt)
         except BaseException:
             self.abort()
             raise
@@ -272,6 +243,15 @@ class Recorder:
         )
         self.check()
         empty = [n for n, s in self.summary.sensors.items() if s.frames < 2]
+        for name, s in self.summary.sensors.items():
+            if s.lost:
+                logger.info(
+                    "sensor %s: %d frames lost (%d dropped by the camera, %d behind the encoder)",
+                    name,
+                    s.lost,
+                    s.drops,
+                    s.backlog_drops,
+                )
         if empty:
             raise DeviceError(
                 f"sensor(s) {', '.join(empty)} recorded fewer than 2 frames; is the camera "
@@ -309,15 +289,19 @@ class Recorder:
         self._state = "finished"
         self.trial_dir = self.out_dir
         summary.trial_dir = self.out_dir
+        logger.info("wrote the trial %s", self.out_dir)
         return self.out_dir
 
     def abort(self) -> None:
         """Stop everything and remove the temporary directory: no trial is left."""
         if self._state in ("aborted", "finished"):
             return
-        with contextlib.suppress(BaseException):
+        logger.info("recording aborted (was %s): no trial is left", self._state)
+        try:
             if self.session is not None:
                 self.session.stop()
+        except BaseException as exc:  # aborting anyway
+            logger.debug("stopping the capture session while aborting: %s", exc)
         self._pool.abort()
         self._close_cameras()
         self._state = "aborted"
@@ -328,8 +312,10 @@ class Recorder:
 
     def _close_cameras(self) -> None:
         for camera in self.cameras:
-            with contextlib.suppress(BaseException):
+            try:
                 camera.close()
+            except BaseException as exc:  # closing anyway
+                logger.debug("closing camera %r: %s", camera, exc)
 
     def __enter__(self) -> Recorder:
         return self

@@ -5,11 +5,12 @@ stamp each frame when it arrived: network jitter then lands in the timestamps
 (4 ms of it moved λ by 7 % on the simulated rig). This client parses the stream
 itself, so it sees each part's ``X-Timestamp`` header.
 
-**Protocol**: ``GET`` answered by ``multipart/x-mixed-replace; boundary=B``, then
-parts ``--B``, headers (``Content-Type: image/jpeg``, ``Content-Length``, and
-optionally ``X-Timestamp: <seconds on the sender's clock>``), a blank line and
-the JPEG (:class:`MjpegStream`; a part without ``Content-Length`` runs to the
-next boundary line, or the stream's end if its JPEG is complete). ``--B--`` or
+**Protocol** (:mod:`liquidtouch.protocols.mjpeg`): ``GET`` answered by
+``multipart/x-mixed-replace; boundary=B``, then parts ``--B``, headers
+(``Content-Type: image/jpeg``, ``Content-Length``, and optionally ``X-Timestamp:
+<seconds on the sender's clock>``), a blank line and the JPEG (:class:`MjpegStream`;
+a part without ``Content-Length`` runs to the next boundary line, or the stream's end
+if its JPEG is complete). ``--B--`` or
 the server closing between parts ends the stream (:class:`StreamEnded`); closing
 inside a part, a part that breaks the format, or no byte for ``read_timeout_s``
 raise :class:`DeviceError`. A JPEG
@@ -29,6 +30,7 @@ from __future__ import annotations
 
 import base64
 import http.client
+import logging
 import math
 import socket
 import threading
@@ -38,24 +40,25 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
-from liquidtouch.acquire.camera_devices import (
+from liquidtouch.acquire.cameras.devices import (
     DEFAULT_OPEN_TIMEOUT_S,
     DEFAULT_READ_TIMEOUT_S,
     Camera,
     StreamEnded,
 )
-from liquidtouch.acquire.camera_profiles import CameraProfile
+from liquidtouch.acquire.cameras.profiles import CameraProfile
 from liquidtouch.errors import DeviceError
+from liquidtouch.protocols import mjpeg
 
 __all__ = ["OFFSET_WINDOW_S", "MjpegCamera", "MjpegStream", "SenderClock"]
+
+logger = logging.getLogger(__name__)
 
 OFFSET_WINDOW_S = 30.0
 """The sender→receiver clock offset is the least delay over this many seconds of frames [s]
 (longer than a trial; short enough that two machines' clocks drift by < 1 ms over it)."""
 MAX_PART_BYTES = 32 * 1024 * 1024
 """Largest JPEG part accepted [bytes] (a 12 MP frame at high quality is a few MB)."""
-JPEG_END = b"\xff\xd9"
-"""The JPEG end-of-image marker."""
 MAX_HEADER_LINES = 64
 MAX_LINE_BYTES = 8192
 MAX_SKIPPED_BYTES = 65536
@@ -114,7 +117,10 @@ class MjpegStream:
         )
         self._conn = kind(parts.hostname, parts.port, timeout=float(open_timeout_s))
         target = (parts.path or "/") + (f"?{parts.query}" if parts.query else "")
-        headers = {"Accept": "multipart/x-mixed-replace, image/jpeg", "Connection": "close"}
+        headers = {
+            "Accept": f"{mjpeg.MULTIPART_TYPE}, {mjpeg.JPEG_TYPE}",
+            "Connection": "close",
+        }
         if parts.username:  # mjpg-streamer's -c user:password
             token = f"{parts.username}:{parts.password or ''}".encode()
             headers["Authorization"] = "Basic " + base64.b64encode(token).decode("ascii")
@@ -125,21 +131,23 @@ class MjpegStream:
             response = self._conn.getresponse()
         except (OSError, http.client.HTTPException) as exc:
             self._conn.close()
+            logger.info("stream %s could not be opened: %s", url, exc)
             raise DeviceError(f"stream {url} could not be opened: {exc}") from None
         kind_header = response.getheader("Content-Type", "")
-        boundary = _boundary(kind_header)
+        boundary = mjpeg.parse_boundary(kind_header)
         if response.status != 200 or boundary is None:
             response.close()
             self._conn.close()
             raise DeviceError(
                 f"stream {url} could not be opened: the server answered {response.status} "
                 f"{response.reason} with {kind_header or 'no Content-Type'!r}, not a "
-                "multipart/x-mixed-replace MJPEG stream"
+                f"{mjpeg.MULTIPART_TYPE} MJPEG stream"
             )
         self._response = response
         self.set_read_timeout(self.read_timeout_s)
         self._boundary = b"--" + boundary.encode("latin-1")
         self._pending: bytes | None = None  # a boundary line already read (no Content-Length)
+        logger.info("connected to MJPEG stream %s (boundary %r)", url, boundary)
 
     def read_part(self) -> tuple[float, dict[str, str], bytes]:
         """``(arrival_s, headers, body)`` of the next part; ``arrival_s`` on time.monotonic.
@@ -150,7 +158,7 @@ class MjpegStream:
         try:
             self._skip_to_boundary()
             headers = self._headers()
-            body = self._body(headers.get("content-length"))
+            body = self._body(headers.get(mjpeg.LENGTH_HEADER.lower()))
         except TimeoutError:
             raise DeviceError(
                 f"stream {self.url} delivered no data within {self.read_timeout_s:g} s; is the "
@@ -248,7 +256,7 @@ class MjpegStream:
         while True:
             line = self._line()
             if not line:  # the last part ends with the stream, if its JPEG is complete
-                if b"".join(chunks).rstrip(b"\r\n").endswith(JPEG_END):
+                if b"".join(chunks).rstrip(b"\r\n").endswith(mjpeg.JPEG_END):
                     break
                 raise DeviceError(f"stream {self.url} closed inside a frame")
             if line.startswith(self._boundary):
@@ -260,18 +268,6 @@ class MjpegStream:
                 raise DeviceError(f"stream {self.url}: a part over {MAX_PART_BYTES} bytes")
         body = b"".join(chunks)
         return body[:-2] if body.endswith(b"\r\n") else body.rstrip(b"\n")
-
-
-def _boundary(content_type: str) -> str | None:
-    """The boundary of a ``multipart/x-mixed-replace`` Content-Type (``None`` for others)."""
-    kind, _, params = content_type.partition(";")
-    if kind.strip().lower() != "multipart/x-mixed-replace":
-        return None
-    for param in params.split(";"):
-        name, _, value = param.strip().partition("=")
-        if name.strip().lower() == "boundary" and value.strip().strip('"'):
-            return value.strip().strip('"').removeprefix("--")
-    return None
 
 
 class MjpegCamera(Camera):
@@ -300,7 +296,7 @@ class MjpegCamera(Camera):
         )
 
     def _read(self, timeout_s: float) -> tuple[float, np.ndarray]:
-        import cv2
+        import cv2  # why: OpenCV is heavy; imported when the first frame is decoded
 
         with self._lock:
             if self._stream is None:
@@ -315,11 +311,26 @@ class MjpegCamera(Camera):
                 if image is not None:
                     break
                 self.bad_frames += 1
+                logger.log(
+                    logging.WARNING if self.bad_frames == 1 else logging.DEBUG,
+                    "stream %s: a part of %d bytes is not a decodable JPEG (skipped, %d so far)",
+                    self.source,
+                    len(body),
+                    self.bad_frames,
+                )
                 if time.monotonic() > deadline:
                     raise DeviceError(
                         f"stream {self.source}: no decodable JPEG within {timeout_s:g} s"
                     )
-        stamp = headers.get("x-timestamp")
+        stamp = headers.get(mjpeg.TIMESTAMP_HEADER.lower())
+        if self.sender_timed is None:
+            logger.info(
+                "stream %s: %s",
+                self.source,
+                f"frames carry {mjpeg.TIMESTAMP_HEADER} (sender clock)"
+                if stamp is not None
+                else f"no {mjpeg.TIMESTAMP_HEADER}: frames stamped on arrival",
+            )
         self.sender_timed = stamp is not None
         if stamp is None:
             return arrival, image
@@ -328,7 +339,9 @@ class MjpegCamera(Camera):
         except ValueError:
             sender_s = math.nan
         if not math.isfinite(sender_s):
-            raise DeviceError(f"stream {self.source}: X-Timestamp {stamp[:40]!r} is not seconds")
+            raise DeviceError(
+                f"stream {self.source}: {mjpeg.TIMESTAMP_HEADER} {stamp[:40]!r} is not seconds"
+            )
         return self.clock.to_local(sender_s, arrival), image
 
     def close(self) -> None:

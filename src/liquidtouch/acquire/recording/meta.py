@@ -1,24 +1,28 @@
 """A recording's meta.json: assembled from the summary, labels and extra fields, validated.
 
-Used by :class:`liquidtouch.acquire.recorder.Recorder` (see its module docstring).
+Used by :class:`liquidtouch.acquire.recording.Recorder` (see its module docstring).
 """
 
 from __future__ import annotations
 
 from dataclasses import asdict
 
-from liquidtouch.acquire.frame_writers import PNG_TIMESTAMPS_NAME, TIMESTAMPS_SUFFIX
-from liquidtouch.acquire.recording_summary import RecordingSummary
+from pydantic import ValidationError
+
+from liquidtouch.acquire.recording.frame_writers import PNG_TIMESTAMPS_NAME, TIMESTAMPS_SUFFIX
+from liquidtouch.acquire.recording.summary import RecordingSummary
 from liquidtouch.errors import DatasetError, DeviceError
 from liquidtouch.io.dataset import TrialMeta
 
-__all__ = ["RESERVED_META", "build_meta"]
+__all__ = ["RESERVED_META", "build_meta", "check_meta_fields", "validate_meta"]
 
 RESERVED_META = ("format_version", "fps", "sensors", "tracks", "sensor_start_s", "recording")
 """meta.json fields the recorder writes itself (labels and extra_meta cannot set them)."""
 
 
-def _check_meta_fields(fields: dict[str, object], what: str) -> None:
+def check_meta_fields(fields: dict[str, object], what: str) -> None:
+    """:class:`DatasetError` if ``fields`` (labels, extra meta.json fields) set a
+    :data:`RESERVED_META` field."""
     clash = [k for k in fields if k in RESERVED_META]
     if clash:
         raise DatasetError(
@@ -26,9 +30,8 @@ def _check_meta_fields(fields: dict[str, object], what: str) -> None:
         )
 
 
-def _validate_meta(meta: dict[str, object]) -> None:
-    from pydantic import ValidationError
-
+def validate_meta(meta: dict[str, object]) -> None:
+    """:class:`DatasetError` naming the first bad field unless ``meta`` is a valid meta.json."""
     try:
         TrialMeta.model_validate(meta)
     except ValidationError as exc:
@@ -49,7 +52,7 @@ def build_meta(
     """The validated meta.json of a stopped recording (``extra_meta`` cannot set
     :data:`RESERVED_META`)."""
     extra = dict(extra_meta or {})
-    _check_meta_fields(extra, "extra_meta")
+    check_meta_fields(extra, "extra_meta")
     sensors = summary.sensors
     meta = {
         "format_version": 1,
@@ -77,5 +80,5 @@ def build_meta(
     }
     if meta["fps"] is None:
         raise DeviceError("the recording has no measurable frame rate")
-    _validate_meta(meta)
+    validate_meta(meta)
     return meta

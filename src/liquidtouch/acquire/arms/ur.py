@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import contextlib
+import logging
 import math
 import time
 from collections.abc import Sequence
 from typing import Any
 
-from liquidtouch.acquire.arm_motion import (
+from liquidtouch.acquire.arms.motion import (
     POSITION_TOLERANCE_M,
     check_move,
     check_pose,
@@ -16,9 +17,15 @@ from liquidtouch.acquire.arm_motion import (
 )
 from liquidtouch.errors import DeviceError
 
+__all__ = ["URArm", "import_ur_rtde"]
 
-def _import_ur_rtde() -> tuple[Any, Any]:
+logger = logging.getLogger(__name__)
+
+
+def import_ur_rtde() -> tuple[Any, Any]:
+    """The ``rtde_control`` and ``rtde_receive`` modules; :class:`DeviceError` without them."""
     try:
+        # why: ur_rtde is optional (liquidtouch[robot]); imported only for a UR arm
         import rtde_control
         import rtde_receive
     except ImportError:
@@ -46,7 +53,7 @@ class URArm:
         move_margin_s: float = 3.0,
         poll_s: float = 0.01,
     ):
-        rtde_control, rtde_receive = modules if modules is not None else _import_ur_rtde()
+        rtde_control, rtde_receive = modules if modules is not None else import_ur_rtde()
         self.url = f"ur-rtde://{host}"
         self.move_margin_s = float(move_margin_s)
         self.poll_s = float(poll_s)
@@ -54,7 +61,9 @@ class URArm:
             self._receive = rtde_receive.RTDEReceiveInterface(host)
             self._control = rtde_control.RTDEControlInterface(host)
         except RuntimeError as exc:
+            logger.info("cannot connect to the UR arm at %s: %s", host, exc)
             raise DeviceError(f"cannot connect to the UR arm at {host}: {exc}") from None
+        logger.info("connected to the UR arm at %s", host)
 
     def get_pose(self) -> list[float]:
         return check_pose(self._receive.getActualTCPPose(), "arm's reported pose")
@@ -66,6 +75,7 @@ class URArm:
         ):
             check = getattr(self._receive, flag, None)
             if check is not None and check():
+                logger.info("the UR arm is in a %s", what)
                 raise DeviceError(f"the UR arm is in a {what}; clear it on the teach pendant")
 
     def move_linear(
@@ -98,7 +108,8 @@ class URArm:
                         f"{limit:.1f} s"
                     )
                 time.sleep(self.poll_s)
-        except BaseException:
+        except BaseException as exc:
+            logger.info("UR arm move failed (%s): stopping the arm", exc or type(exc).__name__)
             with contextlib.suppress(Exception):
                 self.stop()
             raise
@@ -115,8 +126,10 @@ class URArm:
             if call is not None:
                 try:
                     call()
-                except RuntimeError:
-                    pass
+                except RuntimeError as exc:
+                    logger.info(
+                        "UR arm: %s failed while closing: %s", getattr(call, "__name__", call), exc
+                    )
 
     def __enter__(self) -> URArm:
         return self

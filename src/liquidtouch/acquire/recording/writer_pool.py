@@ -1,14 +1,14 @@
 """The recorder's encoders: one writer thread per sensor, with a bounded backlog.
 
-Used by :class:`liquidtouch.acquire.recorder.Recorder` (see its module docstring).
+Used by :class:`liquidtouch.acquire.recording.Recorder` (see its module docstring).
 Each sensor's frames go from its capture thread into a queue that a writer thread
-drains into a :class:`~liquidtouch.acquire.frame_writers._Writer`; frames beyond
+drains into a :class:`~liquidtouch.acquire.recording.frame_writers.FrameWriter`; frames beyond
 :data:`MAX_BACKLOG_S` of video waiting for an encoder are dropped and counted.
 """
 
 from __future__ import annotations
 
-import contextlib
+import logging
 import math
 import queue
 import threading
@@ -16,10 +16,12 @@ import time
 from pathlib import Path
 
 from liquidtouch.acquire.cameras import END, Camera, CaptureSession, Frame
-from liquidtouch.acquire.frame_writers import _Ffv1Writer, _PngWriter, _Writer
+from liquidtouch.acquire.recording.frame_writers import Ffv1Writer, FrameWriter, PngWriter
 from liquidtouch.errors import OutputError
 
 __all__ = ["MAX_BACKLOG_S", "WRITER_FINISH_S", "WriterPool"]
+
+logger = logging.getLogger(__name__)
 
 MAX_BACKLOG_S = 10.0
 """Frames waiting for an encoder beyond this many seconds of video are dropped and counted."""
@@ -32,7 +34,7 @@ class WriterPool:
 
     def __init__(self, names: list[str], *, grey: bool) -> None:
         self.grey = grey
-        self.writers: dict[str, _Writer] = {}
+        self.writers: dict[str, FrameWriter] = {}
         self.threads: list[threading.Thread] = []
         self.errors: dict[str, BaseException] = {}
         self.backlog_drops: dict[str, int] = dict.fromkeys(names, 0)
@@ -48,8 +50,8 @@ class WriterPool:
     ) -> None:
         """Make each sensor's writer, bound its backlog and start its writer thread."""
         for camera, name in zip(cameras, names, strict=True):
-            writer = _Ffv1Writer(tmp, name, t0) if fmt == "ffv1" else _PngWriter(tmp, name, t0)
-            if isinstance(writer, _Ffv1Writer):
+            writer = Ffv1Writer(tmp, name, t0) if fmt == "ffv1" else PngWriter(tmp, name, t0)
+            if isinstance(writer, Ffv1Writer):
                 writer.fps_hint = camera.nominal_fps or 30.0
             self.writers[name] = writer
             limit = max(30, math.ceil(MAX_BACKLOG_S * (camera.nominal_fps or 60.0)))
@@ -67,6 +69,13 @@ class WriterPool:
         def sink(frame: Frame, target: queue.Queue = target) -> None:
             if target.qsize() >= limit:
                 self.backlog_drops[name] += 1
+                logger.log(
+                    logging.INFO if self.backlog_drops[name] == 1 else logging.DEBUG,
+                    "sensor %s: the encoder is %d frames behind; frame dropped (%d so far)",
+                    name,
+                    limit,
+                    self.backlog_drops[name],
+                )
                 return
             target.put(frame)
 
@@ -74,7 +83,7 @@ class WriterPool:
 
     def _drain(self, session: CaptureSession, name: str) -> None:
         """Writer thread: encode the sensor's frames until END (errors kept, frames drained)."""
-        import cv2
+        import cv2  # why: OpenCV is heavy; imported when recording starts
 
         source, writer = session.queues[name], self.writers[name]
         failed = False
@@ -90,6 +99,7 @@ class WriterPool:
                     image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
                 writer.write(frame, image)
             except BaseException as exc:
+                logger.info("sensor %s: cannot encode frame %d: %s", name, frame.index, exc)
                 self.errors[name] = exc
                 failed = True
 
@@ -100,6 +110,7 @@ class WriterPool:
         for thread in self.threads:  # the queues hold at most MAX_BACKLOG_S of frames
             thread.join(timeout=max(0.0, deadline - time.monotonic()))
             if thread.is_alive():
+                logger.info("%s did not finish within %g s", thread.name, WRITER_FINISH_S)
                 self.errors.setdefault(
                     thread.name.removeprefix("writer-"),
                     OutputError(f"the encoder did not finish within {WRITER_FINISH_S:g} s"),
@@ -114,14 +125,15 @@ class WriterPool:
             try:
                 writer.close()
             except BaseException as exc:
+                logger.info("sensor %s: closing the writer failed: %s", name, exc)
                 self.errors.setdefault(name, exc)
 
     def abort(self) -> None:
         """Wait briefly for the writer threads and close any open container, ignoring errors."""
         for thread in self.threads:
             thread.join(timeout=5.0)
-        for writer in self.writers.values():
-            with contextlib.suppress(BaseException):
-                if isinstance(writer, _Ffv1Writer) and writer._container is not None:
-                    writer._container.close()
-                    writer._container = None
+        for name, writer in self.writers.items():
+            try:
+                writer.discard()
+            except BaseException as exc:  # aborting anyway
+                logger.debug("sensor %s: discarding the writer: %s", name, exc)

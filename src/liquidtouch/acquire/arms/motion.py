@@ -12,6 +12,17 @@ from typing import Protocol, runtime_checkable
 
 from liquidtouch.errors import DeviceError
 
+__all__ = [
+    "MAX_ACCELERATION_M_S2",
+    "MAX_SPEED_M_S",
+    "MAX_STEP_M",
+    "POSITION_TOLERANCE_M",
+    "Arm",
+    "check_move",
+    "check_pose",
+    "linear_move_duration",
+]
+
 MAX_SPEED_M_S = 1.0
 """Fastest tool speed liquidtouch commands [m/s] (a push is ~0.1 m/s)."""
 MAX_ACCELERATION_M_S2 = 10.0

@@ -1,0 +1,106 @@
+"""Live GelSight cameras: open one by index, path, name or URL; read timed frames on threads.
+
+**Sources** (:func:`open_camera`):
+
+- ``"0"``: a V4L2 device index (``/dev/video0``);
+- ``"/dev/video2"``: a device path;
+- ``"name:GelSight Mini"``: the first (lowest-numbered) V4L2 device whose
+  ``/sys/class/video4linux/video*/name`` contains that text (case-insensitive),
+  the way the GelSight SDK finds its sensors (:data:`SYSFS_VIDEO4LINUX`);
+- ``"http://..."``: an MJPEG stream (a GelSight R1.5 streams with mjpg-streamer:
+  ``http://gsr1500x.local:8080/?action=stream``), read by
+  :mod:`~liquidtouch.acquire.cameras.mjpeg` with open and read timeouts;
+- ``"rtsp://..."`` (and other network URLs): through OpenCV's FFmpeg backend;
+- a video file: replayed in real time at the pace of its own timestamps (for tests
+  and rehearsals; it ends with :class:`StreamEnded`).
+
+**One clock.** Every frame's ``t_s`` is on :func:`time.monotonic` [s], the same
+clock for every sensor (and for the gripper and arm), so frames of several
+cameras and other events can be compared directly. For an MJPEG stream whose
+parts carry ``X-Timestamp`` (the sender's capture time) ``t_s`` is that time moved
+onto this clock (network jitter stays out; see
+:mod:`~liquidtouch.acquire.cameras.mjpeg`); for other network or USB cameras ``t_s``
+is the moment the frame was grabbed (before decoding); for a V4L2 device
+the driver's buffer timestamp is used when it is on that same clock (Linux
+``CLOCK_MONOTONIC``, what UVC drivers use); a replayed file gives each frame the
+moment it was due.
+
+**Sensor profiles** (:data:`PROFILES`) set the camera mode and turn each frame into
+the sensor's image: ``mini`` (a GelSight Mini: the camera gives MJPG 3280 × 2464 at
+up to 25 fps; 1/7 of each border is cropped and the rest resized to 320 × 240, as
+the GelSight SDK does), ``r15`` (640 × 480 at 30 fps), ``digit`` (320 × 240 at
+60 fps) and ``raw`` (frames as the camera gives them).
+
+**Nothing is hidden.** :class:`FrameStats` counts dropped frames (a gap between
+consecutive timestamps of more than 1.5 frame periods; a gap of g periods counts
+round(g) − 1 drops) and duplicated frames (a frame identical to the one before,
+which a sensor with noise never produces; a driver repeating its buffer does).
+Duplicates are kept in the recording and counted.
+
+:class:`CaptureSession` reads each camera on its own :class:`CameraThread` into a
+queue, so a slow consumer never delays a camera's reads (and so its timestamps).
+
+Takes camera sources (strings); gives open :class:`Camera` objects, timed frames and
+their statistics. The modules, by concept: :mod:`~.sources` (resolving and opening
+sources), :mod:`~.profiles` (sensor profiles), :mod:`~.devices` (the :class:`Camera`
+interface, OpenCV and file cameras), :mod:`~.mjpeg` (the MJPEG-over-HTTP client) and
+:mod:`~.capture` (reader threads, capture sessions, statistics).
+"""
+
+from liquidtouch.acquire.cameras.capture import (
+    END,
+    CameraThread,
+    CaptureSession,
+    Frame,
+    FrameStats,
+    default_names,
+)
+from liquidtouch.acquire.cameras.devices import (
+    DEFAULT_OPEN_TIMEOUT_S,
+    DEFAULT_READ_TIMEOUT_S,
+    DEFAULT_WARMUP_FRAMES,
+    DROP_GAP_PERIODS,
+    MAX_WARMUP_S,
+    Camera,
+    FileCamera,
+    OpenCVCamera,
+    SourceSpec,
+    StreamEnded,
+)
+from liquidtouch.acquire.cameras.mjpeg import MjpegCamera, MjpegStream, SenderClock
+from liquidtouch.acquire.cameras.profiles import PROFILES, CameraProfile, get_profile
+from liquidtouch.acquire.cameras.sources import (
+    SYSFS_VIDEO4LINUX,
+    open_camera,
+    parse_source,
+    resolve_device_name,
+)
+
+__all__ = [
+    "DEFAULT_OPEN_TIMEOUT_S",
+    "DEFAULT_READ_TIMEOUT_S",
+    "DEFAULT_WARMUP_FRAMES",
+    "DROP_GAP_PERIODS",
+    "END",
+    "MAX_WARMUP_S",
+    "PROFILES",
+    "SYSFS_VIDEO4LINUX",
+    "Camera",
+    "CameraProfile",
+    "CameraThread",
+    "CaptureSession",
+    "FileCamera",
+    "Frame",
+    "FrameStats",
+    "MjpegCamera",
+    "MjpegStream",
+    "OpenCVCamera",
+    "SenderClock",
+    "SourceSpec",
+    "StreamEnded",
+    "default_names",
+    "get_profile",
+    "open_camera",
+    "parse_source",
+    "resolve_device_name",
+]
