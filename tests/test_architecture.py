@@ -251,3 +251,16 @@ def _all_names(path: Path) -> list[str]:
 def test_no_private_name_in_all(module: str) -> None:
     private = [n for n in _all_names(MODULES[module]) if n.startswith("_") and n != "__version__"]
     assert private == []
+
+
+@pytest.mark.parametrize("module", sorted(m for m, p in MODULES.items() if p.name != "__init__.py"))
+def test_a_module_exports_only_what_it_defines(module: str) -> None:
+    """One import path per name: re-exporting is for a stage package's ``__init__``."""
+    tree = ast.parse(MODULES[module].read_text())
+    imported = {
+        alias.asname or alias.name
+        for node in tree.body
+        if isinstance(node, ast.ImportFrom)
+        for alias in node.names
+    }
+    assert [name for name in _all_names(MODULES[module]) if name in imported] == []

@@ -16,8 +16,8 @@ import pandas as pd
 import pytest
 import typer.main
 
+from liquidtouch._core.numbers import fixed, number, with_uncertainty
 from liquidtouch.cli import app, main, options
-from liquidtouch.cli.format import fixed, number, with_uncertainty
 
 MY_COMMANDS = ("fit", "extract", "features", "train", "classify", "predict", "transfer")
 FIT_OPTIONS = ("--loss", "--model", "--band-low", "--band-high", "--noise", "--start")

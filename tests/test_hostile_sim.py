@@ -97,13 +97,13 @@ def test_a_failure_while_writing_the_videos_leaves_the_old_trial_and_no_temp_dir
     status: int,
     message: str,
 ) -> None:
-    import liquidtouch.sim.gelsight as gelsight
+    import liquidtouch.sim.trial_io as trial_io
 
     def half_written_then_fail(loads, out_dir, **kwargs):
         (Path(out_dir) / "left.mp4").write_bytes(b"half a video")
         raise exc
 
-    monkeypatch.setattr(gelsight, "write_sensor_videos", half_written_then_fail)
+    monkeypatch.setattr(trial_io, "write_sensor_videos", half_written_then_fail)
     before = _snapshot(water_trial.parent)
     got, err = _run(capsys, *OLIVE, "--out", str(water_trial))
     assert got == status and _one_error_line(err) and message in err
@@ -113,12 +113,12 @@ def test_a_failure_while_writing_the_videos_leaves_the_old_trial_and_no_temp_dir
 def test_an_exception_in_write_trial_leaves_a_new_target_absent(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import liquidtouch.sim.gelsight as gelsight
+    import liquidtouch.sim.trial_io as trial_io
 
     def fail(*args, **kwargs):
         raise RuntimeError("renderer crashed")
 
-    monkeypatch.setattr(gelsight, "write_sensor_videos", fail)
+    monkeypatch.setattr(trial_io, "write_sensor_videos", fail)
     trial = simulate_trial("water", height_mm=30.0, seed=1, duration_s=3.0)
     with pytest.raises(RuntimeError, match="renderer crashed"):
         write_trial(trial, tmp_path / "new" / "trial")

@@ -16,11 +16,11 @@ import pytest
 
 from liquidtouch.acquire.arms import SimArm
 from liquidtouch.acquire.grippers import SimGripper
-from liquidtouch.acquire.protocol import (
+from liquidtouch.acquire.protocol import run_trial
+from liquidtouch.acquire.protocol_params import (
     ProtocolParameters,
     load_protocol,
     protocol_from_mapping,
-    run_trial,
 )
 from liquidtouch.errors import DeviceError, LiquidTouchError
 

@@ -21,7 +21,10 @@ import cv2
 import numpy as np
 import pytest
 
-from liquidtouch.sim.rig.rig import OPEN_WIDTH_MM, Rig, RigServer, move_duration
+from liquidtouch.sim.rig.fingers import OPEN_WIDTH_MM
+from liquidtouch.sim.rig.kinematics import move_duration
+from liquidtouch.sim.rig.rig import RigServer
+from liquidtouch.sim.rig.state import Rig
 from liquidtouch.sim.trial import simulate_trial
 
 LIQUID = {"liquid": "mirin", "height_mm": 25.0, "seed": 1}

@@ -41,25 +41,13 @@ from typing import Any
 from liquidtouch.acquire.arms import Arm
 from liquidtouch.acquire.grippers import Gripper
 from liquidtouch.acquire.protocol_params import (
-    MAX_PROTOCOL_BYTES,
     ProtocolParameters,
-    load_protocol,
-    protocol_from_mapping,
 )
 from liquidtouch.acquire.recording import Recorder
 from liquidtouch.errors import DeviceError
 from liquidtouch.protocols import gcl
 
-__all__ = [
-    "AXES",
-    "MAX_PROTOCOL_BYTES",
-    "ProtocolParameters",
-    "TrialLog",
-    "TrialRun",
-    "load_protocol",
-    "protocol_from_mapping",
-    "run_trial",
-]
+__all__ = ["AXES", "TrialLog", "TrialRun", "run_trial"]
 
 logger = logging.getLogger(__name__)
 

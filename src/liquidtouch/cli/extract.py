@@ -111,7 +111,8 @@ def extract(
 def _print_extraction(result, written: list[Path]) -> None:
     from rich.console import Console
 
-    from liquidtouch.cli.format import fit_quality, fit_table, number, percent
+    from liquidtouch._core.numbers import number, percent
+    from liquidtouch.cli.format import fit_quality, fit_table
 
     sig = result.signal
     typer.echo(

@@ -16,32 +16,15 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from liquidtouch._core.numbers import (
-    FIXED_RANGE,
-    MISSING,
-    SIGNIFICANT,
-    STD_DIGITS,
     fixed,
     number,
-    percent,
     with_uncertainty,
 )
 
 if TYPE_CHECKING:
     from rich.table import Table
 
-__all__ = [
-    "FIXED_RANGE",
-    "MISSING",
-    "SIGNIFICANT",
-    "STD_DIGITS",
-    "fit_quality",
-    "fit_table",
-    "fixed",
-    "number",
-    "percent",
-    "warn",
-    "with_uncertainty",
-]
+__all__ = ["fit_quality", "fit_table", "warn"]
 
 
 def fit_table(result: object, title: str) -> Table:

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import typer
 
+from liquidtouch._core.numbers import with_uncertainty
 from liquidtouch.cli import options
-from liquidtouch.cli.format import with_uncertainty
 
 #: frames published to the browser per sensor at most [Hz]
 SERVE_FRAME_HZ = 10.0

@@ -103,8 +103,8 @@ def train(
     as_json: options.Json = False,
 ) -> None:
     """Train one regressor per --target on a features table and save them in one model file."""
+    from liquidtouch._core.numbers import number
     from liquidtouch._core.progress import progress_bar
-    from liquidtouch.cli.format import number
     from liquidtouch.io.tables import numeric_column
     from liquidtouch.models.held_out import regression_errors, selection_summary, split_rows
     from liquidtouch.models.modelfile import save_model
@@ -161,7 +161,7 @@ def classify(
     as_json: options.Json = False,
 ) -> None:
     """Train the RBF-SVM liquid classifier (with class probabilities) and save it."""
-    from liquidtouch.cli.format import percent
+    from liquidtouch._core.numbers import percent
     from liquidtouch.io.tables import label_column
     from liquidtouch.models.held_out import (
         classification_accuracy,
@@ -241,7 +241,7 @@ def transfer(
     as_json: options.Json = False,
 ) -> None:
     """Fit f_B(λ, ω) = f_A(α1 λ + α2, β1 ω + β2) on a few trials of a new container."""
-    from liquidtouch.cli.format import number
+    from liquidtouch._core.numbers import number
     from liquidtouch.errors import TableError
     from liquidtouch.io.tables import numeric_column
     from liquidtouch.models.held_out import regression_errors, selection_summary, split_rows

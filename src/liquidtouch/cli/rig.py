@@ -78,7 +78,8 @@ def serve_command(
     answered by the arm's "truth" request). Give these URLs to run-trial.
     """
     from liquidtouch.errors import LiquidTouchError
-    from liquidtouch.sim.rig.rig import Rig, RigServer
+    from liquidtouch.sim.rig.rig import RigServer
+    from liquidtouch.sim.rig.state import Rig
 
     for name, port in (
         ("--gripper-port", gripper_port),
@@ -190,11 +191,11 @@ def run_trial_command(
     from liquidtouch._core.progress import on_terminal
     from liquidtouch.acquire.arms import RigArm, open_arm
     from liquidtouch.acquire.grippers import open_gripper
-    from liquidtouch.acquire.protocol import (
+    from liquidtouch.acquire.protocol import run_trial
+    from liquidtouch.acquire.protocol_params import (
         ProtocolParameters,
         load_protocol,
         protocol_from_mapping,
-        run_trial,
     )
     from liquidtouch.errors import LiquidTouchError
     from liquidtouch.io.labels import typed_labels

@@ -29,6 +29,9 @@ import numpy as np
 
 from liquidtouch.acquire.cameras import END, CaptureSession, open_camera
 from liquidtouch.errors import DeviceError
+from liquidtouch.io.dataset import trial_sensor_starts
+from liquidtouch.io.frames import iter_frames
+from liquidtouch.io.sources import resolve_sources, select_sensors
 
 #: how long a camera queue is polled before the next one is looked at [s]
 POLL_S = 0.005
@@ -59,9 +62,6 @@ def replay_frames(
     Sensors of a trial are placed on its shared clock (``sensor_start_s``), else
     aligned on their first frames.
     """
-    from liquidtouch.io.dataset import trial_sensor_starts
-    from liquidtouch.io.frames import iter_frames
-    from liquidtouch.io.sources import resolve_sources, select_sensors
 
     if not 0 < float(speed) < math.inf:
         raise DeviceError(f"the replay speed must be a number > 0, got {speed!r}")

@@ -19,12 +19,14 @@ from pathlib import Path
 import numpy as np
 
 from liquidtouch.acquire.cameras import default_names
-from liquidtouch.errors import LiquidTouchError
+from liquidtouch.errors import LiquidTouchError, SignalError, VideoError
 from liquidtouch.fit_settings import FitSettings
+from liquidtouch.io.sources import resolve_sources
 from liquidtouch.live.estimator import REFRESH_S, LiveEstimator
 from liquidtouch.live.sources import LiveFrame, is_recording, open_frames
 from liquidtouch.live.stopping import parse_until_std, stop_reached
 from liquidtouch.live.updates import LiveUpdate
+from liquidtouch.models.modelfile import load_model
 
 PathLike = str | os.PathLike[str]
 #: ``on_frame(frame, positions (N, 2) [px], reference (N, 2) [px])`` after each tracked frame
@@ -34,8 +36,6 @@ FrameCallback = Callable[[LiveFrame, np.ndarray, np.ndarray], None]
 def sensor_names(sources: Sequence[PathLike], *, fps: float | None = None) -> list[str]:
     """The sensor names the frames of ``sources`` will carry (:func:`open_frames`)."""
     if all(is_recording(s) for s in sources):
-        from liquidtouch.io.sources import resolve_sources
-
         return [name for name, _, _ in resolve_sources(list(sources), fps=fps)]
     return default_names(len(sources))
 
@@ -79,8 +79,6 @@ def live_updates(
     """
     limits = _until_std(until_std)
     if isinstance(model, str | os.PathLike):
-        from liquidtouch.models.modelfile import load_model
-
         model = load_model(Path(model))
     if isinstance(sources, str | os.PathLike):
         sources = [sources]
@@ -90,13 +88,9 @@ def live_updates(
         frames: Iterable[LiveFrame] = open_frames(sources, realtime=realtime, fps=fps)
     else:
         if not sensors:
-            from liquidtouch.errors import VideoError
-
             raise VideoError("give the sensor names (sensors=...) of a stream of LiveFrame objects")
         names, paced, frames = list(sensors), realtime, sources
     if max_duration_s is not None and not 0 < float(max_duration_s) < math.inf:
-        from liquidtouch.errors import SignalError
-
         raise SignalError(f"max_duration_s must be a time > 0 in seconds, got {max_duration_s!r}")
     estimator = LiveEstimator(
         names,

@@ -14,15 +14,12 @@ import numpy as np
 
 from liquidtouch.acquire.cameras import Frame
 from liquidtouch.errors import OutputError
-from liquidtouch.io.frame_times import TIMESTAMPS_NAME as PNG_TIMESTAMPS_NAME
-from liquidtouch.io.frame_times import VIDEO_TIMESTAMPS_SUFFIX as TIMESTAMPS_SUFFIX
+from liquidtouch.io.frame_times import TIMESTAMPS_NAME, VIDEO_TIMESTAMPS_SUFFIX
 
 __all__ = [
     "FFV1_OPTIONS",
     "PNG_COMPRESSION",
-    "PNG_TIMESTAMPS_NAME",
     "PTS_RATE_HZ",
-    "TIMESTAMPS_SUFFIX",
     "VIDEO_SUFFIX",
     "Ffv1Writer",
     "FrameWriter",
@@ -126,7 +123,7 @@ class Ffv1Writer(FrameWriter):
             finally:
                 self._container.close()
                 self._container = None
-        (self.directory / f"{self.name}{TIMESTAMPS_SUFFIX}").write_text(
+        (self.directory / f"{self.name}{VIDEO_TIMESTAMPS_SUFFIX}").write_text(
             self.timestamps_csv(), encoding="utf-8"
         )
 
@@ -156,4 +153,4 @@ class PngWriter(FrameWriter):
             raise OutputError(f"cannot write {path} (disk full or not writable?)")
 
     def close(self) -> None:
-        (self.folder / PNG_TIMESTAMPS_NAME).write_text(self.timestamps_csv(), encoding="utf-8")
+        (self.folder / TIMESTAMPS_NAME).write_text(self.timestamps_csv(), encoding="utf-8")

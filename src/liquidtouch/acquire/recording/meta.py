@@ -9,10 +9,10 @@ from dataclasses import asdict
 
 from pydantic import ValidationError
 
-from liquidtouch.acquire.recording.frame_writers import PNG_TIMESTAMPS_NAME, TIMESTAMPS_SUFFIX
 from liquidtouch.acquire.recording.summary import RecordingSummary
 from liquidtouch.errors import DatasetError, DeviceError
 from liquidtouch.io.dataset import TrialMeta
+from liquidtouch.io.frame_times import TIMESTAMPS_NAME, VIDEO_TIMESTAMPS_SUFFIX
 
 __all__ = ["RESERVED_META", "build_meta", "check_meta_fields", "validate_meta"]
 
@@ -68,7 +68,7 @@ def build_meta(
             "grey": grey,
             "profile": profile,
             "timestamps": {
-                n: (f"{n}{TIMESTAMPS_SUFFIX}" if fmt == "ffv1" else f"{n}/{PNG_TIMESTAMPS_NAME}")
+                n: (f"{n}{VIDEO_TIMESTAMPS_SUFFIX}" if fmt == "ffv1" else f"{n}/{TIMESTAMPS_NAME}")
                 for n in sensors
             },
             "sensors": {

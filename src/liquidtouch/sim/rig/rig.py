@@ -25,34 +25,14 @@ from typing import Any
 
 from liquidtouch.sim.gelsight import SENSOR_NAMES
 from liquidtouch.sim.rig.arm_server import ArmServer
-from liquidtouch.sim.rig.fingers import CLAMP_TRAVEL_MM, OPEN_WIDTH_MM
 from liquidtouch.sim.rig.gcl_server import GclServer
 from liquidtouch.sim.rig.interfaces import ArmMove, Motion
-from liquidtouch.sim.rig.kinematics import move_duration
 from liquidtouch.sim.rig.mjpeg import MjpegServer
 from liquidtouch.sim.rig.state import (
-    HOME_POSE,
-    LIFT_OFF_MM,
-    REACH_M,
-    TRIAL_DURATION_S,
-    WALL_MM,
     Rig,
 )
 
-__all__ = [
-    "CLAMP_TRAVEL_MM",
-    "HOME_POSE",
-    "LIFT_OFF_MM",
-    "OPEN_WIDTH_MM",
-    "REACH_M",
-    "TRIAL_DURATION_S",
-    "WALL_MM",
-    "Rig",
-    "RigArmModel",
-    "RigGripper",
-    "RigServer",
-    "move_duration",
-]
+__all__ = ["RigArmModel", "RigGripper", "RigServer"]
 
 logger = logging.getLogger(__name__)
 
