@@ -21,7 +21,8 @@ def _print_summary(reproduction) -> None:
     from rich.markup import escape
     from rich.table import Table
 
-    table = Table(title="liquidtouch reproduction: ours vs the paper")
+    world = getattr(reproduction, "realism", "clean")
+    table = Table(title=f"liquidtouch reproduction ({world} world): ours vs the paper")
     for column in ("experiment", "metric", "ours", "paper", "unit"):
         table.add_column(column, justify="right" if column in ("ours", "paper") else "left")
     notes = []
@@ -64,6 +65,7 @@ def reproduction_json(reproduction) -> dict[str, object]:
         "summary_csv": str(reproduction.summary_csv.resolve()),
         "data_dir": None if reproduction.data_dir is None else str(reproduction.data_dir.resolve()),
         "seed": reproduction.seed,
+        "realism": reproduction.realism,
         "seconds": {k: round(v, 2) for k, v in reproduction.seconds.items()},
         "summary": summary,
     }
@@ -126,6 +128,7 @@ def register(app: typer.Typer) -> None:
         ),
         jobs: options.Jobs = DEFAULT_JOBS,
         dask: options.Dask = None,
+        realism: options.Realism = options.RealismChoice.clean,
         as_json: bool = typer.Option(False, "--json", help=_JSON_HELP),
     ) -> None:
         """Run every experiment of the paper on simulated trials; write report.md / report.html."""
@@ -137,6 +140,7 @@ def register(app: typer.Typer) -> None:
             seed=seed,
             jobs=jobs,
             dask_address=dask,
+            realism=realism.value,
         )
 
     @app.command()

@@ -65,6 +65,25 @@ class SourceChoice(StrEnum):
     wrench_best_effort = "wrench-best-effort"
 
 
+class RealismChoice(StrEnum):
+    """``--realism`` (``sim.realism.REALISM_WORLDS``)."""
+
+    clean = "clean"
+    lab = "lab"
+
+
+Realism = Annotated[
+    RealismChoice,
+    typer.Option(
+        "--realism",
+        help="clean: the simulator's calibrated world (the default, comparable with earlier "
+        "results); lab: with a real bench's nuisances on top (camera rate, drops and noise, "
+        "gel creep, finger slip, temperature, fill error, arm vibration, ...; "
+        "sources in docs/formats.md).",
+    ),
+]
+
+
 # -- output and execution --------------------------------------------------------------------
 
 Json = Annotated[

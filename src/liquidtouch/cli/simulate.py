@@ -48,6 +48,7 @@ def trial_command(
     ),
     sensor: str = typer.Option("default", "--sensor", help="GelSight sensor profile name."),
     plot: bool = typer.Option(False, "--plot", help="Also save loads.png in the trial directory."),
+    realism: options.Realism = options.RealismChoice.clean,
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object on stdout."),
 ) -> None:
     """Simulate one trial (lift, lateral push, hold) and write meta.json, force.csv, wrench.csv.
@@ -72,10 +73,16 @@ def trial_command(
         sugar_concentration=sugar_concentration,
         seed=seed,
         temperature_c=temperature_c,
+        realism=realism.value,
     )
     directory = write_trial(trial, out, video=video, sensor=sensor, plot=plot)
     files = sorted(p.name for p in directory.iterdir() if not p.name.startswith("."))
-    summary = {"trial": str(directory), "files": files, **trial.labels()}
+    summary = {
+        "trial": str(directory),
+        "files": files,
+        "realism": trial.realism.world,
+        **trial.labels(),
+    }
     if as_json:
         typer.echo(json.dumps(summary))
         return
@@ -83,7 +90,8 @@ def trial_command(
         f"wrote {directory}: {', '.join(files)}\n"
         f"  true decay rate {trial.true_decay_rate:.4f} 1/s, "
         f"angular frequency {trial.true_angular_frequency:.4f} rad/s, "
-        f"viscosity {trial.viscosity_cst:.3g} cSt at {trial.temperature_c:.1f} °C"
+        f"viscosity {trial.viscosity_cst:.3g} cSt at {trial.temperature_c:.1f} °C "
+        f"({trial.realism.world} world)"
     )
 
 
@@ -97,6 +105,7 @@ def dataset_command(
     quick: bool = typer.Option(False, "--quick", help="A small deterministic subset."),
     video: bool = typer.Option(True, "--video/--no-video", help="Render GelSight videos."),
     sensor: str = typer.Option("default", "--sensor", help="GelSight sensor profile name."),
+    realism: options.Realism = options.RealismChoice.clean,
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object on stdout."),
 ) -> None:
     """Simulate every trial of a preset (a dataset of the paper) and write manifest.csv.
@@ -109,18 +118,26 @@ def dataset_command(
 
     progress = not as_json  # progress_bar itself draws only on a terminal
     result = simulate_dataset(
-        preset, out, jobs=jobs, video=video, quick=quick, progress=progress, sensor=sensor
+        preset,
+        out,
+        jobs=jobs,
+        video=video,
+        quick=quick,
+        progress=progress,
+        sensor=sensor,
+        realism=realism.value,
     )
     summary = {
         "root": str(result.root),
         "manifest": str(result.manifest),
         "n_trials": result.n_trials,
+        "realism": realism.value,
         "failures": [{"trial": t, "error": e} for t, e in result.failures],
     }
     if as_json:
         typer.echo(json.dumps(summary))
         return
-    typer.echo(f"wrote {result.n_trials} trials and {result.manifest}")
+    typer.echo(f"wrote {result.n_trials} trials and {result.manifest} ({realism.value} world)")
     for name, error in result.failures:
         typer.echo(f"failed: {name}: {error}", err=True)
 

@@ -34,6 +34,7 @@ from liquidtouch.experiments.provenance import provenance
 from liquidtouch.experiments.report import ExperimentResult, summary_table, write_report
 from liquidtouch.io.dataset import MANIFEST_NAME
 from liquidtouch.sim.presets import get_preset, simulate_dataset
+from liquidtouch.sim.realism import NUISANCES, get_realism
 from liquidtouch.sim.sensors import get_sensor_profile
 
 __all__ = [
@@ -67,6 +68,7 @@ class Reproduction:
     seconds: dict[str, float]
     data_dir: Path | None = None
     seed: int = 0
+    realism: str = "clean"
 
     @property
     def summary_csv(self) -> Path:
@@ -113,12 +115,23 @@ def prepare_dataset(
     dask_address: str | None,
     progress: bool,
     seed: int = 0,
+    realism: str = "clean",
 ) -> dict[str, pd.DataFrame]:
-    """Simulate ``preset`` into ``root`` unless it is there; return its feature tables."""
+    """Simulate ``preset`` into ``root`` unless it is there; return its feature tables.
+
+    ``realism`` is the simulated world (``clean`` or ``lab``: :mod:`liquidtouch.sim.realism`).
+    """
 
     if not (root / MANIFEST_NAME).is_file():
         specs = seeded_specs(preset, quick=quick, seed=seed)
-        simulate_dataset(specs, root, jobs=jobs, progress=progress, sensor=sensor_for(quick))
+        simulate_dataset(
+            specs,
+            root,
+            jobs=jobs,
+            progress=progress,
+            sensor=sensor_for(quick),
+            realism=realism,
+        )
     tables = {
         "gelsight": extract_features(root, jobs=jobs, dask_address=dask_address, progress=progress)
     }
@@ -231,6 +244,7 @@ def reproduce(
     progress: bool = True,
     data_dir: str | Path | None = None,
     seed: int = 0,
+    realism: str = "clean",
 ) -> Reproduction:
     """Simulate, extract, run the seven experiments and write ``report.md`` / ``report.html``.
 
@@ -238,11 +252,16 @@ def reproduce(
     ``<out_dir>-data``), under ``quick-seed<seed>`` or ``full-seed<seed>``, and are
     reused by the next run with the same data directory, size and seed. ``seed``
     is the base seed of the simulated trials and of the experiments' random draws.
+    ``realism`` ``"lab"`` simulates a real bench's nuisances on top of the clean
+    world (:mod:`liquidtouch.sim.realism`); its data go to ``...-seed<seed>-lab``
+    and the report says which world it ran in.
     """
 
+    world = get_realism(realism)
     out = Path(out_dir)
     data = Path(data_dir) if data_dir is not None else default_data_dir(out)
-    data_root = data / f"{'quick' if quick else 'full'}-seed{seed}"
+    suffix = "" if world.is_clean else f"-{world.world}"
+    data_root = data / f"{'quick' if quick else 'full'}-seed{seed}{suffix}"
     seconds: dict[str, float] = {}
     features: dict[str, dict[str, pd.DataFrame]] = {}
     reused: list[str] = []
@@ -258,6 +277,7 @@ def reproduce(
             dask_address=dask_address,
             progress=progress,
             seed=seed,
+            realism=world.world,
         )
         seconds[f"data: {preset}"] = time.perf_counter() - start
 
@@ -274,9 +294,18 @@ def reproduce(
         f"{'GelSight Mini, ' if sensor.name == 'mini' else ''}profile `{sensor.name}`: "
         f"{sensor.width_px}×{sensor.height_px} px, {sensor.fps:g} fps"
     )
+    world_text = (
+        "the clean simulated world (no bench nuisances)"
+        if world.is_clean
+        else f"the simulated **{world.world}** world: a real bench's nuisances on top of the "
+        f"clean simulator ({', '.join(n.replace('_', ' ') for n in NUISANCES)}; their "
+        "strengths and sources: `liquidtouch.sim.realism`, docs/formats.md; what each costs: "
+        'benchmarks/RESULTS.md, "Nuisances")'
+    )
     preamble = (
         f"{'Quick' if quick else 'Full'} reproduction of Huang, Guo, Yuan (RSS 2022) on "
-        f"simulated trials, each through the whole pipeline (rendered GelSight videos ("
+        f"simulated trials in {world_text}, each through the whole pipeline "
+        f"(rendered GelSight videos ("
         f"{sensor_text}) → marker tracking → tactile signal → oscillation fit → "
         f"models). {failure_note(features)} "
         f"Time: {timing}; total {sum(seconds.values()):.0f} s with {jobs} worker(s)."
@@ -289,6 +318,7 @@ def reproduce(
                 f"experiments 6 and 7 draw their random training subsets with it)"
             ),
             "sensor profile": sensor_text,
+            "world": world.world,
             "datasets": f"{'quick' if quick else 'full'} ({', '.join(DATASETS)})",
             "data directory": str(data_root.resolve()),
             "workers": f"{jobs}" + (f" (dask {dask_address})" if dask_address else ""),
@@ -301,4 +331,6 @@ def reproduce(
         preamble=preamble,
         provenance=info,
     )
-    return Reproduction(md, html, summary_table(results), seconds, data_root, seed)
+    return Reproduction(
+        md, html, summary_table(results), seconds, data_root, seed, realism=world.world
+    )

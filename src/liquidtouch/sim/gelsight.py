@@ -23,8 +23,9 @@ from behind.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -34,6 +35,8 @@ from liquidtouch.io.dataset import TRUTH_TRACKS_NAME
 from liquidtouch.sim.camera_timing import frame_timestamps
 from liquidtouch.sim.encode import X264_PARAMS, encode_video
 from liquidtouch.sim.loads import FingerLoads
+from liquidtouch.sim.nuisances import brightness_gains, camera_times, gel_response, marker_ink
+from liquidtouch.sim.realism import CAMERA_NUISANCES, Realism
 from liquidtouch.sim.render import iter_frames, make_background
 from liquidtouch.sim.sensors import SensorProfile, get_sensor_profile
 
@@ -87,6 +90,7 @@ class SensorRecording:
     timestamps_s : (n_frames,) presentation time of each frame [s], shared by both videos.
     frame_index : (n_frames,) index of each frame on the nominal clock (gaps = dropped frames).
     width_px, height_px : frame size.
+    drawn : what the camera and gel nuisances drew (empty in the clean world).
     """
 
     out_dir: Path
@@ -99,6 +103,7 @@ class SensorRecording:
     frame_index: np.ndarray
     width_px: int
     height_px: int
+    drawn: dict[str, Any] = field(default_factory=dict)
 
 
 def marker_rest_positions(
@@ -242,7 +247,10 @@ class SensorScene:
     ``timestamps_s`` (T,) from the first frame, ``frame_index`` (T,) nominal frame
     numbers (drops skip some), ``geometry`` the contact, ``offsets_px`` (2, T, 2)
     the contact imprint's offset, ``rest_px`` (2, N, 2) and ``positions_px``
-    (2, T, N, 2) the markers at rest and per frame.
+    (2, T, N, 2) the markers at rest and per frame. With camera nuisances
+    (:mod:`liquidtouch.sim.realism`) ``timestamps_s`` are the recorded (host)
+    times and ``exposure_s`` the times the frames were exposed at (else ``None``:
+    the same); ``drawn`` what the nuisances drew.
     """
 
     timestamps_s: np.ndarray
@@ -251,16 +259,38 @@ class SensorScene:
     offsets_px: np.ndarray
     rest_px: np.ndarray
     positions_px: np.ndarray
+    exposure_s: np.ndarray | None = None
+    drawn: dict[str, Any] = field(default_factory=dict)
 
 
 def sensor_scene(
-    loads: FingerLoads, profile: SensorProfile, rng: np.random.Generator, *, jitter: bool = True
+    loads: FingerLoads,
+    profile: SensorProfile,
+    rng: np.random.Generator,
+    *,
+    jitter: bool = True,
+    realism: Realism | None = None,
+    seed: int = 0,
 ) -> SensorScene:
-    """Frame times (jittered, with drops, unless ``jitter`` is False) and marker motion."""
+    """Frame times (jittered, with drops, unless ``jitter`` is False) and marker motion.
+
+    ``realism`` adds the camera's and the gel's nuisances
+    (:mod:`liquidtouch.sim.nuisances`), drawn from ``seed``'s nuisance streams;
+    the clean draws from ``rng`` are made all the same, so the rest of the scene
+    (marker grid, noise) is that of the clean world.
+    """
     timestamps, frame_index = frame_timestamps(
         loads.duration_s, profile, rng, jitter=jitter, drops=jitter
     )
-    t_frames = timestamps + float(loads.t_s[0])
+    exposure, drawn = None, {}
+    world = Realism.clean() if realism is None else realism
+    if jitter and any(world.active(name) for name in CAMERA_NUISANCES):
+        timestamps, exposure, frame_index, drawn = camera_times(
+            loads.duration_s, profile, world, seed
+        )
+    if world.active("gel_creep") or world.active("gel_hysteresis"):
+        loads = gel_response(loads, world)
+    t_frames = (timestamps if exposure is None else exposure) + float(loads.t_s[0])
     rests = np.stack([marker_rest_positions(profile, rng) for _ in range(2)])
     positions = np.stack(
         [marker_positions(loads, profile, t_frames, rest_px=rests[s])[s] for s in range(2)]
@@ -272,6 +302,8 @@ def sensor_scene(
         contact_offsets(loads, profile, t_frames),
         rests,
         positions,
+        exposure,
+        drawn,
     )
 
 
@@ -284,6 +316,7 @@ def write_sensor_videos(
     jitter: bool = True,
     noise: bool = True,
     x264_params: str = X264_PARAMS,
+    realism: Realism | None = None,
 ) -> SensorRecording:
     """Render both sensors' videos for ``loads`` into ``out_dir``.
 
@@ -298,6 +331,10 @@ def write_sensor_videos(
     timestamps without drops; ``noise`` False renders clean frames.
     ``x264_params`` overrides the encoder options (default
     :data:`liquidtouch.sim.encode.X264_PARAMS`; ``""`` gives x264's lossy defaults).
+    ``realism`` adds the bench's camera, gel and image nuisances
+    (:mod:`liquidtouch.sim.realism`; default: none). With camera nuisances the
+    videos' timestamps are the recorded (host) times and ``truth_tracks.npz``
+    also holds ``exposure_times_s`` (T,), when the frames were exposed.
     """
 
     profile = get_sensor_profile(sensor)
@@ -309,7 +346,19 @@ def write_sensor_videos(
             f"cannot create the trial directory {out_dir}: {exc.strerror or exc}; "
             "choose a writable directory path"
         ) from None
-    scene = sensor_scene(loads, profile, np.random.default_rng(seed), jitter=jitter)
+    world = Realism.clean() if realism is None else realism
+    scene = sensor_scene(
+        loads, profile, np.random.default_rng(seed), jitter=jitter, realism=world, seed=seed
+    )
+    image_kwargs: list[dict[str, Any]] = [{}, {}]
+    for s in range(2):
+        if world.active("exposure_drift"):
+            image_kwargs[s]["gains"] = brightness_gains(scene.timestamps_s, world, seed, s)
+        if world.active("marker_wear"):
+            image_kwargs[s]["marker_ink"] = marker_ink(scene.rest_px.shape[1], world, seed, s)
+        if world.active("pixel_noise"):
+            image_kwargs[s]["noise_rgb"] = world.pixel_noise_rgb
+            image_kwargs[s]["noise_corr_px"] = world.pixel_noise_corr_px
     timestamps, frame_index, geom = scene.timestamps_s, scene.frame_index, scene.geometry
     offsets, rests, positions = scene.offsets_px, scene.rest_px, scene.positions_px
     files = [f"{name}.mp4" for name in SENSOR_NAMES]
@@ -325,6 +374,7 @@ def write_sensor_videos(
             contact_radius_px=float(geom.radius_px[s]),
             contact_offsets_px=offsets[s],
             noise=noise,
+            **image_kwargs[s],
         )
         encode_video(
             out_dir / name,
@@ -333,9 +383,11 @@ def write_sensor_videos(
             profile.fps,
             x264_params=x264_params,
         )
+    more = {} if scene.exposure_s is None else {"exposure_times_s": scene.exposure_s}
     with atomic_path(out_dir / TRUTH_TRACKS_NAME) as tmp, open(tmp, "wb") as fh:
         np.savez(
             fh,
+            **more,
             timestamps_s=timestamps,
             frame_index=frame_index,
             positions_px=positions.astype(np.float32),
@@ -360,4 +412,5 @@ def write_sensor_videos(
         frame_index=frame_index,
         width_px=profile.width_px,
         height_px=profile.height_px,
+        drawn=scene.drawn,
     )

@@ -37,6 +37,7 @@ from liquidtouch._core.pool import open_executor, run_each
 from liquidtouch._core.progress import progress_bar
 from liquidtouch.errors import CatalogueError, DatasetError, OutputError
 from liquidtouch.io.dataset import write_manifest
+from liquidtouch.sim.realism import Realism, get_realism
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.trial_io import check_trial_dir, write_trial
@@ -189,15 +190,23 @@ def get_preset(name: str, *, quick: bool = False) -> list[TrialSpec]:
     return kept
 
 
-def run_spec(spec: TrialSpec, root: str, video: bool, sensor: str = "default") -> dict[str, Any]:
+def run_spec(
+    spec: TrialSpec,
+    root: str,
+    video: bool,
+    sensor: str = "default",
+    realism: Realism | str | None = None,
+) -> dict[str, Any]:
     """Simulate and write one trial; return its manifest row (used by worker processes).
+
+    ``realism`` is the world (:mod:`liquidtouch.sim.realism`; default clean).
 
     The trial directory is checked before the simulation and replaced as a
     whole at the end (:func:`~liquidtouch.sim.trial_io.write_trial`).
     """
 
     check_trial_dir(Path(root) / spec.name)
-    trial = simulate_trial(seed=spec.seed, **spec.kwargs)
+    trial = simulate_trial(seed=spec.seed, realism=realism, **spec.kwargs)
     write_trial(trial, Path(root) / spec.name, video=video, sensor=sensor)
     return {"trial": spec.name, "split": spec.split, **trial.labels()}
 
@@ -222,6 +231,7 @@ def simulate_dataset(
     quick: bool = False,
     progress: bool = True,
     sensor: str = "default",
+    realism: Realism | str | None = None,
 ) -> DatasetResult:
     """Simulate every trial of ``preset`` into ``out_dir`` and write ``manifest.csv``.
 
@@ -233,12 +243,16 @@ def simulate_dataset(
     atomically (built beside its place, then renamed in), and ``manifest.csv``
     last: after a failure or Ctrl-C the trials already finished are complete,
     no trial is half-written, and the manifest is not (re)written.
+    ``realism`` adds a real bench's nuisances to every trial (``"lab"`` or a
+    :class:`~liquidtouch.sim.realism.Realism`; default clean), recorded in each
+    trial's ``meta.json``.
     """
 
     specs = get_preset(preset, quick=quick) if isinstance(preset, str) else list(preset)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise DatasetError(f"jobs must be a whole number of at least 1, got {jobs!r}")
     get_sensor_profile(sensor)
+    world = get_realism(realism)
     if str(out_dir) == "":
         raise OutputError("cannot write an empty path; give a dataset directory")
     root = Path(out_dir)
@@ -261,7 +275,7 @@ def simulate_dataset(
             open_executor(jobs, n_tasks=len(specs)) as pool,
             progress_bar("simulating trials", len(specs), enabled=progress) as advance,
         ):
-            tasks = {spec.name: (spec, str(root), video, sensor) for spec in specs}
+            tasks = {spec.name: (spec, str(root), video, sensor, world) for spec in specs}
             for name, future in run_each(pool, run_spec, tasks):
                 try:
                     rows[name] = future.result()

@@ -152,6 +152,10 @@ def iter_frames(
     noise: bool = True,
     flicker: bool = True,
     marker_variation: bool = True,
+    gains: np.ndarray | None = None,
+    marker_ink: np.ndarray | None = None,
+    noise_rgb: tuple[float, float, float] | None = None,
+    noise_corr_px: float = 0.0,
 ) -> Iterator[np.ndarray]:
     """Yield uint8 RGB frames (H, W, 3), one per row of ``positions_px`` (T, N, 2) [px].
 
@@ -161,6 +165,14 @@ def iter_frames(
     varies the LED brightness from frame to frame; ``marker_variation`` gives each
     marker its own radius and ink density (printing spread; centroids stay exact).
     Each yielded array is reused by the next frame: copy it to keep it.
+
+    Bench nuisances (:mod:`liquidtouch.sim.realism`; all off by default, which
+    leaves the frames exactly as without them): ``gains`` (T,) multiplies each
+    frame's brightness (auto-exposure and LED drift); ``marker_ink`` (N,) scales
+    each marker's ink (0 = rubbed off); ``noise_rgb`` replaces the profile's
+    white noise by noise of that std per channel [grey levels], spatially
+    correlated by a Gaussian blur of ``noise_corr_px`` [px] (the same random
+    draws, blurred and rescaled).
     """
     import cv2
 
@@ -178,6 +190,8 @@ def iter_frames(
         raise LiquidTouchError(f"background must have shape {(h, w, 3)}, got {background.shape}")
     lut, half = _marker_lut(profile)
     d2_scale, opacity = _marker_styles(profile, positions_px.shape[1], rng, marker_variation)
+    if marker_ink is not None:
+        opacity = (opacity * np.asarray(marker_ink, dtype=np.float32)).astype(np.float32)
     pad = half + 2
     hp, wp = h + 2 * pad, w + 2 * pad
     bg = cv2.copyMakeBorder(
@@ -209,18 +223,26 @@ def iter_frames(
     if contact_offsets_px.shape != (n_frames, 2):
         raise LiquidTouchError(f"contact_offsets_px must have shape ({n_frames}, 2)")
 
-    use_noise = noise and profile.noise_std > 0
+    use_noise = noise and (profile.noise_std > 0 if noise_rgb is None else max(noise_rgb) > 0)
     if use_noise:
         npad = 48
         # integer noise, as after the camera's ADC, split into its positive and negative
         # parts so that it can be added to the uint8 frame with saturation
-        noise_tile = np.rint(
-            profile.noise_std * rng.standard_normal((h + npad, w + npad, 3), dtype=np.float32)
-        )
+        white = rng.standard_normal((h + npad, w + npad, 3), dtype=np.float32)
+        if noise_rgb is None:
+            noise_tile = np.rint(profile.noise_std * white)
+        else:
+            noise_tile = np.rint(_coloured_noise(white, noise_rgb, noise_corr_px))
         noise_up = np.clip(noise_tile, 0, 255).astype(np.uint8)
         noise_down = np.clip(-noise_tile, 0, 255).astype(np.uint8)
         offsets = rng.integers(0, npad, (n_frames, 2))
-    gains = _flicker_gains(profile.flicker_std if flicker else 0.0, n_frames, rng)
+    gains_flicker = _flicker_gains(profile.flicker_std if flicker else 0.0, n_frames, rng)
+    if gains is not None:
+        drift = np.asarray(gains, dtype=float)
+        if drift.shape != (n_frames,):
+            raise LiquidTouchError(f"gains must have shape ({n_frames},)")
+        gains_flicker = gains_flicker * drift
+    gains = gains_flicker
 
     for i in range(n_frames):
         if imprint is not None:
@@ -251,6 +273,19 @@ def iter_frames(
             cv2.subtract(out, noise_down[oy : oy + h, ox : ox + w], dst=out)
         yield out
         windows[corner[:, 1], corner[:, 0]] = bg_windows[corner[:, 1], corner[:, 0]]
+
+
+def _coloured_noise(
+    white: np.ndarray, std_rgb: tuple[float, float, float], corr_px: float
+) -> np.ndarray:
+    """``white`` (H, W, 3) blurred by a Gaussian of ``corr_px`` and scaled to ``std_rgb``."""
+    import cv2
+
+    out = white
+    if corr_px > 0:
+        out = cv2.GaussianBlur(white, (0, 0), sigmaX=corr_px, borderType=cv2.BORDER_REFLECT)
+        out = out / out.std(axis=(0, 1), keepdims=True)
+    return out * np.asarray(std_rgb, dtype=np.float32)
 
 
 def _patches_overlap(corner: np.ndarray, size: int) -> bool:

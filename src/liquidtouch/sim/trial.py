@@ -24,6 +24,8 @@ from liquidtouch.io.dataset import LABEL_COLUMNS, TRUTH_COLUMNS
 from liquidtouch.sim.activation import min_jerk_acceleration
 from liquidtouch.sim.grasp import finger_loads, net_loads, wrist_wrench
 from liquidtouch.sim.loads import FingerLoads
+from liquidtouch.sim.nuisances import finger_slips, perturb_parameters, unequal_grip
+from liquidtouch.sim.realism import Realism, get_realism
 from liquidtouch.sim.slosh import integrate, sinusoid_response, slosh_system
 from liquidtouch.sim.variability import TrialParameters, Variability, draw_parameters
 
@@ -107,6 +109,17 @@ class SimulatedTrial:
     seed: int
     params: TrialParameters
     extra: dict[str, float] = field(default_factory=dict)
+    realism: Realism = field(default_factory=Realism.clean)
+    realism_drawn: dict[str, object] = field(default_factory=dict)
+    """What the nuisances drew for this trial (``meta.json``: ``realism.drawn``)."""
+
+    def realism_record(self) -> dict[str, object]:
+        """The ``realism`` object of ``meta.json``: world, every parameter, the draws."""
+        return {
+            "world": self.realism.world,
+            "parameters": self.realism.to_dict(),
+            "drawn": self.realism_drawn,
+        }
 
     @property
     def t_s(self) -> np.ndarray:
@@ -134,6 +147,7 @@ def simulate_trial(
     sample_rate_hz: float = SAMPLE_RATE_HZ,
     variability: Variability | None = None,
     parameters: Mapping[str, float] | None = None,
+    realism: Realism | str | None = None,
 ) -> SimulatedTrial:
     """Simulate one trial: lift, lateral push, hold; return loads, wrench and ground truth.
 
@@ -150,6 +164,12 @@ def simulate_trial(
     fields by name after the draw (the random stream is unchanged, so everything
     else stays as the seed made it), e.g. ``{"push_distance_mm": 12.0,
     "push_duration_s": 0.25}`` for a push that a (simulated) arm commanded.
+    ``realism`` adds the nuisances of a real bench (:class:`~liquidtouch.sim.realism.Realism`,
+    or ``"clean"``/``"lab"``; default clean, bit-identical to the simulator
+    without it); the physical ones act here, after ``parameters``, the gel and
+    camera ones when the videos are written. Labels stay the nominal, measured
+    values: under ``temperature`` the viscosity label is the one at the recorded
+    temperature while the liquid sloshes at another.
 
     Limits: ``height_mm`` at least 1 mm from empty and from full
     (:data:`FILL_MARGIN_MM`); ``seed`` an integer in 0..2**63-1; ``duration_s`` within
@@ -158,6 +178,7 @@ def simulate_trial(
     else raises :class:`~liquidtouch.errors.LiquidTouchError` before any work.
     """
     var = Variability() if variability is None else variability
+    world = get_realism(realism)
     seed = check_seed(seed)
     box = get_container(container)
     get_liquid(liquid, sugar_concentration=sugar_concentration)  # validate names early
@@ -187,11 +208,19 @@ def simulate_trial(
         params = replace(params, temperature_c=float(temperature_c))
     if parameters:
         params = _replace_parameters(params, parameters)
+    drawn: dict[str, object] = {}
+    if not world.is_clean:
+        params, drawn = perturb_parameters(params, world, seed, container_depth_mm=box.depth_mm)
     true_height = float(np.clip(params.true_height_mm, 0.5, box.depth_mm - 0.5))
     true_conc = sugar_concentration
     if liquid == "sugar-water" and sugar_concentration:
         true_conc = min(sugar_concentration * params.concentration_factor, MAX_SUGAR_CONCENTRATION)
     props = get_liquid(liquid, sugar_concentration=true_conc, temperature_c=params.temperature_c)
+    label_props = props
+    if "liquid_temperature_c" in drawn:  # the liquid is warmer or colder than when measured
+        props = get_liquid(
+            liquid, sugar_concentration=true_conc, temperature_c=drawn["liquid_temperature_c"]
+        )
     system = slosh_system(
         props,
         box,
@@ -228,6 +257,10 @@ def simulate_trial(
     net = net_loads(system, state, t, params, box.depth_mm)
     loads = finger_loads(t, net, params, rng, var)
     wrench = wrist_wrench(t, net, hand_acc, rng, var)
+    if "grip_ratio_left_right" in drawn:
+        loads = unequal_grip(loads, float(drawn["grip_ratio_left_right"]))
+    if world.active("finger_slip"):
+        loads, drawn["slips"] = finger_slips(loads, params.push_end_s, world, seed)
     finite = (loads.shear_force_n, loads.twist_moment_nmm, wrench, [true_lambda, true_omega])
     if not all(np.isfinite(np.asarray(a, dtype=float)).all() for a in finite):
         raise LiquidTouchError(
@@ -245,8 +278,8 @@ def simulate_trial(
             if sugar_concentration is not None
             else props.sugar_concentration
         ),
-        viscosity_cst=props.viscosity_cst,
-        log10_viscosity_cst=props.log10_viscosity_cst,
+        viscosity_cst=label_props.viscosity_cst,
+        log10_viscosity_cst=label_props.log10_viscosity_cst,
         temperature_c=params.temperature_c,
         true_decay_rate=true_lambda,
         true_angular_frequency=true_omega,
@@ -262,4 +295,6 @@ def simulate_trial(
             "push_start_s": params.push_start_s,
             "push_end_s": params.push_end_s,
         },
+        realism=world,
+        realism_drawn=drawn,
     )

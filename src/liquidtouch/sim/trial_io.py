@@ -77,8 +77,22 @@ def force_table(trial: SimulatedTrial) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def trial_meta(trial: SimulatedTrial, *, sensors: list[str], fps: float) -> TrialMeta:
-    """The ``meta.json`` contents: labels, ground truth and the simulator's trial parameters."""
+def trial_meta(
+    trial: SimulatedTrial,
+    *,
+    sensors: list[str],
+    fps: float,
+    camera_drawn: dict[str, object] | None = None,
+) -> TrialMeta:
+    """The ``meta.json`` contents: labels, ground truth and the simulator's trial parameters.
+
+    ``realism`` records the world the trial was simulated in (its name, every
+    nuisance parameter and what the nuisances drew; ``camera_drawn`` adds the
+    camera's draws under ``drawn.camera``).
+    """
+    realism = trial.realism_record()
+    if camera_drawn:
+        realism["drawn"] = {**realism["drawn"], "camera": camera_drawn}
     return TrialMeta(
         fps=fps,
         sensors=sensors,
@@ -89,6 +103,7 @@ def trial_meta(trial: SimulatedTrial, *, sensors: list[str], fps: float) -> Tria
         duration_s=trial.loads.duration_s,
         **trial.extra,
         simulator=asdict(trial.params),
+        realism=realism,
     )
 
 
@@ -138,7 +153,8 @@ def write_trial(
     holds the loads and labels only and ``fps`` is the camera's nominal 30.
     ``x264_params`` overrides the video encoder's options (see
     :data:`liquidtouch.sim.encode.X264_PARAMS`). ``plot`` also saves
-    ``loads.png`` (:func:`plot_trial`).
+    ``loads.png`` (:func:`plot_trial`). The camera, gel and image nuisances of
+    ``trial.realism`` (:mod:`liquidtouch.sim.realism`) act on the videos here.
 
     The directory is built beside ``out_dir`` and renamed into place at the
     end, replacing an existing trial there as a whole; on any failure (or
@@ -158,14 +174,23 @@ def write_trial(
         )
         sensors: list[str] = []
         fps = CAMERA_FPS
+        camera_drawn: dict[str, object] = {}
         if video:
             recording = write_sensor_videos(
-                trial.loads, tmp, sensor=sensor, seed=trial.seed, x264_params=x264_params
+                trial.loads,
+                tmp,
+                sensor=sensor,
+                seed=trial.seed,
+                x264_params=x264_params,
+                realism=trial.realism,
             )
             sensors, fps = list(recording.files), float(recording.fps)
+            camera_drawn = recording.drawn
         if plot:
             plot_trial(trial, tmp / PLOT_NAME)
-        write_trial_meta(tmp, trial_meta(trial, sensors=sensors, fps=fps))
+        write_trial_meta(
+            tmp, trial_meta(trial, sensors=sensors, fps=fps, camera_drawn=camera_drawn)
+        )
     return Path(out_dir)
 
 
