@@ -316,7 +316,7 @@ def find_transients(t: np.ndarray, x: np.ndarray) -> list[Transient]:
     if len(a) <= w + lag + 1:
         return []
     windows = np.lib.stride_tricks.sliding_window_view(a, w)  # windows[k] = a[k:k+w]
-    noise = float(np.percentile(np.sqrt(np.mean(windows**2, axis=1)), 10))
+    noise = float(np.sqrt(np.mean(windows**2, axis=1)).min())
     before = windows[: len(a) - w - lag + 1].max(axis=1)  # a[k-w-lag+1 : k-lag+1] for k
     rising = a[w + lag - 1 :] > RISE_RATIO * before + RISE_NOISE * noise
     onsets: list[int] = []
@@ -325,10 +325,19 @@ def find_transients(t: np.ndarray, x: np.ndarray) -> list[Transient]:
         if t[k] - last >= MERGE_S:
             onsets.append(int(k))
         last = t[k]
+    e = _excursions(t, x)
     return [
-        Transient(float(t[k]), _peak_s(t, a, t[k], t[k] + PEAK_S, _next(t, onsets, i)))
+        Transient(float(t[k]), _peak_s(t, e, t[k], t[k] + PEAK_S, _next(t, onsets, i)))
         for i, k in enumerate(onsets)
     ]
+
+
+def _excursions(t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The channels' norm of :func:`free_decay_start`'s excursion (0.3 Hz high-pass, minus
+    the resting level): where a free decay starts, as offline."""
+    x = np.asarray(x, dtype=float)
+    columns = x[:, None] if x.ndim == 1 else x.reshape(len(x), -1)
+    return np.sqrt(sum(_excursion(t, c)[1] ** 2 for c in columns.T))
 
 
 def _next(t: np.ndarray, onsets: list[int], i: int) -> float:
@@ -417,8 +426,12 @@ def trial_segments(
     segments: list[Segment] = []
     first_end = transients[0].onset_s if transients else t_end
     closed = bool(transients)
-    start = t0 + EDGE_S
     end = first_end - GUARD_S if closed else first_end
+    start = t0 + EDGE_S
+    if end - start >= MIN_CANDIDATE_S:  # from its largest excursion (a push not told apart)
+        inside = (t >= start) & (t <= end)
+        excursion = np.abs(_excursion(t, u)[1])
+        start = float(t[np.flatnonzero(inside)[np.argmax(excursion[inside])]])
     reason = classify(t, u, start, end, closed) if end - start >= MIN_CANDIDATE_S else "short"
     if reason:
         segments.append(Segment("rest", t0, first_end, closed))
@@ -445,7 +458,7 @@ def trial_segments(
 
 def _known_segments(t: np.ndarray, x: np.ndarray, events: dict[str, float]) -> list[Segment]:
     """Segments from the protocol's events: the push and the end of the hold are known."""
-    a = activity(t, x)
+    a = _excursions(t, x)
     t0, t_end = float(t[0]), float(t[-1])
     push, pushed = float(events["push"]), float(events.get("pushed", events["push"]))
     hold_end = min(
