@@ -287,7 +287,7 @@ class LiveEstimator:
         refit_failed = not math.isfinite(update.angular_frequency)
         if streamed and (stopped_because == "until_std" or (refit_failed and not self.finals)):
             if previous.segment_final or not self.finals or previous.segment > self.finals[-1].index:
-                for name in (*KEPT_FIELDS, "predicted", "classified", "out_of_domain"):
+                for name in (*KEPT_FIELDS, "t_s", "predicted", "classified", "out_of_domain"):
                     setattr(update, name, getattr(previous, name))
                 why = update.message if refit_failed else "stopped on the std thresholds"
                 update.message = f"{why}: the last streamed estimate is kept"
