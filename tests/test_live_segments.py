@@ -133,3 +133,25 @@ def test_a_still_stream_says_no_ring_down_found() -> None:
     final = _stream(scene)[-1]
     assert math.isnan(final.decay_rate) and math.isnan(final.angular_frequency)
     assert "no ring-down found" in final.message
+
+
+@pytest.mark.timeout(300)
+def test_ctrl_c_gives_one_final_update() -> None:
+    from liquidtouch.live import LiveFrame, live_updates
+    from helpers import grid, render_blobs
+
+    centres = grid()
+
+    def frames():
+        t = np.arange(0.0, 6.0, 1 / 30)
+        for k, t_s in enumerate(t):
+            if t_s > 5.0:
+                raise KeyboardInterrupt
+            dx = 1.2 * np.exp(-0.5 * max(t_s - 1, 0)) * np.sin(12 * max(t_s - 1, 0))
+            yield LiveFrame("left", float(t_s), render_blobs(centres + [dx, 0], noise=2.0, seed=k))
+
+    updates = list(live_updates(frames(), sensors=["left"]))
+    finals = [u for u in updates if u.final]
+    assert len(finals) == 1 and updates[-1].final
+    assert finals[0].stopped_because == "interrupted"
+    assert finals[0].angular_frequency == pytest.approx(12.0, rel=0.01)
