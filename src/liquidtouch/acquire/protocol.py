@@ -30,6 +30,7 @@ Putting the bottle down is then the operator's job.
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import time
@@ -47,7 +48,16 @@ from liquidtouch.acquire.recording import Recorder
 from liquidtouch.errors import DeviceError
 from liquidtouch.protocols import gcl
 
-__all__ = ["AXES", "TrialLog", "TrialRun", "run_trial"]
+__all__ = [
+    "AXES",
+    "CAMERA_TIMEOUT_S",
+    "TrialLog",
+    "TrialRun",
+    "failed_run_dir",
+    "make_recorder",
+    "run_trial",
+    "write_failed_run",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -62,10 +72,14 @@ class TrialLog:
     poses: dict[str, list[float]] = field(default_factory=dict)
     arm_log: list[dict[str, Any]] = field(default_factory=list)
     gripper_readings: list[dict[str, Any]] = field(default_factory=list)
+    on_event: Callable[[str, float], None] | None = field(default=None, repr=False)
 
     def event(self, name: str, **data: Any) -> float:
         t = time.monotonic()
         self.events.append({"event": name, "t_s": t, **data})
+        logger.info("event %s at %.3f s", name, t)
+        if self.on_event is not None:
+            self.on_event(name, t)
         return t
 
     def pose(self, name: str, arm: Arm) -> list[float]:
@@ -122,7 +136,23 @@ def _wait(seconds: float, check: Callable[[], None], step_s: float = 0.05) -> No
         time.sleep(min(step_s, remaining))
 
 
-def _make_recorder(camera_sources, out_dir, *, names, params, labels):
+#: how long a camera may deliver nothing before the trial fails [s]: generous, so that a
+#: loaded two-core machine (the rig, ``live`` and a browser sharing it) does not abort a
+#: trial on a camera that is only late (2 of 7 runs failed at 2 s)
+CAMERA_TIMEOUT_S = 10.0
+
+
+def make_recorder(
+    camera_sources,
+    out_dir,
+    *,
+    names,
+    params,
+    labels,
+    read_timeout_s=CAMERA_TIMEOUT_S,
+    on_frame=None,
+):
+    """The trial's :class:`Recorder` (``run_trial``'s default ``recorder_factory``)."""
     return Recorder(
         camera_sources,
         out_dir,
@@ -130,7 +160,32 @@ def _make_recorder(camera_sources, out_dir, *, names, params, labels):
         profile=params.camera_profile,
         fmt=params.recording_format,
         labels=labels,
+        read_timeout_s=read_timeout_s,
+        on_frame=on_frame,
     )
+
+
+def failed_run_dir(out_dir: str | Path) -> Path:
+    """Where a failed run's record goes: ``DIR.failed`` next to the trial directory."""
+    out = Path(out_dir)
+    return out.with_name(out.name + ".failed")
+
+
+def write_failed_run(out_dir: str | Path, log: TrialLog, error: BaseException, **extra: Any) -> Path:
+    """Write ``DIR.failed/run.json`` (the events, arm poses, gripper readings and the error):
+    a record of what happened, never something that looks like a trial."""
+    target = failed_run_dir(out_dir)
+    target.mkdir(parents=True, exist_ok=True)
+    record = {
+        "error": f"{type(error).__name__}: {error}",
+        "clock": "time.monotonic",
+        "failed_at_s": time.monotonic(),
+        **log.to_dict(),
+        **extra,
+    }
+    path = target / "run.json"
+    path.write_text(json.dumps(record, indent=1, default=str), encoding="utf-8")
+    return path
 
 
 def _safe(action: Callable[[], object], failures: list[str], what: str) -> None:
@@ -152,15 +207,19 @@ def run_trial(
     names: Sequence[str] | None = None,
     extra_meta: Mapping[str, object] | None = None,
     on_step: Callable[[str], None] | None = None,
-    recorder_factory: Callable[..., Any] = _make_recorder,
+    recorder_factory: Callable[..., Any] = make_recorder,
+    on_event: Callable[[str, float], None] | None = None,
 ) -> TrialRun:
     """Run one trial (module docstring: the steps and the safety rules); return it.
 
     ``camera_sources`` go to the :class:`~liquidtouch.acquire.recording.Recorder`
     (``names``: the sensors' names, default ``left``, ``right``); ``labels`` become
     meta.json labels; ``extra_meta`` adds meta.json fields. ``on_step(name)`` is
-    called as each step begins (for progress output). The trial directory
-    ``out_dir`` appears only when everything succeeded.
+    called as each step begins (for progress output); ``on_event(name, t_s)`` as each
+    event is logged [s, :func:`time.monotonic`] (the live estimate takes the push and the
+    end of the hold from them). ``recorder_factory``: e.g. ``functools.partial(make_recorder,
+    read_timeout_s=S)`` for another camera timeout. The trial directory ``out_dir`` appears only when everything
+    succeeded; a failed run writes ``DIR.failed/run.json`` (:func:`write_failed_run`).
     """
     params = ProtocolParameters() if params is None else params
     axis = AXES[params.push_axis]
@@ -170,9 +229,13 @@ def run_trial(
         logger.info("trial step: %s", name)
         report(name)
 
-    log = TrialLog()
+    log = TrialLog(on_event=on_event)
     recorder = recorder_factory(
-        list(camera_sources), out_dir, names=names, params=params, labels=dict(labels or {})
+        list(camera_sources),
+        out_dir,
+        names=names,
+        params=params,
+        labels=dict(labels or {}),
     )
     try:
         step("cameras")
@@ -225,6 +288,7 @@ def run_trial(
         log.event("stopped")
 
         step("lower")
+        log.event("lower")
         arm.move_linear(
             _offset(pushed, 2, -params.lift_mm * 1e-3),
             params.lift_speed_m_s,
@@ -266,6 +330,11 @@ def run_trial(
         # the gripper is deliberately left alone: it keeps holding the bottle
         if failures:
             logger.warning("clean-up after the failed trial: %s", "; ".join(failures))
+        try:
+            where = write_failed_run(out_dir, log, exc, clean_up_failures=failures)
+            logger.warning("the failed run's record: %s", where)
+        except OSError as write_error:
+            logger.warning("could not write the failed run's record: %s", write_error)
         raise
     return TrialRun(
         trial_dir=Path(trial_dir),

@@ -13,10 +13,14 @@ import math
 import time
 from pathlib import Path
 
+import logging
+
 import typer
 
 from liquidtouch._core.numbers import with_uncertainty
 from liquidtouch.cli import options
+
+logger = logging.getLogger("liquidtouch.cli.live")
 
 #: frames published to the browser per sensor at most [Hz]
 SERVE_FRAME_HZ = 10.0
@@ -113,7 +117,7 @@ def live(
     if address is not None:
         hub, server, on_frame = _start_serving(*address)
     try:
-        for update in live_updates(
+        updates = live_updates(
             sources,
             model=model,
             until_std=limits,
@@ -123,15 +127,15 @@ def live(
             lowpass_hz=lowpass_hz,
             n_markers=n_markers,
             on_frame=on_frame,
-        ):
-            if hub is not None:
-                hub.publish(update.to_dict(include_signal=True))
-            if as_json:
-                typer.echo(json.dumps(update.to_dict(), ensure_ascii=False))
-            else:
-                typer.echo(_line(update))
-            if update.stopped_because == "source_error":
-                typer.echo(f"warning: the stream ended early: {update.message}", err=True)
+        )
+        try:
+            for update in updates:
+                _show(update, hub, as_json)
+        except KeyboardInterrupt:  # Ctrl-C while showing an update: the stream's final one
+            try:
+                _show(updates.throw(KeyboardInterrupt), hub, as_json)
+            except StopIteration:
+                pass
         if server is not None and linger_s > 0:
             hub.close()  # browsers get the end; the page and its history stay served
             _linger(linger_s, server.url)
@@ -140,6 +144,19 @@ def live(
             server.stop()
         if hub is not None:
             hub.close()
+
+
+def _show(update, hub, as_json: bool) -> None:
+    """Publish and print one update."""
+    if hub is not None:
+        hub.publish(update.to_dict(include_signal=True))
+    if as_json:
+        typer.echo(json.dumps(update.to_dict(), ensure_ascii=False))
+    else:
+        typer.echo(_line(update))
+    if update.stopped_because == "source_error":
+        typer.echo(f"warning: the stream ended early: {update.message}", err=True)
+    logger.info("update: %s", update)
 
 
 def _linger(seconds: float, url: str) -> None:

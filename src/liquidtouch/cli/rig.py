@@ -13,6 +13,7 @@ no trial directory is left.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import signal
@@ -179,6 +180,37 @@ def run_trial_command(
     as_json: bool = typer.Option(
         False, "--json", help="Print one JSON object on stdout (trial, push times, summary)."
     ),
+    camera_timeout_s: float = typer.Option(
+        10.0,
+        "--camera-timeout",
+        metavar="SECONDS",
+        min=0.1,
+        help="A camera that delivers nothing this long fails the trial [s].",
+    ),
+    model_file: Path | None = typer.Option(
+        None,
+        "--model",
+        help="Estimate live from the frames being recorded (the push and the end of the hold "
+        "from the protocol), with this model file; writes live.json into the trial.",
+        show_default=False,
+    ),
+    live: bool = typer.Option(
+        False, "--live", help="Estimate live (as --model, without a model).", show_default=False
+    ),
+    serve: str | None = typer.Option(
+        None,
+        "--serve",
+        metavar="HOST:PORT",
+        help="Show the live estimate in a browser at http://HOST:PORT (implies --live).",
+        show_default=False,
+    ),
+    until_std: list[str] = typer.Option(
+        [],
+        "--until-std",
+        metavar="TARGET=STD",
+        help="Live: the estimate is final once every TARGET's std is below STD.",
+        show_default=False,
+    ),
 ) -> None:
     """Run one trial on a robot: grasp, lift, record, push, hold, lower, release.
 
@@ -189,9 +221,6 @@ def run_trial_command(
     gripper KEEPS holding the bottle (put it down yourself) and no trial is written.
     """
     from liquidtouch._core.progress import on_terminal
-    from liquidtouch.acquire.arms import RigArm, open_arm
-    from liquidtouch.acquire.grippers import open_gripper
-    from liquidtouch.acquire.protocol import run_trial
     from liquidtouch.acquire.protocol_params import (
         ProtocolParameters,
         load_protocol,
@@ -214,6 +243,37 @@ def run_trial_command(
         if verbose:
             print(f"{step} ...", file=sys.stderr, flush=True)
 
+    from liquidtouch.acquire.protocol import make_recorder
+
+    live_run = None
+    factory = functools.partial(make_recorder, read_timeout_s=camera_timeout_s)
+    if live or model_file is not None or serve or until_std:
+        from liquidtouch.cli.live_trial import LiveTrial
+
+        live_run = LiveTrial(
+            name or ["left", "right"][: len(camera)] + [f"sensor{i}" for i in range(2, len(camera))],
+            model_file=model_file,
+            until_std=until_std,
+            serve=serve,
+            quiet=as_json,
+        )
+        factory = functools.partial(factory, on_frame=live_run.tap)
+        live_run.start()
+    try:
+        run = _run(gripper, arm, camera, out, params, labels, name, on_step, factory, live_run)
+    finally:
+        if live_run is not None:
+            live_run.end()
+    if live_run is not None:
+        live_run.write(run.trial_dir)
+    _report(run, as_json, live_run)
+
+
+def _run(gripper, arm, camera, out, params, labels, name, on_step, factory, live_run):
+    from liquidtouch.acquire.arms import RigArm, open_arm
+    from liquidtouch.acquire.grippers import open_gripper
+    from liquidtouch.acquire.protocol import run_trial
+
     with open_gripper(gripper) as grip, open_arm(arm) as robot:
         extra: dict[str, object] = {}
         if isinstance(robot, RigArm):  # the simulated rig knows the truth
@@ -233,7 +293,13 @@ def run_trial_command(
             names=name or None,
             extra_meta=extra,
             on_step=on_step,
+            recorder_factory=factory,
+            on_event=None if live_run is None else live_run.event,
         )
+    return run
+
+
+def _report(run, as_json: bool, live_run) -> None:
     summary = run.summary
     result = {
         "trial": str(run.trial_dir),
@@ -241,6 +307,8 @@ def run_trial_command(
         "push_end_s": run.push_end_s,
         "recording": summary.to_dict(),
     }
+    if live_run is not None and live_run.final is not None:
+        result["live"] = live_run.final
     if as_json:
         typer.echo(json.dumps(result, default=str))
         return
@@ -248,3 +316,10 @@ def run_trial_command(
         fps = f"{s.measured_fps:.2f}" if s.measured_fps else "—"
         typer.echo(f"{s.name}: {s.frames} frames at {fps} fps, {s.drops} dropped ({s.source})")
     typer.echo(f"push {run.push_start_s:.2f}-{run.push_end_s:.2f} s; wrote {run.trial_dir}")
+    if live_run is not None and live_run.final is not None:
+        final = live_run.final
+        typer.echo(
+            f"live: λ = {final['decay_rate']} ± {final['decay_rate_std']} 1/s, "
+            f"ω = {final['angular_frequency']} ± {final['angular_frequency_std']} rad/s "
+            f"(segment {final['segment']}; {final['message'] or 'final'}); wrote live.json"
+        )

@@ -26,26 +26,37 @@ std. Properties are predicted once both are reported, with the std propagated
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 import threading
 import time
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 
-from liquidtouch.errors import VideoError
-from liquidtouch.fit_settings import AUTO, FitSettings
+from liquidtouch.errors import LiquidTouchError, VideoError
+from liquidtouch.fit_settings import FitSettings
 from liquidtouch.live.properties import (
     check_live_model,
     classify_with_fit_std,
     predict_with_fit_std,
 )
-from liquidtouch.live.refresh import MIN_WINDOW_S, REDETECT_AFTER_S, Refreshed, refresh
+from liquidtouch.live.refresh import (
+    EDGE_S,
+    MIN_WINDOW_S,
+    Refreshed,
+    fit_ring_down,
+    shared_signal,
+)
 from liquidtouch.live.stopping import check_until_std
 from liquidtouch.live.tracks import GrowingTracks
 from liquidtouch.live.uncertainty import streamed_decay_rate_std, streamed_frequency_std
 from liquidtouch.live.updates import LiveUpdate
+from liquidtouch.segment import MIN_FREE_DECAY_S, Segment, ring_down_reason, trial_segments
 from liquidtouch.signal import check_signal_options
+
+logger = logging.getLogger(__name__)
 
 #: stream time between refreshes of the estimate [s]
 REFRESH_S = 0.25
@@ -53,11 +64,77 @@ REFRESH_S = 0.25
 MAX_FREQ_REL_STD = 0.01
 #: λ is reported once its std (fit and window length) is below this fraction of λ
 MAX_DECAY_REL_STD = 0.10
+#: a candidate's verdict is reused for one starting within this much of it [s]
+VERDICT_MATCH_S = 0.3
 #: what the final update keeps of the last streamed one when the final refit fails
 KEPT_FIELDS = (
     "decay_rate", "decay_rate_std", "angular_frequency", "angular_frequency_std",
     "window_s", "model",
 )  # fmt: skip
+
+
+@dataclass
+class RingDown:
+    """A ring-down whose hold ended (or the stream's last, at its end): its final estimate."""
+
+    index: int
+    start_s: float
+    end_s: float
+    update: LiveUpdate
+
+    def summary(self, origin_s: float) -> dict[str, object]:
+        """JSON-ready: the segment (times since the first frame [s]) and its λ, ω."""
+        u = self.update
+        return {
+            "segment": self.index,
+            "start_s": _json(self.start_s - origin_s),
+            "end_s": _json(self.end_s - origin_s),
+            "decay_rate": _json(u.decay_rate),
+            "decay_rate_std": _json(u.decay_rate_std),
+            "angular_frequency": _json(u.angular_frequency),
+            "angular_frequency_std": _json(u.angular_frequency_std),
+            "window_s": _json(u.window_s),
+            "message": u.message,
+        }
+
+
+def _json(value: float) -> float | None:
+    return float(value) if math.isfinite(value) else None
+
+
+def _within(t: np.ndarray, u: np.ndarray, start: float, end: float):
+    keep = (t >= start) & (t <= end)
+    return t[keep], u[keep]
+
+
+def _window_from(segments: list[Segment], i: int) -> float:
+    """Where the signal of ring-down ``segments[i]`` starts [s]: after the stretch before its
+    push (the whole stream when its push is the first transient)."""
+    before = segments[i - 1] if i >= 1 and segments[i - 1].kind == "push" else None
+    j = i - 2 if before is not None else i - 1
+    if j < 0 or segments[j].kind == "rest":
+        return -math.inf
+    return before.start_s if before is not None else segments[i].start_s - EDGE_S
+
+
+def _copy_segment(update: LiveUpdate, other: LiveUpdate) -> None:
+    update.segment, update.segment_final = other.segment, other.segment_final
+    update.segment_start_s, update.segment_end_s = other.segment_start_s, other.segment_end_s
+
+
+def _mark_segment(update: LiveUpdate, index: int, seg: Segment, *, final: bool) -> None:
+    update.segment = index
+    update.segment_start_s, update.segment_end_s = seg.start_s, seg.end_s
+    update.segment_final = final
+
+
+def _whole_stream_fit(settings: FitSettings, full) -> Refreshed:
+    """The stream's only ring-down, to its end: exactly ``extract``'s fit of the signal."""
+    try:
+        fit = settings.fit(full.t, full.u)
+    except LiquidTouchError as exc:
+        return Refreshed(full.t, full.u, "decay", math.nan, message=str(exc))
+    return Refreshed(full.t, full.u, "decay", float(fit.t0), fit)
 
 
 class LiveEstimator:
@@ -75,6 +152,8 @@ class LiveEstimator:
     fit_settings : the final fit's settings (default: ``extract``'s).
     refresh_s : stream time between refreshes [s].
     threaded : refresh on a worker thread (real-time streams) instead of in ``add_frame``.
+    protocol : the protocol's events will be given (:meth:`add_event`): the push and the
+        end of the hold are taken from them, not guessed (``run-trial``).
     """
 
     def __init__(
@@ -88,6 +167,7 @@ class LiveEstimator:
         fit_settings: FitSettings | None = None,
         refresh_s: float = REFRESH_S,
         threaded: bool = False,
+        protocol: bool = False,
     ) -> None:
         check_signal_options(lowpass_hz, n_markers)
         if not sensors or len(set(sensors)) != len(sensors):
@@ -107,10 +187,13 @@ class LiveEstimator:
         self.first_t_s = math.nan
         self.newest_due_s = math.nan
         self.next_refresh_t_s = math.nan
-        self.push_seen = False  # once a push stood out, it is not judged again
-        self.decay_start_s = math.nan  # kept once the decay is fitted (see refresh)
+        self.protocol = bool(protocol)
+        self.events: dict[str, float] = {}  # the protocol's events [s, shared clock]
+        self.finals: list[RingDown] = []  # ring-downs whose hold ended: never replaced
+        self.verdicts: list[tuple[float, bool, str]] = []  # (start [s], closed, why not)
+        self.segments: list[Segment] = []  # of the last refresh
+        self.open_start_s = math.nan  # the open ring-down's start, kept once found
         self.warm_start: tuple[float, float] | None = None  # (λ, ω) of the last refresh's fit
-        self.search_from_s = -math.inf  # the push is searched after this (see _run_refresh)
         self.last: LiveUpdate | None = None
         #: seconds spent in each add_frame call (tracking plus any synchronous refresh)
         self.latencies_s: list[float] = []
@@ -132,6 +215,20 @@ class LiveEstimator:
         if sensor not in self.tracks:
             raise VideoError(f"unknown sensor {sensor!r}; expected one of {', '.join(self.tracks)}")
         self.tracks[sensor].add(t_s, image)
+        return self._added(t_s, due_s, began)
+
+    def add_markers(
+        self, sensor: str, t_s: float, positions: np.ndarray, due_s: float = math.nan
+    ) -> LiveUpdate | None:
+        """As :meth:`add_frame` for marker positions (N, 2) [px] already tracked (a tracker
+        of your own, or ``liquidtouch.sim.protocol_scene``): no image, no tracking."""
+        began = time.perf_counter()
+        if sensor not in self.tracks:
+            raise VideoError(f"unknown sensor {sensor!r}; expected one of {', '.join(self.tracks)}")
+        self.tracks[sensor].add_positions(t_s, positions)
+        return self._added(t_s, due_s, began)
+
+    def _added(self, t_s: float, due_s: float, began: float) -> LiveUpdate | None:
         self.frames += 1
         self.newest_due_s = float(due_s)
         if math.isnan(self.first_t_s):
@@ -154,11 +251,15 @@ class LiveEstimator:
         return update
 
     def finish(self, stopped_because: str = "end_of_stream") -> LiveUpdate:
-        """Wait for a running refresh, fit the whole stream as offline; the final update.
+        """Wait for a running refresh, fit every ring-down not yet final as offline; the final
+        update.
 
-        A stream stopped by ``until_std`` keeps the last streamed estimate — the
-        one whose std met the thresholds (a refit of a short record, edge
-        included, can be far worse) — and so does one whose refit fails.
+        Its λ, ω are those of the ring-down that stands (the last final one of at least
+        2 s, else the longest; every one is in ``segments``); "no ring-down found" when
+        there is none, never another stretch's numbers. A stream stopped by ``until_std``
+        keeps the last streamed estimate — the one whose std met the thresholds (a refit
+        of a short record, edge included, can be far worse) — and so does one whose refit
+        fails.
         """
         if self._worker is not None:
             self._worker.join()
@@ -167,19 +268,31 @@ class LiveEstimator:
         tracks, frames, elapsed, due = self._snapshot()
         if not all(grown.n for grown in self.tracks.values()):
             result = Refreshed(np.zeros(0), np.zeros(0), "waiting", message="no frames")
+            update = self._update(result, frames, elapsed, due, final=True)
         else:
-            settings = self.fit_settings
-            if math.isfinite(self.search_from_s) and math.isfinite(self.decay_start_s):
-                if settings.start == AUTO:  # the push found after an earlier false one
-                    settings = dataclasses.replace(settings, start=self.decay_start_s)
-            result = refresh(tracks, **self.options, fit_settings=settings, final=True)
-        update = self._update(result, frames, elapsed, due, final=True)
-        keep = result.fit is None or stopped_because == "until_std"
-        if keep and previous is not None and math.isfinite(previous.window_s):
-            for name in (*KEPT_FIELDS, "predicted", "classified"):
-                setattr(update, name, getattr(previous, name))
-            why = result.message if result.fit is None else "stopped on the std thresholds"
-            update.message = f"{why}: the last streamed estimate is kept"
+            update = self._run_refresh(tracks, frames, elapsed, due, final=True)
+            self._take_result()
+            if self.finals:
+                standing = self._standing()
+                update = dataclasses.replace(standing.update, frames=frames, elapsed_s=elapsed)
+                update.events = self._events_on(update)
+            else:
+                update.decay_rate = update.angular_frequency = math.nan
+                update.decay_rate_std = update.angular_frequency_std = math.nan
+                update.predicted, update.classified = {}, {}
+                why = f": {update.message}" if update.message else ""
+                update.message = f"no ring-down found{why}"
+        update.final = True
+        streamed = previous is not None and math.isfinite(previous.window_s)
+        refit_failed = not math.isfinite(update.angular_frequency)
+        if streamed and (stopped_because == "until_std" or (refit_failed and not self.finals)):
+            if previous.segment_final or not self.finals or previous.segment > self.finals[-1].index:
+                for name in (*KEPT_FIELDS, "t_s", "predicted", "classified", "out_of_domain"):
+                    setattr(update, name, getattr(previous, name))
+                why = update.message if refit_failed else "stopped on the std thresholds"
+                update.message = f"{why}: the last streamed estimate is kept"
+                _copy_segment(update, previous)
+        update.segments = [r.summary(self.first_t_s) for r in self.finals]
         update.phase, update.stopped_because = "done", stopped_because
         self.last = update
         return update
@@ -194,35 +307,169 @@ class LiveEstimator:
         newest = max((tr.last_t_s for tr in self.tracks.values() if tr.n), default=math.nan)
         return tracks, self.frames, newest - self.first_t_s, self.newest_due_s
 
-    def _run_refresh(self, tracks: list, frames: int, elapsed_s: float, due_s: float) -> None:
-        result = refresh(
-            tracks,
-            **self.options,
-            fit_settings=self.fit_settings,
-            push_seen=self.push_seen,
-            decay_start_s=self.decay_start_s,
-            warm_start=self.warm_start,
-            search_from_s=self.search_from_s,
-        )
-        if result.fit is not None:
-            self.warm_start = (result.fit.decay_rate, result.fit.angular_frequency)
-        elif result.no_oscillation and result.now_s - self.decay_start_s > (
-            MIN_WINDOW_S + REDETECT_AFTER_S
-        ):
-            # not the push (a grasp or a lift seen by a camera that watches the whole
-            # trial): look for the push after it
-            self.search_from_s = self.decay_start_s + MIN_WINDOW_S
-            self.decay_start_s, self.push_seen, self.warm_start = math.nan, False, None
-            return
-        self.push_seen = self.push_seen or result.phase != "waiting"
-        if result.phase == "decay" and math.isnan(self.decay_start_s):
-            # set once: each refresh resamples the signal on a new grid and snaps the start
-            # to a sample at or after it, so re-keeping it crept ~0.4 s over a stream (a
-            # detergent λ then 38 % below the final one)
-            self.decay_start_s = result.decay_start_s
-        update = self._update(result, frames, elapsed_s, due_s, final=False)
+    def add_event(self, name: str, t_s: float) -> None:
+        """A protocol event (``push``, ``pushed``, ``stopped``, ...) at ``t_s`` [s, shared clock]."""
+        with self._lock:
+            self.events[str(name)] = float(t_s)
+
+    def _segments(self, tracks: list, t: np.ndarray, x: np.ndarray, u: np.ndarray, final: bool):
+        """The stream's segments (:func:`~liquidtouch.segment.trial_segments`), each candidate
+        judged on its own window's signal; closed candidates' verdicts are kept."""
+        with self._lock:
+            events = dict(self.events)
+        if self.protocol and "push" not in events:
+            return [Segment("rest", float(t[0]), float(t[-1]), False, reason="no push yet")]
+
+        def classify(tt, uu, start: float, end: float, closed: bool) -> str:
+            for s0, was_closed, verdict in self.verdicts:
+                if abs(s0 - start) < VERDICT_MATCH_S and was_closed == closed:
+                    return verdict
+            try:
+                window = shared_signal(tracks, **self.options, from_s=start - EDGE_S, to_s=end)
+                reason = ring_down_reason(*_within(window.t, window.u, start, end))[0]
+            except LiquidTouchError as exc:
+                reason = str(exc)
+            if closed or not reason:  # a ring-down stays one while open; judged again closed
+                self.verdicts.append((start, closed, reason))
+            return reason
+
+        return trial_segments(t, x, events or None, u=u, classify=classify, final=final)
+
+    def _run_refresh(
+        self, tracks: list, frames: int, elapsed_s: float, due_s: float, final: bool = False
+    ) -> LiveUpdate:
+        try:
+            full = shared_signal(tracks, **self.options)
+        except LiquidTouchError as exc:
+            result = Refreshed(np.zeros(0), np.zeros(0), "waiting", message=str(exc))
+            return self._publish(self._update(result, frames, elapsed_s, due_s, final=final))
+        t, u = full.t, full.u
+        x = full.motion.reshape(len(t), -1)
+        trusted = np.ones(t.shape, bool) if final else t <= t[-1] - EDGE_S
+        if trusted.sum() < 8:
+            result = Refreshed(t, u, "waiting", message="too little signal yet")
+            return self._publish(self._update(result, frames, elapsed_s, due_s, final=final))
+        segments = self._segments(tracks, t[trusted], x[trusted], u[trusted], final)
+        last_end = self.finals[-1].end_s if self.finals else -math.inf
+        current = None
+        for i, seg in enumerate(segments):
+            if seg.kind != "ring-down" or seg.start_s <= last_end:
+                continue
+            window_from = _window_from(segments, i)
+            if seg.closed or final:
+                self._finalize(tracks, seg, window_from, full, frames, elapsed_s, due_s)
+                last_end = seg.end_s
+            else:
+                current = (seg, window_from)
+        self.segments = segments
+        update = None
+        if current is not None:
+            update = self._stream_fit(tracks, *current, frames, elapsed_s, due_s)
+        reportable = update is not None and math.isfinite(update.angular_frequency)
+        if self.finals and not reportable:
+            standing = self._standing()
+            kept = dataclasses.replace(standing.update, frames=frames, elapsed_s=elapsed_s)
+            kept.final, kept.phase = False, "ended"
+            if update is not None:
+                kept.message = (
+                    f"segment {standing.index} is final; a new ring-down (segment "
+                    f"{len(self.finals) + 1}) is under way: {update.message or 'no estimate yet'}"
+                )
+            update = kept
+        if update is None:
+            tail = segments[-1]
+            phase = "push" if tail.kind in ("transient", "release", "push") else "waiting"
+            message = "no push yet" if phase == "waiting" else "a transient is under way"
+            if tail.kind == "release":
+                message = "the hold ended"
+            result = Refreshed(t, u, phase, message=message)
+            update = self._update(result, frames, elapsed_s, due_s, final=final)
+        if math.isfinite(due_s):
+            update.lag_s = time.monotonic() - due_s
+        return self._publish(update)
+
+    def _publish(self, update: LiveUpdate) -> LiveUpdate:
+        update.events = self._events_on(update)
         with self._lock:
             self._result = update
+        return update
+
+    def _events_on(self, update: LiveUpdate) -> dict[str, float]:
+        """The protocol's events on the update's clock (its segment's start is 0) [s]."""
+        with self._lock:
+            events = dict(self.events)
+        zero = update.segment_start_s if math.isfinite(update.segment_start_s) else math.nan
+        return {name: t_s - zero for name, t_s in events.items()} if math.isfinite(zero) else {}
+
+    def _standing(self) -> RingDown:
+        """The final ring-down estimate that stands: the last of at least 2 s, else the longest."""
+        long_enough = [r for r in self.finals if r.end_s - r.start_s >= MIN_FREE_DECAY_S]
+        if long_enough:
+            return long_enough[-1]
+        return max(self.finals, key=lambda r: r.end_s - r.start_s)
+
+    def _finalize(self, tracks, seg: Segment, window_from: float, full, frames, elapsed_s, due_s):
+        """Fit a ring-down whose hold ended (or the stream's last) as offline: final, kept."""
+        settings = self.fit_settings
+        index = len(self.finals) + 1
+        if not math.isfinite(window_from) and seg.end_s >= full.t[-1] - 1e-9 and not self.events:
+            # the stream's only ring-down, to its end: exactly extract's fit
+            sig = full
+            result = _whole_stream_fit(settings, full)
+            if math.isnan(result.decay_start_s):
+                result.decay_start_s = seg.start_s
+        else:
+            to_s = seg.end_s if seg.closed else math.inf
+            try:
+                sig = shared_signal(tracks, **self.options, from_s=window_from, to_s=to_s)
+                fit, message, _ = fit_ring_down(
+                    sig.t, sig.u, seg.start_s, seg.end_s, settings, final=True
+                )
+            except LiquidTouchError as exc:
+                sig, fit, message = full, None, str(exc)
+            result = Refreshed(sig.t, sig.u, "decay", seg.start_s, fit, message)
+        if result.fit is None:  # not a ring-down after all: never a number of another stretch
+            self.verdicts.append((seg.start_s, True, result.message or "no fit"))
+            logger.info("candidate at %.2f s is not a ring-down: %s", seg.start_s, result.message)
+            return
+        update = self._update(result, frames, elapsed_s, due_s, final=True)
+        update.phase = "ended"
+        update.final = False
+        _mark_segment(update, index, seg, final=True)
+        logger.info(
+            "ring-down %d (%.2f-%.2f s) is final: λ %.4g, ω %.4g",
+            index, seg.start_s - self.first_t_s, seg.end_s - self.first_t_s,
+            update.decay_rate, update.angular_frequency,
+        )  # fmt: skip
+        self.finals.append(RingDown(index, seg.start_s, seg.end_s, update))
+        self.warm_start = None
+
+    def _stream_fit(self, tracks, seg: Segment, window_from: float, frames, elapsed_s, due_s):
+        """The streaming estimate of the open ring-down."""
+        if not (math.isfinite(self.open_start_s) and abs(seg.start_s - self.open_start_s) < 0.5):
+            self.open_start_s, self.warm_start = seg.start_s, None  # a new ring-down
+        start = self.open_start_s
+        try:
+            sig = shared_signal(tracks, **self.options, from_s=window_from)
+        except LiquidTouchError as exc:
+            return self._update(
+                Refreshed(np.zeros(0), np.zeros(0), "push", start, message=str(exc)),
+                frames, elapsed_s, due_s, final=False,
+            )  # fmt: skip
+        end = float(sig.t[-1]) - EDGE_S
+        if end - start < MIN_WINDOW_S:
+            result = Refreshed(sig.t, sig.u, "push", start, message="the push is under way")
+        else:
+            fit, message, no_osc = fit_ring_down(
+                sig.t, sig.u, start, end, self.fit_settings, final=False,
+                warm_start=self.warm_start,
+            )  # fmt: skip
+            if fit is not None:
+                self.warm_start = (fit.decay_rate, fit.angular_frequency)
+            result = Refreshed(sig.t, sig.u, "decay", start, fit, message, no_osc)
+        update = self._update(result, frames, elapsed_s, due_s, final=False)
+        _mark_segment(update, len(self.finals) + 1, seg, final=False)
+        return update
 
     def _take_result(self) -> LiveUpdate | None:
         with self._lock:

@@ -37,7 +37,7 @@ from liquidtouch.errors import LiquidTouchError, NoOscillationError
 from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.fit_settings import AUTO, FitSettings
 from liquidtouch.segment import MIN_PUSH_SNR, free_decay_start, push_snr
-from liquidtouch.signal import tactile_signal
+from liquidtouch.signal import TactileSignal, tactile_signal
 from liquidtouch.tracking.tracks import MarkerTracks
 
 #: signal within this much of the newest sample is not trusted while streaming [s]: the
@@ -160,3 +160,87 @@ def refresh(
     except LiquidTouchError as exc:
         return Refreshed(t, u, "decay", decay_start, message=str(exc))
     return Refreshed(t, u, "decay", decay_start, fit)
+
+
+def window_tracks(
+    tracks: Sequence[MarkerTracks], from_s: float = -math.inf, to_s: float = math.inf
+) -> list[MarkerTracks]:
+    """The tracks' frames within ``[from_s, to_s]`` on the shared clock [s] (``start_s`` moved).
+
+    The signal of a window is its own PCA: over a whole trial the grasp, lift and lowering
+    dominate the first component and the slosh may hardly show in it (a rig trial watched
+    from before the grasp: λ +10 % from the whole stream's u, +3 % from the window's).
+    """
+    out = []
+    for tr in tracks:
+        shared = float(tr.start_s) + tr.t - tr.t[0]
+        keep = (shared >= from_s) & (shared <= to_s)
+        if keep.sum() < 2:
+            keep[-2:] = True
+        first = int(np.flatnonzero(keep)[0])
+        out.append(
+            MarkerTracks(
+                t=tr.t[keep],
+                positions=tr.positions[keep],
+                valid=tr.valid[keep],
+                reference=tr.reference,
+                sensor=tr.sensor,
+                spacing_px=tr.spacing_px,
+                diameter_px=tr.diameter_px,
+                first_frame=tr.first_frame,
+                start_s=float(shared[first]),
+            )
+        )
+    return out
+
+
+def shared_signal(
+    tracks: Sequence[MarkerTracks],
+    *,
+    lowpass_hz: float | None = 3.0,
+    n_markers: int = 16,
+    from_s: float = -math.inf,
+    to_s: float = math.inf,
+) -> TactileSignal:
+    """:func:`~liquidtouch.signal.tactile_signal` of the window, its ``t`` on the shared clock."""
+    if math.isfinite(from_s) or math.isfinite(to_s):
+        tracks = window_tracks(tracks, from_s, to_s)
+    signal = tactile_signal(tracks, lowpass_hz=lowpass_hz, n_markers=n_markers)
+    signal.t = signal.t + max(float(tr.start_s) for tr in tracks)
+    return signal
+
+
+def fit_ring_down(
+    t: np.ndarray,
+    u: np.ndarray,
+    start_s: float,
+    end_s: float,
+    settings: FitSettings,
+    *,
+    final: bool,
+    warm_start: tuple[float, float] | None = None,
+) -> tuple[object | None, str, bool]:
+    """The fit of ``u`` over ``[start_s, end_s]``: ``(fit or None, message, no_oscillation)``.
+
+    ``final``: with the settings as offline (``extract``); else the streaming model and
+    noise (module docstring, 3).
+    """
+    keep = (t >= start_s) & (t <= end_s)
+    options = settings.fit_options()
+    if not final:
+        options["noise"] = REFRESH_NOISE
+        if options["model"] == "two-mode":
+            options["model"] = REFRESH_MODEL
+    try:
+        fit = fit_oscillation(
+            t[keep],
+            u[keep],
+            **options,
+            min_duration_s=MIN_WINDOW_S,
+            warm_start=None if final else warm_start,
+        )
+    except NoOscillationError as exc:
+        return None, str(exc), True
+    except LiquidTouchError as exc:
+        return None, str(exc), False
+    return fit, "", False

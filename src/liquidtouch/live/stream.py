@@ -55,6 +55,9 @@ def live_updates(
     refresh_s: float = REFRESH_S,
     threaded: bool | None = None,
     on_frame: FrameCallback | None = None,
+    protocol: bool = False,
+    on_event: Callable[[], Iterable[tuple[str, float]]] | None = None,
+    stop: Callable[[], bool] | None = None,
 ) -> Iterator[LiveUpdate]:
     """Updates of the streaming estimate of ``sources``; the last has ``final=True``.
 
@@ -76,6 +79,14 @@ def live_updates(
     refresh_s : stream time between refreshes [s].
     threaded : refresh on a worker thread (default: when frames are paced in real time).
     on_frame : called after each tracked frame (e.g. to show the markers).
+    protocol, on_event : the protocol's events come (``run-trial``): ``on_event()`` returns
+        the new ``(name, t_s)`` since its last call [s, on the frames' clock]; the push and
+        the end of the hold are then taken from them.
+    stop : called after each frame; True ends the stream (``stopped_because="stopped"``).
+
+    Ctrl-C (a ``KeyboardInterrupt`` in the loop, or thrown into this generator by the
+    caller with ``.throw``) ends the stream with its final update
+    (``stopped_because="interrupted"``).
     """
     limits = _until_std(until_std)
     if isinstance(model, str | os.PathLike):
@@ -101,6 +112,7 @@ def live_updates(
         fit_settings=fit_settings,
         refresh_s=refresh_s,
         threaded=paced if threaded is None else threaded,
+        protocol=protocol,
     )
     lags: list[float] = []
     stopped = "end_of_stream"
@@ -108,26 +120,35 @@ def live_updates(
     first_t = math.nan
     iterator = iter(frames)
     try:
-        for frame in _until_source_fails(iterator):
-            if isinstance(frame, LiquidTouchError):  # a camera died after frames came
-                stopped, source_error = "source_error", str(frame)
-                break
-            if math.isfinite(frame.due_s):
-                lags.append(time.monotonic() - frame.due_s)
-            first_t = frame.t_s if math.isnan(first_t) else first_t
-            if max_duration_s is not None and frame.t_s - first_t > max_duration_s:
-                stopped = "max_duration"
-                break
-            update = estimator.add_frame(frame.sensor, frame.t_s, frame.image, frame.due_s)
-            if on_frame is not None:
-                grown = estimator.tracks[frame.sensor]
-                on_frame(frame, grown.positions[grown.n - 1], grown.reference)
-            if update is not None:
-                yield update
-                stds = {target: update.std_of(target) for target in limits}
-                if stop_reached(limits, stds):
-                    stopped = "until_std"
+        try:
+            for frame in _until_source_fails(iterator):
+                if isinstance(frame, LiquidTouchError):  # a camera died after frames came
+                    stopped, source_error = "source_error", str(frame)
                     break
+                if math.isfinite(frame.due_s):
+                    lags.append(time.monotonic() - frame.due_s)
+                first_t = frame.t_s if math.isnan(first_t) else first_t
+                if max_duration_s is not None and frame.t_s - first_t > max_duration_s:
+                    stopped = "max_duration"
+                    break
+                if on_event is not None:
+                    for name, t_s in on_event():
+                        estimator.add_event(name, t_s)
+                update = estimator.add_frame(frame.sensor, frame.t_s, frame.image, frame.due_s)
+                if on_frame is not None:
+                    grown = estimator.tracks[frame.sensor]
+                    on_frame(frame, grown.positions[grown.n - 1], grown.reference)
+                if update is not None:
+                    yield update
+                    stds = {target: update.std_of(target) for target in limits}
+                    if stop_reached(limits, stds):
+                        stopped = "until_std"
+                        break
+                if stop is not None and stop():
+                    stopped = "stopped"
+                    break
+        except KeyboardInterrupt:  # Ctrl-C (here or thrown in by the caller): the final update
+            stopped = "interrupted"
     finally:
         close = getattr(iterator, "close", None)
         if close is not None:

@@ -11,6 +11,8 @@ the tracks equal :func:`~liquidtouch.tracking.tracks.track_markers`' on the same
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from liquidtouch.errors import VideoError
@@ -33,6 +35,7 @@ class GrowingTracks:
         self.t = np.zeros(INITIAL_FRAMES)
         self.positions: np.ndarray | None = None
         self.first: np.ndarray | None = None
+        self.given_reference: np.ndarray | None = None  # positions given, not tracked
 
     def add(self, t_s: float, image: np.ndarray) -> np.ndarray:
         """Track the markers into the frame at ``t_s`` [s]; return their positions (N, 2) [px].
@@ -69,10 +72,33 @@ class GrowingTracks:
         self.n += 1
         return row
 
+    def add_positions(self, t_s: float, positions: np.ndarray) -> np.ndarray:
+        """Add marker positions (N, 2) [px] tracked elsewhere, at ``t_s`` [s] (no image)."""
+        t_s = float(t_s)
+        row = np.asarray(positions, dtype=float)
+        if not np.isfinite(t_s) or (self.n and t_s <= self.t[self.n - 1]):
+            raise VideoError(
+                f"{self.sensor}: frame {self.n} has timestamp {t_s:.6g} s; timestamps must be "
+                "finite and increase strictly"
+            )
+        if self.positions is None:
+            self.start_s = t_s
+            self.positions = np.zeros((INITIAL_FRAMES, len(row), 2))
+            self.given_reference = row.copy()
+        if self.n == len(self.t):
+            self.t = np.concatenate([self.t, np.zeros_like(self.t)])
+            self.positions = np.concatenate([self.positions, np.zeros_like(self.positions)])
+        self.t[self.n] = t_s
+        self.positions[self.n] = row
+        self.n += 1
+        return row
+
     @property
     def reference(self) -> np.ndarray | None:
         """Marker positions in the first frame (N, 2) [px]; None before it."""
-        return None if self.first is None else self.tracker.reference
+        if self.first is None:
+            return self.given_reference
+        return self.tracker.reference
 
     @property
     def last_t_s(self) -> float:
@@ -86,10 +112,10 @@ class GrowingTracks:
             t=self.t[: self.n].copy(),
             positions=positions,
             valid=np.isfinite(positions).all(axis=2),
-            reference=self.tracker.reference,
+            reference=self.reference,
             sensor=self.sensor,
-            spacing_px=self.tracker.spacing_px,
-            diameter_px=float(self.tracker.diameter_px),
+            spacing_px=self.tracker.spacing_px if self.first is not None else float("nan"),
+            diameter_px=float(self.tracker.diameter_px) if self.first is not None else math.nan,
             first_frame=self.first,
             start_s=self.start_s,
         )

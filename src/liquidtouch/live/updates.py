@@ -14,8 +14,9 @@ import numpy as np
 
 from liquidtouch._core.numbers import number, with_uncertainty
 
-#: the stream's phases: no push yet, the push is under way, the free decay is being fitted, ended
-PHASES = ("waiting", "push", "decay", "done")
+#: the stream's phases: no push yet, a push (or another transient) is under way, the free
+#: decay is being fitted, the hold ended (the ring-down's estimate is final), the stream ended
+PHASES = ("waiting", "push", "decay", "ended", "done")
 
 
 def _number(value: float | None) -> float | None:
@@ -61,6 +62,14 @@ class LiveUpdate:
     timing : final update only: per-frame latency of the estimator [ms]
         (``latency_ms_median``/``_p95``/``_max``) and, for paced frames, the lag of
         a frame's processing behind its arrival [s] (``frame_lag_s_median``/``_p95``/``_max``).
+    segment : which ring-down of the stream the estimate comes from (1, 2, ...; 0: none yet).
+    segment_start_s, segment_end_s : its window on the stream's clock [s].
+    segment_final : the hold of that ring-down ended: its estimate is final, never replaced
+        (a later push starts segment ``segment + 1``).
+    segments : final update only: every ring-down's final estimate (``RingDown.summary``).
+    events : the protocol's events on the decay clock [s] (``run-trial``), for the plot.
+    out_of_domain : with a model: (λ, ω) lies outside what the model was trained on
+        (``liquidtouch.live.properties.out_of_domain``); None without a model or estimate.
     signal_t_s, signal_u, signal_fit : the tactile signal [s, px] on the decay clock
         (0 at the free-decay start, negative before) and the fitted curve (NaN
         where not fitted), for plots.
@@ -86,6 +95,13 @@ class LiveUpdate:
     lag_s: float = math.nan
     message: str = ""
     timing: dict[str, float] = field(default_factory=dict)
+    segment: int = 0
+    segment_start_s: float = math.nan
+    segment_end_s: float = math.nan
+    segment_final: bool = False
+    segments: list[dict[str, object]] = field(default_factory=list)
+    events: dict[str, float] = field(default_factory=dict)
+    out_of_domain: bool | None = None
     signal_t_s: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     signal_u: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     signal_fit: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
@@ -136,11 +152,18 @@ class LiveUpdate:
             model=self.model,
             lag_s=_number(self.lag_s),
             message=self.message,
+            segment=int(self.segment),
+            segment_start_s=_number(self.segment_start_s),
+            segment_end_s=_number(self.segment_end_s),
+            segment_final=bool(self.segment_final),
+            out_of_domain=self.out_of_domain,
         )
         if self.final:
+            out["segments"] = self.segments
             out["stopped_because"] = self.stopped_because
             out["timing"] = {key: _number(value) for key, value in self.timing.items()}
         if include_signal:
+            out["events"] = {name: _number(t) for name, t in self.events.items()}
             out["signal"] = {
                 "t_s": _numbers(self.signal_t_s),
                 "u": _numbers(self.signal_u),

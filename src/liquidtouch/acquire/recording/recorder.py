@@ -78,6 +78,8 @@ class Recorder:
     grey : store the luma only (default; what liquidtouch reads) or the BGR colour.
     warmup_frames : frames discarded after opening each camera (``None``: its default).
     read_timeout_s : a camera delivering no frame for this long [s] fails the recording.
+    on_frame : ``on_frame(sensor, frame)`` for every frame recorded (on the capture thread:
+        must not block), e.g. to estimate live from the frames being recorded.
 
     Use :meth:`start`, :meth:`stop`, :meth:`finish` (or :meth:`abort`); or as a
     context manager, which aborts on any exception (Ctrl-C included) and finishes a
@@ -98,6 +100,7 @@ class Recorder:
         warmup_frames: int | None = None,
         read_timeout_s: float = DEFAULT_READ_TIMEOUT_S,
         speed: float = 1.0,
+        on_frame=None,
     ) -> None:
         self.sources = [str(s) for s in sources]
         if not self.sources:
@@ -128,7 +131,7 @@ class Recorder:
         self.trial_dir: Path | None = None
         self._stack: contextlib.ExitStack | None = None
         self._tmp: Path | None = None
-        self._pool = WriterPool(self.names, grey=self.grey)
+        self._pool = WriterPool(self.names, grey=self.grey, tap=on_frame)
         self._state = "new"
 
     # --- lifecycle ----------------------------------------------------------------------

@@ -32,8 +32,10 @@ WRITER_FINISH_S = 120.0
 class WriterPool:
     """Writers, writer threads, their errors and backlog drops, for every sensor."""
 
-    def __init__(self, names: list[str], *, grey: bool) -> None:
+    def __init__(self, names: list[str], *, grey: bool, tap=None) -> None:
         self.grey = grey
+        #: ``tap(sensor, frame)`` for each frame captured (e.g. the live estimate); must not block
+        self.tap = tap
         self.writers: dict[str, FrameWriter] = {}
         self.threads: list[threading.Thread] = []
         self.errors: dict[str, BaseException] = {}
@@ -67,6 +69,12 @@ class WriterPool:
         thread = next(t for t in session.threads if t.sensor == name)
 
         def sink(frame: Frame, target: queue.Queue = target) -> None:
+            if self.tap is not None:
+                try:
+                    self.tap(name, frame)
+                except Exception as exc:  # the recording matters more than a viewer
+                    logger.warning("sensor %s: the frame tap failed: %s", name, exc)
+                    self.tap = None
             if target.qsize() >= limit:
                 self.backlog_drops[name] += 1
                 logger.log(

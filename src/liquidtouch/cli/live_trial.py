@@ -1,0 +1,147 @@
+"""``run-trial --live/--model/--serve``: the live estimate of the frames being recorded.
+
+The recorder hands every captured frame to :meth:`LiveTrial.tap` (on its capture thread:
+it only queues, and drops a frame when the estimator is behind), the protocol's events
+to :meth:`LiveTrial.event`; a thread runs :func:`liquidtouch.live.live_updates` over them
+with ``protocol=True`` (the push and the end of the hold are the protocol's, not guessed)
+and publishes to the live page when ``--serve`` is given. :meth:`LiveTrial.write` puts
+the final update (every ring-down's estimate, the events) into the trial as ``live.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import queue
+import threading
+import time
+from pathlib import Path
+
+from liquidtouch.cli.live import SERVE_FRAME_HZ, parse_serve
+
+logger = logging.getLogger("liquidtouch.cli.live_trial")
+
+#: frames queued for the estimator at most (per trial): beyond, frames are dropped
+MAX_QUEUED = 600
+_END = object()
+
+
+class LiveTrial:
+    """The live estimate beside a ``run-trial`` (module docstring)."""
+
+    def __init__(self, names, *, model_file=None, until_std=(), serve=None, quiet=False):
+        from liquidtouch.live import parse_until_std
+        from liquidtouch.models.modelfile import load_model
+
+        self.names = list(names)
+        self.model = load_model(model_file) if model_file is not None else None
+        self.limits = parse_until_std(list(until_std))
+        self.address = parse_serve(serve) if serve else None
+        self.quiet = quiet
+        self.frames: queue.Queue = queue.Queue(maxsize=MAX_QUEUED)
+        self.events: queue.Queue = queue.Queue()
+        self.all_events: list[tuple[str, float]] = []
+        self.final: dict | None = None
+        self.dropped = 0
+        self.hub = self.server = None
+        self.url = ""
+        self._thread: threading.Thread | None = None
+
+    def tap(self, sensor: str, frame) -> None:
+        try:
+            self.frames.put_nowait((sensor, frame))
+        except queue.Full:
+            self.dropped += 1
+
+    def event(self, name: str, t_s: float) -> None:
+        self.events.put((name, t_s))
+        self.all_events.append((name, t_s))
+
+    def start(self) -> None:
+        if self.address is not None:
+            from liquidtouch.cli.format import warn
+            from liquidtouch.live.hub import LiveHub
+            from liquidtouch.live.web import start_server
+
+            self.hub = LiveHub()
+            self.server = start_server(self.hub, host=self.address[0], port=self.address[1])
+            self.url = self.server.url
+            warn(f"serving the live view at {self.server.url}")
+        self._thread = threading.Thread(target=self._run, name="live-trial", daemon=True)
+        self._thread.start()
+
+    def _frames(self):
+        from liquidtouch.live import LiveFrame
+
+        while True:
+            item = self.frames.get()
+            if item is _END:
+                return
+            sensor, frame = item
+            yield LiveFrame(sensor, float(frame.t_s), frame.image, float(frame.t_s))
+
+    def _new_events(self):
+        out = []
+        while True:
+            try:
+                out.append(self.events.get_nowait())
+            except queue.Empty:
+                return out
+
+    def _run(self) -> None:
+        from liquidtouch.live import live_updates
+
+        last: dict[str, float] = {}
+
+        def on_frame(frame, positions, reference) -> None:
+            now = time.monotonic()
+            if self.hub is not None and now - last.get(frame.sensor, -math.inf) >= 1 / SERVE_FRAME_HZ:
+                last[frame.sensor] = now
+                self.hub.publish_frame(frame.sensor, frame.image, reference, positions)
+
+        try:
+            for update in live_updates(
+                self._frames(),
+                sensors=self.names,
+                model=self.model,
+                until_std=self.limits,
+                realtime=True,
+                protocol=True,
+                on_event=self._new_events,
+                on_frame=on_frame,
+            ):
+                if self.hub is not None:
+                    self.hub.publish(update.to_dict(include_signal=True))
+                logger.info("live: %s", update)
+                if update.final:
+                    self.final = update.to_dict()
+        except Exception as exc:  # the trial matters more than its live view
+            logger.warning("the live estimate failed: %s", exc)
+            self.final = {"error": str(exc)}
+
+    def end(self) -> None:
+        """The recording is over: end the stream, wait for the final update, stop serving."""
+        try:
+            self.frames.put(_END, timeout=5.0)
+        except queue.Full:
+            self.frames = queue.Queue()
+            self.frames.put(_END)
+        if self._thread is not None:
+            self._thread.join(timeout=120.0)
+        if self.hub is not None:
+            self.hub.close()
+        if self.server is not None:
+            self.server.stop()
+
+    def write(self, trial_dir: Path) -> Path | None:
+        if self.final is None:
+            return None
+        record = {
+            **self.final,
+            "protocol_events": [{"event": n, "t_s": t} for n, t in self.all_events],
+            "frames_dropped_by_live": self.dropped,
+        }
+        path = Path(trial_dir) / "live.json"
+        path.write_text(json.dumps(record, indent=1, default=str), encoding="utf-8")
+        return path
