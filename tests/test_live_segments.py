@@ -128,8 +128,9 @@ def test_a_stream_that_begins_inside_the_ring_down() -> None:
 @pytest.mark.timeout(300)
 def test_a_still_stream_says_no_ring_down_found() -> None:
     timings = ProtocolTimings(push_s=40.0, hold_s=2.0)  # the push never comes in view
-    scene = protocol_scene("mirin", height_mm=25, seed=1, camera_start_s=3.5, camera_end_s=12.0,
-                           timings=timings)
+    scene = protocol_scene(
+        "mirin", height_mm=25, seed=1, camera_start_s=3.5, camera_end_s=12.0, timings=timings
+    )
     final = _stream(scene)[-1]
     assert math.isnan(final.decay_rate) and math.isnan(final.angular_frequency)
     assert "no ring-down found" in final.message
@@ -137,8 +138,9 @@ def test_a_still_stream_says_no_ring_down_found() -> None:
 
 @pytest.mark.timeout(300)
 def test_ctrl_c_gives_one_final_update() -> None:
-    from liquidtouch.live import LiveFrame, live_updates
     from helpers import grid, render_blobs
+
+    from liquidtouch.live import LiveFrame, live_updates
 
     centres = grid()
 
@@ -148,7 +150,7 @@ def test_ctrl_c_gives_one_final_update() -> None:
             if t_s > 5.0:
                 raise KeyboardInterrupt
             dx = 1.2 * np.exp(-0.5 * max(t_s - 1, 0)) * np.sin(12 * max(t_s - 1, 0))
-            yield LiveFrame("left", float(t_s), render_blobs(centres + [dx, 0], noise=2.0, seed=k))
+            yield LiveFrame("left", float(t_s), render_blobs([*centres, dx, 0], noise=2.0, seed=k))
 
     updates = list(live_updates(frames(), sensors=["left"]))
     finals = [u for u in updates if u.final]

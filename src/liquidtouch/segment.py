@@ -34,9 +34,9 @@ for ``extract``, ``features`` and ``live``:
 1. **Transients** (:func:`find_transients`): the activity (the high-passed signal's
    distance from its resting level, over every channel given) *rises*: a sample
    exceeds ``RISE_RATIO`` × the largest activity of the ``RISE_WINDOW_S`` ending
-   ``RISE_LAG_S`` before it plus ``RISE_NOISE`` noise levels. A free decay never rises above its own previous
-   period, so a ring-down is never cut by its own oscillation; the end of the hold (a
-   large step, not a decay) is a rise.
+   ``RISE_LAG_S`` before it plus ``RISE_NOISE`` noise levels. A free decay never rises
+   above its own previous period, so a ring-down is never cut by its own oscillation;
+   the end of the hold (a large step, not a decay) is a rise.
 2. **Ring-downs**: after each transient, from its largest excursion (within
    ``PEAK_S``: the push and the liquid's lag) to ``GUARD_S`` before the next transient
    (or the end of the signal), the candidate is a ring-down when it is a decaying
@@ -60,6 +60,7 @@ least ``MIN_FREE_DECAY_S``, else the longest); on a recording of a push and a ho
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -75,21 +76,21 @@ from liquidtouch.fit.oscillation import fit_oscillation
 __all__ = [
     "DRIFT_CUTOFF_HZ",
     "GUARD_S",
+    "MIN_FREE_DECAY_S",
+    "MIN_NOISE_S",
+    "MIN_PUSH_SNR",
+    "PUSH_GAP_S",
     "SEGMENT_KINDS",
     "Segment",
     "Transient",
     "activity",
     "chosen_ring_down",
     "find_transients",
-    "ring_down_reason",
-    "trial_segments",
-    "MIN_FREE_DECAY_S",
-    "MIN_NOISE_S",
-    "MIN_PUSH_SNR",
-    "PUSH_GAP_S",
     "free_decay",
     "free_decay_start",
     "push_snr",
+    "ring_down_reason",
+    "trial_segments",
 ]
 
 MIN_FREE_DECAY_S = 2.0
@@ -311,8 +312,8 @@ def find_transients(t: np.ndarray, x: np.ndarray) -> list[Transient]:
     t = check_times(t, "t")
     a = activity(t, x)
     dt = float(np.median(np.diff(t)))
-    w = max(2, int(round(RISE_WINDOW_S / dt)))
-    lag = max(1, int(round(RISE_LAG_S / dt)))
+    w = max(2, round(RISE_WINDOW_S / dt))
+    lag = max(1, round(RISE_LAG_S / dt))
     if len(a) <= w + lag + 1:
         return []
     windows = np.lib.stride_tricks.sliding_window_view(a, w)  # windows[k] = a[k:k+w]
@@ -363,9 +364,7 @@ def ring_down_reason(t: np.ndarray, u: np.ndarray) -> tuple[str, object | None]:
     if len(t) < 8 or t[-1] - t[0] < MIN_CANDIDATE_S:
         return "too short to judge", None
     try:
-        fit = fit_oscillation(
-            t, u, model="single-mode", loss="ls", min_duration_s=MIN_CANDIDATE_S
-        )
+        fit = fit_oscillation(t, u, model="single-mode", loss="ls", min_duration_s=MIN_CANDIDATE_S)
     except NoOscillationError as exc:
         return str(exc), None
     except LiquidTouchError as exc:
@@ -471,7 +470,7 @@ def _known_segments(t: np.ndarray, x: np.ndarray, events: dict[str, float]) -> l
     if t0 < push:
         edges = [t0] + [v for v, _ in before if v > t0] + [push]
         names = ["rest"] + [k for v, k in before if v > t0]
-        for (lo, hi), name in zip(zip(edges[:-1], edges[1:], strict=True), names, strict=True):
+        for (lo, hi), name in zip(itertools.pairwise(edges), names, strict=True):
             if hi > lo:
                 kind = "rest" if name == "rest" else "transient"
                 segments.append(Segment(kind, lo, hi, True, event="" if kind == "rest" else name))

@@ -171,7 +171,9 @@ def failed_run_dir(out_dir: str | Path) -> Path:
     return out.with_name(out.name + ".failed")
 
 
-def write_failed_run(out_dir: str | Path, log: TrialLog, error: BaseException, **extra: Any) -> Path:
+def write_failed_run(
+    out_dir: str | Path, log: TrialLog, error: BaseException, **extra: Any
+) -> Path:
     """Write ``DIR.failed/run.json`` (the events, arm poses, gripper readings and the error):
     a record of what happened, never something that looks like a trial."""
     target = failed_run_dir(out_dir)
@@ -218,8 +220,9 @@ def run_trial(
     called as each step begins (for progress output); ``on_event(name, t_s)`` as each
     event is logged [s, :func:`time.monotonic`] (the live estimate takes the push and the
     end of the hold from them). ``recorder_factory``: e.g. ``functools.partial(make_recorder,
-    read_timeout_s=S)`` for another camera timeout. The trial directory ``out_dir`` appears only when everything
-    succeeded; a failed run writes ``DIR.failed/run.json`` (:func:`write_failed_run`).
+    read_timeout_s=S)`` for another camera timeout. The trial directory ``out_dir``
+    appears only when everything succeeded; a failed run writes ``DIR.failed/run.json``
+    (:func:`write_failed_run`).
     """
     params = ProtocolParameters() if params is None else params
     axis = AXES[params.push_axis]

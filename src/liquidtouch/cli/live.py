@@ -9,11 +9,10 @@ publishes the updates and the frames with their markers to the browser view
 from __future__ import annotations
 
 import json
+import logging
 import math
 import time
 from pathlib import Path
-
-import logging
 
 import typer
 

@@ -96,7 +96,10 @@ class LiveTrial:
 
         def on_frame(frame, positions, reference) -> None:
             now = time.monotonic()
-            if self.hub is not None and now - last.get(frame.sensor, -math.inf) >= 1 / SERVE_FRAME_HZ:
+            if (
+                self.hub is not None
+                and now - last.get(frame.sensor, -math.inf) >= 1 / SERVE_FRAME_HZ
+            ):
                 last[frame.sensor] = now
                 self.hub.publish_frame(frame.sensor, frame.image, reference, positions)
 

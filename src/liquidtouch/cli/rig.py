@@ -251,7 +251,8 @@ def run_trial_command(
         from liquidtouch.cli.live_trial import LiveTrial
 
         live_run = LiveTrial(
-            name or ["left", "right"][: len(camera)] + [f"sensor{i}" for i in range(2, len(camera))],
+            name
+            or ["left", "right"][: len(camera)] + [f"sensor{i}" for i in range(2, len(camera))],
             model_file=model_file,
             until_std=until_std,
             serve=serve,

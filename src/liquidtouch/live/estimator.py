@@ -286,7 +286,11 @@ class LiveEstimator:
         streamed = previous is not None and math.isfinite(previous.window_s)
         refit_failed = not math.isfinite(update.angular_frequency)
         if streamed and (stopped_because == "until_std" or (refit_failed and not self.finals)):
-            if previous.segment_final or not self.finals or previous.segment > self.finals[-1].index:
+            if (
+                previous.segment_final
+                or not self.finals
+                or previous.segment > self.finals[-1].index
+            ):
                 for name in (*KEPT_FIELDS, "t_s", "predicted", "classified", "out_of_domain"):
                     setattr(update, name, getattr(previous, name))
                 why = update.message if refit_failed else "stopped on the std thresholds"
@@ -308,7 +312,9 @@ class LiveEstimator:
         return tracks, self.frames, newest - self.first_t_s, self.newest_due_s
 
     def add_event(self, name: str, t_s: float) -> None:
-        """A protocol event (``push``, ``pushed``, ``stopped``, ...) at ``t_s`` [s, shared clock]."""
+        """A protocol event (``push``, ``pushed``, ``stopped``, ...) at ``t_s`` [s].
+
+        ``t_s`` is on the stream's shared clock."""
         with self._lock:
             self.events[str(name)] = float(t_s)
 
