@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from liquidtouch.acquire.frame_writers import _Ffv1Writer
 
 from liquidtouch.acquire.cameras import Frame
+from liquidtouch.acquire.frame_writers import _Ffv1Writer
 from liquidtouch.errors import VideoError
 from liquidtouch.io.frame_times import video_sidecar
 from liquidtouch.io.frames import iter_video

@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from camera_frames import CodedFrames, dot_position, frame_number
-from liquidtouch.acquire.recorder import Recorder, record
 
+from liquidtouch.acquire.recorder import Recorder, record
 from liquidtouch.cli import main
 from liquidtouch.errors import DatasetError, DeviceError, OutputError
 from liquidtouch.io.dataset import read_trial_meta
