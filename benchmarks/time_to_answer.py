@@ -8,8 +8,8 @@ One run, on simulated trials (GelSight Mini videos, 320 × 240 at 25 fps):
    fill heights 16-40 mm — extracted offline as ``liquidtouch extract`` does,
    and a GPR and a physics-GPR trained on it as ``liquidtouch train`` does
    (targets ``height_mm``, ``log10_viscosity_cst``; cross-conformal calibration,
-   10 folds), plus a GPR trained on the sugar-water trials alone (``sugar-only``,
-   judged on olive oil, corn oil and mirin);
+   10 folds grouped by fill height, as ``train`` does), plus a GPR trained on the
+   sugar-water trials alone (``sugar-only``, judged on olive oil, corn oil and mirin);
 2. ``--trials`` test trials per liquid (random heights 18-38 mm; sugar water at a
    random concentration 20-140) streamed through
    :func:`liquidtouch.live.live_updates` (``realtime=False``); every refresh's
@@ -236,9 +236,14 @@ def train_models(train: list[dict]) -> dict:
     from liquidtouch.models.property_model import train_regression
 
     X, y = train_matrix(train)
-    models = {kind: train_regression(X, y, kind, calibration_folds=10) for kind in KINDS}
+    models = {
+        kind: train_regression(X, y, kind, calibration_folds=10, calibration_groups=y["height_mm"])
+        for kind in KINDS
+    }
     Xs, ys = train_matrix(train, ("sugar-water",))
-    models["sugar-only"] = train_regression(Xs, ys, "gpr", calibration_folds=10)
+    models["sugar-only"] = train_regression(
+        Xs, ys, "gpr", calibration_folds=10, calibration_groups=ys["height_mm"]
+    )
     return models
 
 

@@ -108,6 +108,14 @@ def train(
         "training rows (K more fits per target; 0: no calibration, std not calibrated). "
         "Fewer rows than K: leave-one-out.",
     ),
+    calibration_group: str | None = typer.Option(
+        None,
+        "--calibration-group",
+        help="Column whose rows the calibration holds out together, so that each row is "
+        "predicted by a model that never saw its value (default: height_mm when the table "
+        "has it: a new trial comes at a new fill height; 'none': every row alone).",
+        show_default=False,
+    ),
     as_json: options.Json = False,
 ) -> None:
     """Train one regressor per --target on a features table and save them in one model file.
@@ -128,7 +136,10 @@ def train(
     targets = {t: numeric_column(table, t) for t in dict.fromkeys(target)}
     with progress_bar(f"training {kind}", len(targets)) as advance:
         folds = None if calibration_folds == 0 else max(calibration_folds, 2)
-        fitted = train_regression(X, targets, kind, advance, calibration_folds=folds)
+        groups = calibration_groups(table, calibration_group)
+        fitted = train_regression(
+            X, targets, kind, advance, calibration_folds=folds, calibration_groups=groups
+        )
     held_out = None if rest is None else regression_errors(fitted, rest, list(targets))
     save_model(fitted, out)
     if as_json:
@@ -165,6 +176,23 @@ def train(
             ]
             or [["(no labelled rows)", "0", "", ""]],
         )
+
+
+def calibration_groups(table: Any, column: str | None) -> Any:
+    """The calibration's groups: ``column``'s values (default ``height_mm`` if present)."""
+    from liquidtouch.errors import TableError
+
+    if column is not None and column.strip().lower() == "none":
+        return None
+    name = column or "height_mm"
+    if name not in table.columns:
+        if column is None:
+            return None
+        raise TableError(f"--calibration-group {column!r}: no such column in the training table")
+    values = table[name]
+    if values.isna().any():
+        raise TableError(f"--calibration-group {name}: the column has empty values")
+    return values.astype(str).to_numpy()
 
 
 def classify(

@@ -12,7 +12,6 @@ picks a class at random with confidence).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -22,7 +21,12 @@ import pandas as pd
 from liquidtouch.errors import TableError
 from liquidtouch.io.tables import FEATURE_COLUMNS, feature_matrix
 from liquidtouch.models.classifier import LiquidClassifier
-from liquidtouch.models.conformal import DEFAULT_FOLDS, TargetCalibration, calibrate_regressor
+from liquidtouch.models.conformal import (
+    DEFAULT_FOLDS,
+    TargetCalibration,
+    calibrate_regressor,
+    calibration_folds,
+)
 from liquidtouch.models.feature_space import (
     FeatureMap,
     TrainingDomain,
@@ -383,6 +387,7 @@ def train_regression(
     model: str = "gpr",
     progress: Callable[[str], None] | None = None,
     calibration_folds: int | None = None,
+    calibration_groups: Any = None,
 ) -> PropertyModel:
     """Fit one regressor of kind ``model`` per target; ``targets`` maps column → values.
 
@@ -391,7 +396,8 @@ def train_regression(
     ``calibration_folds`` K: also calibrate each target's std and intervals by K-fold
     cross-conformal (:func:`~liquidtouch.models.conformal.calibrate_regressor`; K more
     fits per target), when every fold keeps the estimator's minimum of rows; ``None``:
-    no calibration.
+    no calibration. ``calibration_groups`` (n,): rows held out together (e.g. the fill
+    height of each row: a row is then predicted by a model that never saw its height).
     Raises :class:`TableError` for bad input, before any fitting.
     """
     if model not in REGRESSORS:
@@ -420,20 +426,27 @@ def train_regression(
     regressors, calibration = {}, {}
     for target, y in targets.items():
         regressors[target] = make_regressor(model, target).fit(X, y)
-        if calibration_folds is not None and can_calibrate(model, X.shape[0], calibration_folds):
+        if calibration_folds is not None and can_calibrate(
+            model, X.shape[0], calibration_folds, calibration_groups
+        ):
             calibration[target] = calibrate_regressor(
-                make_regressor(model, target), X, y, calibration_folds
+                make_regressor(model, target), X, y, calibration_folds, groups=calibration_groups
             )
         if progress is not None:
             progress(target)
     return PropertyModel(regressors=regressors, calibration=calibration)
 
 
-def can_calibrate(model: str, n_rows: int, n_folds: int = DEFAULT_FOLDS) -> bool:
-    """Whether ``n_rows`` leave every cross-conformal fold's training part enough rows."""
-    k = min(int(n_folds), int(n_rows))
+def can_calibrate(
+    model: str, n_rows: int, n_folds: int = DEFAULT_FOLDS, groups: Any = None
+) -> bool:
+    """Whether every cross-conformal fold leaves the estimator its minimum of training rows."""
+    try:
+        folds = calibration_folds(int(n_rows), int(n_folds), groups)
+    except TableError:
+        return False
     need = getattr(REGRESSORS[model], "min_rows", 7)
-    return k >= 2 and n_rows - math.ceil(n_rows / k) >= need
+    return all(len(train) >= need for train, _ in folds)
 
 
 def train_classifier(X: Any, labels: Any, label: str = "liquid") -> PropertyModel:
