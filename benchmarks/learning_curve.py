@@ -6,8 +6,9 @@ olive oil, detergent at its zero-shear viscosity). A lab records ``H`` fill heig
 per liquid (evenly over 16-40 mm) and ``R`` trials per (liquid, height); a GPR per
 target is trained on them with the 10-fold cross-conformal calibration of
 ``liquidtouch train`` (folds grouped by fill height), and judged on 500 new
-trials per liquid at random heights (held-out seeds): mean absolute error, coverage of the calibrated ±1σ, ±2σ and
-90 % interval, and the RMS of z = error / std (1 when calibrated).
+trials per liquid at random heights (held-out seeds): mean absolute error,
+coverage of the calibrated ±1σ, ±2σ and 90 % interval, and the RMS of
+z = error / std (1 when calibrated).
 
 Second table: a GPR trained on sugar water alone (the paper's 9 heights × 12
 concentrations) predicting olive oil, corn oil and mirin (the same physics, other
