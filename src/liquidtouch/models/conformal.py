@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 from sklearn.base import clone
-from sklearn.model_selection import GroupKFold, KFold
+from sklearn.model_selection import GroupKFold, KFold, PredefinedSplit
 
 from liquidtouch.errors import TableError
 
@@ -195,8 +195,14 @@ def calibrate_regressor(
     X = np.asarray(X, dtype=float)
     y = np.asarray(y, dtype=float)
     folds = calibration_folds(X.shape[0], n_folds, groups, random_state)
+    test_fold = np.empty(X.shape[0], dtype=int)
+    for i, (_, held_out) in enumerate(folds):
+        test_fold[held_out] = i
     mapie = CrossConformalRegressor(
-        clone(estimator), conformity_score=StdConformityScore(), method="base", cv=folds
+        clone(estimator),
+        conformity_score=StdConformityScore(),
+        method="base",
+        cv=PredefinedSplit(test_fold),
     )
     mapie.fit_conformalize(X, y)
     scores = np.abs(np.asarray(mapie.conformity_scores, dtype=float))
