@@ -53,7 +53,7 @@ KINDS = ("gpr", "physics-gpr")
 #: ring-down time bins of the coverage table [s]
 TIME_BINS = ((0.0, 1.0), (1.0, 2.0), (2.0, 4.0), (4.0, 6.0), (6.0, math.inf))
 #: a property is reported once its std is at most this (the stream's --until-std)
-REPORT_STD = {"height_mm": 0.5, "log10_viscosity_cst": 0.05}
+REPORT_STD = {"height_mm": 1.0, "log10_viscosity_cst": 0.1}
 #: liquids a sugar-water-only model is judged on
 OTHER_LIQUIDS = ("olive-oil", "corn-oil", "mirin")
 #: columns of the per-refresh rows

@@ -143,3 +143,25 @@ def test_target_calibration_quantiles() -> None:
     assert cal.half_width(0.95) == pytest.approx(19 / 14)
     with pytest.raises(TableError):
         TargetCalibration((1.0,), n_folds=2)
+
+
+def test_grouped_folds_hold_a_height_out_whole_and_still_cover() -> None:
+    """5 liquids × 9 heights × 2 trials: folds grouped by height predict each row at an
+    unseen height (its twins and the other liquids at that height are held out with it)."""
+    from benchmarks.synthetic_tables import liquid_table
+    from liquidtouch.models.conformal import calibration_folds
+
+    liquids = ["water", "mirin", "corn-oil", "olive-oil", "detergent"]
+    train = liquid_table(liquids, np.linspace(16, 40, 9), repeats=2, seed=1)
+    X, y = train[["decay_rate", "angular_frequency"]].to_numpy(), train["height_mm"].to_numpy()
+    folds = calibration_folds(len(y), 10, groups=y)
+    assert len(folds) == 9  # one fold per height: fewer groups than folds
+    for fit_rows, held_out in folds:
+        assert not set(y[fit_rows]) & set(y[held_out])
+    test = liquid_table(liquids, np.random.default_rng(2).uniform(16, 40, 300), 1, seed=3)
+    Xt, yt = test[["decay_rate", "angular_frequency"]].to_numpy(), test["height_mm"].to_numpy()
+    model = train_regression(X, {"h": y}, "gpr", calibration_folds=10, calibration_groups=y)
+    mean, std = model.predict(Xt)["h"]
+    assert np.mean(np.abs(mean - yt) <= 2 * std) >= 0.9
+    with pytest.raises(TableError, match="at least 2 groups"):
+        calibration_folds(len(y), 10, groups=np.zeros(len(y)))
