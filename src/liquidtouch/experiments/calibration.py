@@ -22,7 +22,7 @@ import pandas as pd
 from liquidtouch.errors import TableError
 from liquidtouch.experiments.common import TARGETS, X, pyplot, save_figure, split, usable
 from liquidtouch.experiments.report import ExperimentResult, Headline
-from liquidtouch.models.property_model import STD_COLUMNS, train_regression
+from liquidtouch.models.property_model import STD_COLUMNS, can_calibrate, train_regression
 
 #: central-interval levels of the reliability diagram
 LEVELS = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
@@ -72,14 +72,18 @@ def run(sugar_table: pd.DataFrame, other_table: pd.DataFrame, out_dir: Path) -> 
     start = time.perf_counter()
     train, test = usable(split(sugar_table, "train")), usable(split(sugar_table, "test"))
     targets = [t for t in ("height_mm", "log10_viscosity_cst") if t in train.columns]
-    if len(train) < 12 or not len(test):
-        raise TableError(f"too few sugar-water trials to calibrate ({len(train)} for training)")
+    groups = train["height_mm"].to_numpy()
+    if not len(test) or not can_calibrate("gpr", len(train), 10, groups):
+        raise TableError(
+            f"too few sugar-water trials to calibrate ({len(train)} for training over "
+            f"{len(set(groups))} heights, {len(test)} for testing)"
+        )
     model = train_regression(
         X(train),
         {t: train[t].to_numpy(float) for t in targets},
         "gpr",
         calibration_folds=10,
-        calibration_groups=train["height_mm"].to_numpy(),
+        calibration_groups=groups,
     )
     parts = [("sugar water (test)", test)]
     other = usable(other_table)
