@@ -7,12 +7,16 @@ One run, on simulated trials (GelSight Mini videos, 320 × 240 at 25 fps):
    mirin, detergent, sugar water at 40/100/160 g/100 g) × ``--train-heights``
    fill heights 16-40 mm — extracted offline as ``liquidtouch extract`` does,
    and a GPR and a physics-GPR trained on it as ``liquidtouch train`` does
-   (targets ``height_mm``, ``log10_viscosity_cst``);
+   (targets ``height_mm``, ``log10_viscosity_cst``; cross-conformal calibration,
+   10 folds grouped by fill height, as ``train`` does), plus a GPR trained on the
+   sugar-water trials alone (``sugar-only``, judged on olive oil, corn oil and mirin);
 2. ``--trials`` test trials per liquid (random heights 18-38 mm; sugar water at a
    random concentration 20-140) streamed through
-   :func:`liquidtouch.live.live_updates` (``realtime=False``); every update's
-   λ, ω and their std go through each model as the stream does
-   (:func:`~liquidtouch.live.properties.predict_with_fit_std`);
+   :func:`liquidtouch.live.live_updates` (``realtime=False``); every refresh's
+   λ, ω and their streamed std (recorded whether or not the λ/ω gates show them)
+   go through each model as the stream does
+   (:func:`~liquidtouch.live.properties.predict_with_fit_std`); a property is
+   reported once its std is at most ``--report-std`` (``--until-std``'s rule);
 3. tables: the ring-down time [s] until height is within 1 mm and log10 ν within
    0.1 of the truth and stays there (median, 90th percentile per liquid; ``inf``:
    the final estimate is still off), against the offline estimate on the full
@@ -22,12 +26,16 @@ One run, on simulated trials (GelSight Mini videos, 320 × 240 at 25 fps):
    the call here; ``benchmarks/live_latency.py`` measures the real-time,
    threaded case); a PNG of coverage and error vs ring-down time.
 
-Usage: nice -n 10 python benchmarks/time_to_answer.py [--trials 2] [--train-heights 6]
+The simulated features are saved (``--save data.json``) and a run can be
+re-analysed from them (``--load data.json``) without simulating again.
+
+Usage: nice -n 10 python benchmarks/time_to_answer.py [--trials 4] [--train-heights 8]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import tempfile
 import time
@@ -43,7 +51,13 @@ TARGETS = ("height_mm", "log10_viscosity_cst")
 TOLERANCE = {"height_mm": 1.0, "log10_viscosity_cst": 0.1}
 KINDS = ("gpr", "physics-gpr")
 #: ring-down time bins of the coverage table [s]
-TIME_BINS = ((0.0, 2.0), (2.0, 4.0), (4.0, 6.0), (6.0, math.inf))
+TIME_BINS = ((0.0, 1.0), (1.0, 2.0), (2.0, 4.0), (4.0, 6.0), (6.0, math.inf))
+#: a property is reported once its std is at most this (the stream's --until-std)
+REPORT_STD = {"height_mm": 1.0, "log10_viscosity_cst": 0.1}
+#: liquids a sugar-water-only model is judged on
+OTHER_LIQUIDS = ("olive-oil", "corn-oil", "mirin")
+#: columns of the per-refresh rows
+ROW_COLUMNS = ("t_s", "decay_rate", "decay_rate_std", "angular_frequency", "angular_frequency_std")
 
 
 def simulate(root: Path, name: str, liquid: str, height_mm: float, conc, seed: int, dur: float):
@@ -57,49 +71,78 @@ def simulate(root: Path, name: str, liquid: str, height_mm: float, conc, seed: i
     return write_trial(trial, root / name, sensor="mini"), trial.labels()
 
 
-def training_set(root: Path, n_heights: int, duration_s: float, advance) -> tuple:
-    """(n, 2) offline features and the targets of the training trials."""
+def training_set(root: Path, n_heights: int, duration_s: float, advance) -> list[dict]:
+    """One record per training trial: offline fit (λ, ω, std, κ) and labels."""
     from liquidtouch.extraction import extract
 
     entries = [(liq, None) for liq in TEST_LIQUIDS if liq != "sugar-water"]
     entries += [("sugar-water", c) for c in TRAIN_SUGAR]
-    X, y = [], {t: [] for t in TARGETS}
+    out = []
     for i, (liquid, conc) in enumerate(entries):
         for j, h in enumerate(np.linspace(16.0, 40.0, n_heights)):
             directory, labels = simulate(
                 root, f"train_{i}_{j}", liquid, float(h), conc, 1000 + 37 * i + j, duration_s
             )
-            fit = extract(directory).fit
-            X.append((fit.decay_rate, fit.angular_frequency))
-            for target in TARGETS:
-                y[target].append(labels[target])
+            out.append(
+                {"liquid": liquid, "fit": fit_record(extract(directory).fit), **labels_of(labels)}
+            )
             advance()
-    return np.array(X), {t: np.array(v) for t, v in y.items()}
+    return out
+
+
+def fit_record(fit) -> dict:
+    keys = ("decay_rate", "decay_rate_std", "angular_frequency", "angular_frequency_std",
+            "damping_gain", "damping_gain_std")  # fmt: skip
+    return {k: float(getattr(fit, k)) for k in keys}
+
+
+def labels_of(labels: dict) -> dict:
+    return {t: float(labels[t]) for t in TARGETS}
+
+
+def train_matrix(train: list[dict], liquids=None) -> tuple[np.ndarray, dict]:
+    rows = [r for r in train if liquids is None or r["liquid"] in liquids]
+    X = np.array([(r["fit"]["decay_rate"], r["fit"]["angular_frequency"]) for r in rows])
+    return X, {t: np.array([r[t] for r in rows]) for t in TARGETS}
+
+
+class _Recorder:
+    """A stand-in regression model that records the (λ, σλ, ω, σω) of every refresh."""
+
+    kind = "regression"
+    targets = ("call",)
+
+    def __init__(self) -> None:
+        self.calls: list[tuple[float, ...]] = []
+
+    def predict(self, X, X_std=None):
+        X, X_std = np.asarray(X, float), np.asarray(X_std, float)
+        self.calls.append((X[0, 0], X_std[0, 0], X[0, 1], X_std[0, 1]))
+        n = len(self.calls) - 1
+        return {"call": (np.array([float(n)]), np.array([0.0]))}
 
 
 def stream_trial(directory: Path) -> dict:
-    """Every update's (t_s, λ, σλ, ω, σω) of one stream, the final update's and its timing."""
+    """Every refresh's (t_s, λ, σλ, ω, σω) — ungated — of one stream, and its timing."""
     from liquidtouch.live import live_updates
 
-    updates = list(live_updates(directory, realtime=False))
-    rows = np.array(
-        [
-            (u.t_s, u.decay_rate, u.decay_rate_std, u.angular_frequency, u.angular_frequency_std)
-            for u in updates
-        ]
-    )
-    return {"rows": rows, "timing": updates[-1].timing}
+    recorder = _Recorder()
+    updates = list(live_updates(directory, realtime=False, model=recorder))
+    rows = []
+    for u in updates:
+        if "call" in u.predicted:
+            rows.append((u.t_s, *recorder.calls[int(u.predicted["call"][0])]))
+    return {"rows": np.array(rows).tolist(), "timing": updates[-1].timing}
 
 
 def predictions(model, rows: np.ndarray) -> dict[str, np.ndarray]:
-    """``{target: (U, 2) mean, std}`` per update (NaN until λ and ω are both reported)."""
-    from liquidtouch.live.properties import predict_with_fit_std
-
-    out = {t: np.full((len(rows), 2), np.nan) for t in TARGETS}
-    for i, (_, lam, lam_std, omega, omega_std) in enumerate(rows):
-        if math.isfinite(lam) and math.isfinite(omega):
-            for target, pair in predict_with_fit_std(model, lam, lam_std, omega, omega_std).items():
-                out[target][i] = pair
+    """``{target: (U, 2) mean, std}`` per refresh (NaN where the fit gave no λ or ω)."""
+    X, X_std = rows[:, [1, 3]], rows[:, [2, 4]]
+    ok = np.isfinite(X).all(axis=1)
+    out = {t: np.full((len(rows), 2), np.nan) for t in model.targets}
+    if ok.any():
+        for target, (mean, std) in model.predict(X[ok], X_std[ok]).items():
+            out[target][ok] = np.column_stack([mean, std])
     return out
 
 
@@ -119,24 +162,53 @@ def quantiles(values: list[float]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--trials", type=int, default=2, help="test trials per liquid")
-    parser.add_argument("--train-heights", type=int, default=6, help="training heights per liquid")
+    parser.add_argument("--trials", type=int, default=4, help="test trials per liquid")
+    parser.add_argument("--train-heights", type=int, default=8, help="training heights per liquid")
     parser.add_argument("--duration", type=float, default=10.0, help="trial length [s]")
     parser.add_argument("--seed", type=int, default=7)
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results"))
+    parser.add_argument("--save", type=Path, help="write the simulated features here (JSON)")
+    parser.add_argument("--load", type=Path, help="re-analyse features saved by --save")
     args = parser.parse_args()
 
-    from liquidtouch._core.progress import progress_bar
-    from liquidtouch.models.property_model import train_regression
-
     began = time.perf_counter()
+    if args.load is not None:
+        data = json.loads(args.load.read_text())
+    else:
+        data = simulate_all(args)
+        if args.save is not None:
+            args.save.write_text(json.dumps(data))
+    took = time.perf_counter() - began
+    train, tests = data["train"], data["tests"]
+    for test in tests:
+        test["rows"] = np.asarray(test["rows"], float)
+    per_liquid = len(tests) // len(TEST_LIQUIDS)
+    print(
+        f"{len(train)} training trials, {len(tests)} test trials ({per_liquid} per liquid), "
+        f"{data['duration']:g} s each, GelSight Mini; {took:.0f} s"
+    )
+    models = train_models(train)
+    for test in tests:
+        test["pred"] = {kind: predictions(model, test["rows"]) for kind, model in models.items()}
+    report_calibration(models)
+    report_time_to_answer(tests)
+    report_coverage(tests)
+    report_sugar_only(tests)
+    report_latency(tests)
+    args.out.mkdir(parents=True, exist_ok=True)
+    print(f"figure: {plot(tests, args.out / 'time_to_answer.png')}")
+
+
+def simulate_all(args) -> dict:
+    from liquidtouch._core.progress import progress_bar
+    from liquidtouch.extraction import extract
+
     rng = np.random.default_rng(args.seed)
     n_train = (len(TEST_LIQUIDS) - 1 + len(TRAIN_SUGAR)) * args.train_heights
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         with progress_bar("training trials", n_train) as advance:
-            X, y = training_set(root, args.train_heights, args.duration, advance)
-        models = {kind: train_regression(X, y, kind) for kind in KINDS}
+            train = training_set(root, args.train_heights, args.duration, advance)
         tests = []
         with progress_bar("test streams", len(TEST_LIQUIDS) * args.trials) as advance:
             for liquid in TEST_LIQUIDS:
@@ -146,26 +218,76 @@ def main() -> None:
                     directory, labels = simulate(
                         root, f"test_{liquid}_{r}", liquid, h, conc, seed, args.duration
                     )
-                    tests.append({"liquid": liquid, "truth": labels, **stream_trial(directory)})
+                    streamed = stream_trial(directory)
+                    offline = fit_record(extract(directory).fit)
+                    tests.append(
+                        {
+                            "liquid": liquid,
+                            "truth": labels_of(labels),
+                            "offline": offline,
+                            **streamed,
+                        }
+                    )
                     advance()
-    took = time.perf_counter() - began
-    print(
-        f"{n_train} training trials, {len(tests)} test trials ({args.trials} per liquid), "
-        f"{args.duration:g} s each, GelSight Mini; {took:.0f} s"
+    return {"duration": args.duration, "train": train, "tests": tests}
+
+
+def train_models(train: list[dict]) -> dict:
+    from liquidtouch.models.property_model import train_regression
+
+    X, y = train_matrix(train)
+    models = {
+        kind: train_regression(X, y, kind, calibration_folds=10, calibration_groups=y["height_mm"])
+        for kind in KINDS
+    }
+    Xs, ys = train_matrix(train, ("sugar-water",))
+    models["sugar-only"] = train_regression(
+        Xs, ys, "gpr", calibration_folds=10, calibration_groups=ys["height_mm"]
     )
-    for test in tests:
-        test["pred"] = {kind: predictions(model, test["rows"]) for kind, model in models.items()}
-    report_time_to_answer(tests)
-    report_coverage(tests)
-    report_latency(tests)
-    args.out.mkdir(parents=True, exist_ok=True)
-    print(f"figure: {plot(tests, args.out / 'time_to_answer.png')}")
+    return models
+
+
+def report_calibration(models: dict) -> None:
+    print(
+        "\ncalibration (10-fold cross-conformal on the training rows): std scale, ±1σ/±2σ in-sample"
+    )
+    for kind, model in models.items():
+        for target, cal in model.calibration.items():
+            print(
+                f"  {kind:12s} {target:22s} n={cal.n:3d} scale {cal.std_scale:5.2f} "
+                f"{cal.coverage_of(1):4.0%} {cal.coverage_of(2):4.0%}"
+            )
+
+
+def reported(test: dict, kind: str, target: str) -> tuple[np.ndarray, np.ndarray]:
+    """(mean, std) per refresh, NaN where not reported (std above REPORT_STD); final always."""
+    mean, std = test["pred"][kind][target].T.copy()
+    hide = ~(std <= REPORT_STD[target])
+    hide[-1] = False
+    mean[hide], std[hide] = np.nan, np.nan
+    return mean, std
+
+
+def report_sugar_only(tests: list[dict]) -> None:
+    print("\nsugar-water-only GPR on the other liquids, final (offline) estimate: ±1σ ±2σ n, rms z")
+    for target in TARGETS:
+        final = [
+            (0.0, t["pred"]["sugar-only"][target][-1, 0], t["pred"]["sugar-only"][target][-1, 1],
+             t["truth"][target])
+            for t in tests if t["liquid"] in OTHER_LIQUIDS
+        ]  # fmt: skip
+        _, mean, std, truth = np.array(final).T
+        z_rms = math.sqrt(np.nanmean(((mean - truth) / std) ** 2))
+        mae = np.nanmean(np.abs(mean - truth))
+        cells = _coverage_cells(final, 0.0, math.inf)
+        print(f"  {target:22s} {cells} rms z {z_rms:5.2f}  MAE {mae:.3g}")
 
 
 def report_time_to_answer(tests: list[dict]) -> None:
+    gate = ", ".join(f"{t} std ≤ {v:g}" for t, v in REPORT_STD.items())
     print(
         "\nring-down time [s] until within tolerance for good (height 1 mm, log10 ν 0.1); "
-        "median p90; 'record' = the offline estimate on the full record"
+        f"median p90; reported once {gate}; 'record' = the offline estimate on the full record"
     )
     for kind in KINDS:
         print(f"\n{kind}")
@@ -177,7 +299,7 @@ def report_time_to_answer(tests: list[dict]) -> None:
             for test in (t for t in tests if t["liquid"] == liquid):
                 t_s, ok_all = test["rows"][:, 0], None
                 for target in TARGETS:
-                    mean = test["pred"][kind][target][:, 0]
+                    mean, _ = reported(test, kind, target)
                     with np.errstate(invalid="ignore"):
                         ok = np.abs(mean - test["truth"][target]) <= TOLERANCE[target]
                     cells[target].append(time_to_answer(t_s, ok))
@@ -188,42 +310,49 @@ def report_time_to_answer(tests: list[dict]) -> None:
             line = " ".join(f"{quantiles(cells[c]):>13s}" for c in (*TARGETS, "both"))
             print(
                 f"{liquid:12s} {len(record):2d} {line} {np.median(record):7.2f} "
-                f"{np.median(errs[TARGETS[0]]):8.2f} {np.median(errs[TARGETS[1]]):8.3f}"
+                f"{np.mean(errs[TARGETS[0]]):8.2f} {np.mean(errs[TARGETS[1]]):8.3f}"
             )
+    print("(offline |Δh| |Δμ|: mean absolute error of the final estimate)")
 
 
 def _coverage_cells(z_rows: list[tuple[float, float, float, float]], lo: float, hi: float) -> str:
     rows = np.array([r for r in z_rows if lo <= r[0] < hi]).reshape(-1, 4)
+    rows = rows[np.isfinite(rows[:, 1]) & np.isfinite(rows[:, 2])]
     if not len(rows):
-        return f"{'-':>14s}"
+        return f"{'-':>20s}"
     cov = coverage(rows[:, 1], rows[:, 2], rows[:, 3])
-    return f"{cov[1.0]:4.0%} {cov[2.0]:4.0%} {len(rows):4d}"
+    z_rms = math.sqrt(np.mean(((rows[:, 1] - rows[:, 3]) / rows[:, 2]) ** 2))
+    return f"{cov[1.0]:4.0%} {cov[2.0]:4.0%} {z_rms:4.2f} {len(rows):4d}"
 
 
 def report_coverage(tests: list[dict]) -> None:
     bins = [f"{lo:g}-{hi:g} s" if math.isfinite(hi) else f"≥{lo:g} s" for lo, hi in TIME_BINS]
     nominal = ", ".join(f"±{k:g}σ {nominal_coverage(k):.0%}" for k in COVERAGE_KS)
-    print(
-        f"\ncoverage of the truth (±1σ ±2σ n; nominal {nominal}), by ring-down time; "
-        "rms z: RMS of (final − truth) / std, 1 when the std is calibrated"
-    )
-    head = " ".join(f"{b:>14s}" for b in [*bins, "final"])
-    print(f"{'model / target':30s} {head} {'rms z':>6s}")
-    for kind in KINDS:
-        for target in TARGETS:
-            stream, final = [], []
-            for test in tests:
-                t_s, (mean, std) = test["rows"][:, 0], test["pred"][kind][target].T
-                truth = test["truth"][target]
-                stream += [
-                    (t, m, s, truth) for t, m, s in zip(t_s[:-1], mean[:-1], std[:-1], strict=True)
-                ]
-                final.append((0.0, mean[-1], std[-1], truth))
-            cells = [_coverage_cells(stream, lo, hi) for lo, hi in TIME_BINS]
-            cells.append(_coverage_cells(final, 0.0, math.inf))
-            _, mean, std, truth = np.array(final).T
-            z_rms = math.sqrt(np.nanmean(((mean - truth) / std) ** 2))  # 1 when calibrated
-            print(f"{kind + ' ' + target:30s} " + " ".join(cells) + f" {z_rms:6.2f}")
+    for title, gated in (("every refresh", False), ("reported values only", True)):
+        print(
+            f"\ncoverage of the truth, {title} (±1σ ±2σ rms-z n; nominal {nominal}, rms z 1), "
+            "by ring-down time; final: the offline estimate"
+        )
+        head = " ".join(f"{b:>20s}" for b in [*bins, "final"])
+        print(f"{'model / target':30s} {head}")
+        for kind in KINDS:
+            for target in TARGETS:
+                stream, final = [], []
+                for test in tests:
+                    t_s = test["rows"][:, 0]
+                    if gated:
+                        mean, std = reported(test, kind, target)
+                    else:
+                        mean, std = test["pred"][kind][target].T
+                    truth = test["truth"][target]
+                    stream += [
+                        (t, m, s, truth)
+                        for t, m, s in zip(t_s[:-1], mean[:-1], std[:-1], strict=True)
+                    ]
+                    final.append((0.0, mean[-1], std[-1], truth))
+                cells = [_coverage_cells(stream, lo, hi) for lo, hi in TIME_BINS]
+                cells.append(_coverage_cells(final, 0.0, math.inf))
+                print(f"{kind + ' ' + target:30s} " + " ".join(cells))
     for col, name in ((1, "λ (of the final λ)"), (3, "ω (of the final ω)")):
         rows = []
         for test in tests:
@@ -255,7 +384,7 @@ def plot(tests: list[dict], path: Path) -> Path:
 
     fig, axes = plt.subplots(2, 2, figsize=(11, 7))
     colours = dict(zip(TEST_LIQUIDS, plt.cm.tab10.colors, strict=False))
-    centres = [lo + 1.0 for lo, _ in TIME_BINS]
+    centres = [lo + (min(hi, lo + 2.0) - lo) / 2 for lo, hi in TIME_BINS]
     for col, target in enumerate(TARGETS):
         ax = axes[0, col]
         for test in tests:
@@ -277,6 +406,7 @@ def plot(tests: list[dict], path: Path) -> Path:
                         if lo <= tt < hi
                     ]
                     arr = np.array(rows).reshape(-1, 3)
+                    arr = arr[np.isfinite(arr).all(axis=1)]
                     fractions.append(coverage(arr[:, 0], arr[:, 1], arr[:, 2], (k,))[k])
                 ax.plot(centres, fractions, style, marker="o", label=f"{kind} ±{k:g}σ")
         for k in COVERAGE_KS:

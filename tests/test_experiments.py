@@ -128,13 +128,23 @@ def test_transfer_beats_the_untuned_model(report) -> None:
     assert _headline(summary, "transfer", "transfer, 15 points: h MAE") < 1.0
 
 
+def test_calibration_section(report) -> None:
+    """Experiment 8: the calibrated ± cover the sugar-water test trials near their level."""
+    out, _ = report
+    table = pd.read_csv(out / "calibration.csv")
+    sugar = table[table["data"] == "sugar water (test)"]
+    assert set(sugar["target"]) == {"h [mm]", "μ [log10 cSt]"}
+    assert (sugar["±2σ [%]"] >= 80).all() and (sugar["rms z"] < 1.6).all()
+    assert (out / "calibration.png").is_file()
+
+
 def test_report_is_complete_and_self_contained(report) -> None:
     out, _ = report
     page = (out / "report.html").read_text()
-    for number in range(1, 8):
+    for number in range(1, 9):
         assert f"<h2>{number}. " in page
     images = re.findall(r"<img[^>]*src='([^']*)'", page)
-    assert len(images) == 7  # one figure per experiment, the wrist F/T included
+    assert len(images) == 8  # one figure per experiment, the wrist F/T included
     assert all(src.startswith("data:image/png;base64,") for src in images)
     assert not re.search(r"(src|href)=['\"]https?:", page)
     assert "1 without features" in page  # the failed classification trial is reported

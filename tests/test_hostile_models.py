@@ -266,7 +266,7 @@ def test_domain_api_is_separate_from_predict(files, tmp_path):
     again = load_model(save_model(model, tmp_path / "m.json"))
     assert again.domain == domain and again.in_domain(far).tolist() == [True, False, False]
     doc = json.loads((tmp_path / "m.json").read_text())
-    for key in ("domain", "provenance", "sha256"):
+    for key in ("domain", "provenance", "sha256", "calibration"):
         del doc[key]
     doc["format_version"] = 1
     old = tmp_path / "v1.json"
@@ -375,7 +375,7 @@ def test_provenance_is_recorded_and_old_files_still_load(gp_doc, tmp_path, files
     import sklearn
 
     prov = gp_doc["provenance"]
-    assert gp_doc["format_version"] == 2
+    assert gp_doc["format_version"] == 3
     assert prov["liquidtouch"] == liquidtouch.__version__
     assert prov["scikit_learn"] == sklearn.__version__ and prov["numpy"] == np.__version__
     # the same training table gives the same training hash whatever the model kind
@@ -389,7 +389,7 @@ def test_provenance_is_recorded_and_old_files_still_load(gp_doc, tmp_path, files
     path = tmp_path / "v2.json"
     path.write_text(json.dumps(gp_doc))
     v1 = _copy(gp_doc)
-    for key in ("sha256", "provenance", "domain"):
+    for key in ("sha256", "provenance", "domain", "calibration"):
         del v1[key]
     v1["format_version"] = 1
     (tmp_path / "v1.json").write_text(json.dumps(v1))

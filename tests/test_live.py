@@ -127,21 +127,28 @@ def test_update_json_has_numbers_only(streamed) -> None:
 
 
 class _LinearModel:
-    """A regression model f = 2 λ + 0.5 ω with predictive std 0.1 (for propagation)."""
+    """A duck-typed regression model (refused by the estimator's until_std check only)."""
 
     kind = "regression"
     targets = ("height_mm",)
 
-    def predict(self, X):
-        X = np.asarray(X, dtype=float)
-        return {"height_mm": (2.0 * X[:, 0] + 0.5 * X[:, 1], np.full(len(X), 0.1))}
-
 
 def test_property_std_adds_the_fit_std() -> None:
-    out = predict_with_fit_std(_LinearModel(), 0.2, 0.03, 14.0, 0.2)
+    """A model of f = 2 λ + 0.5 ω: std² = model std² + (2 σλ)² + (0.5 σω)² (delta method)."""
+    from liquidtouch.models.property_model import train_regression
+
+    rng = np.random.default_rng(0)
+    X = np.column_stack([rng.uniform(0.1, 0.4, 40), rng.uniform(12.0, 16.0, 40)])
+    model = train_regression(X, {"height_mm": 2.0 * X[:, 0] + 0.5 * X[:, 1]}, "quadratic")
+    ((_, model_std),) = model.predict([[0.2, 14.0]]).values()
+    out = predict_with_fit_std(model, 0.2, 0.03, 14.0, 0.2)
     mean, std = out["height_mm"]
     assert mean == pytest.approx(2 * 0.2 + 0.5 * 14.0)
-    assert std == pytest.approx(math.sqrt(0.1**2 + (2 * 0.03) ** 2 + (0.5 * 0.2) ** 2))
+    expected = math.sqrt(model_std[0] ** 2 + (2 * 0.03) ** 2 + (0.5 * 0.2) ** 2)
+    assert std == pytest.approx(expected, rel=1e-6)
+    assert predict_with_fit_std(model, 0.2, math.nan, 14.0, 0.0)["height_mm"][1] == pytest.approx(
+        model_std[0]
+    )
 
 
 def test_window_std_falls_with_the_efoldings_seen() -> None:

@@ -114,7 +114,14 @@ def test_property_model_params_round_trip_and_repr(sugar) -> None:
     targets = {"height_mm": train["height_mm"], "sugar_concentration": train["sugar_concentration"]}
     model = lt.train_regression(X, targets, "quadratic")
     params = model.get_params()
-    assert list(params) == ["regressors", "classifier", "label", "feature_map", "domain"]
+    assert list(params) == [
+        "regressors",
+        "classifier",
+        "label",
+        "feature_map",
+        "domain",
+        "calibration",
+    ]
     assert params == model.get_params(deep=False)
     again = lt.PropertyModel(**params)
     assert again.get_params() == params

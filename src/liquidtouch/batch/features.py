@@ -53,7 +53,7 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 #: Bump when extraction or fitting changes in a way that changes features.
-FEATURES_VERSION = 4
+FEATURES_VERSION = 5
 #: ``wrench-best-effort``: the wrist fit even where it shows no oscillation (the paper's baseline)
 SOURCES = ("gelsight", "wrench", "wrench-best-effort")
 #: The measured columns of a feature row (after the manifest's): the two model
@@ -64,6 +64,8 @@ FEATURE_ROW_COLUMNS = (
     "fast_angular_frequency",
     "decay_rate_std",
     "angular_frequency_std",
+    "damping_gain",
+    "damping_gain_std",
     "r2",
     "explained_variance",
     "n_markers",

@@ -100,9 +100,29 @@ def train(
     out: Path = typer.Option(..., *options.OUT, help="Model file to write (JSON)."),
     split: TrainSplit = None,
     where: TrainWhere = None,
+    calibration_folds: int = typer.Option(
+        10,
+        "--calibration-folds",
+        min=0,
+        help="Calibrate each target's std and intervals by K-fold cross-conformal on the "
+        "training rows (K more fits per target; 0: no calibration, std not calibrated). "
+        "Fewer rows than K: leave-one-out.",
+    ),
+    calibration_group: str | None = typer.Option(
+        None,
+        "--calibration-group",
+        help="Column whose rows the calibration holds out together, so that each row is "
+        "predicted by a model that never saw its value (default: height_mm when the table "
+        "has it: a new trial comes at a new fill height; 'none': every row alone).",
+        show_default=False,
+    ),
     as_json: options.Json = False,
 ) -> None:
-    """Train one regressor per --target on a features table and save them in one model file."""
+    """Train one regressor per --target on a features table and save them in one model file.
+
+    The model's std and --level intervals are calibrated on the training rows
+    (cross-conformal, scores normalised by the model's std; stored in the file).
+    """
     from liquidtouch._core.numbers import number
     from liquidtouch._core.progress import progress_bar
     from liquidtouch.io.tables import numeric_column
@@ -115,7 +135,11 @@ def train(
     table, X, rest, chosen = split_rows(table, X, split, where, features)
     targets = {t: numeric_column(table, t) for t in dict.fromkeys(target)}
     with progress_bar(f"training {kind}", len(targets)) as advance:
-        fitted = train_regression(X, targets, kind, advance)
+        folds = None if calibration_folds == 0 else max(calibration_folds, 2)
+        groups = calibration_groups(table, calibration_group)
+        fitted = train_regression(
+            X, targets, kind, advance, calibration_folds=folds, calibration_groups=groups
+        )
     held_out = None if rest is None else regression_errors(fitted, rest, list(targets))
     save_model(fitted, out)
     if as_json:
@@ -132,6 +156,10 @@ def train(
                     "training_mae": fitted.training_mae(),
                     "held_out": held_out,
                     "models": {t: r.describe() for t, r in fitted.regressors.items()},
+                    "calibration": {
+                        t: {"n_folds": c.n_folds, "n_rows": c.n, "std_scale": c.std_scale}
+                        for t, c in fitted.calibration.items()
+                    },
                 }
             )
         )
@@ -148,6 +176,23 @@ def train(
             ]
             or [["(no labelled rows)", "0", "", ""]],
         )
+
+
+def calibration_groups(table: Any, column: str | None) -> Any:
+    """The calibration's groups: ``column``'s values (default ``height_mm`` if present)."""
+    from liquidtouch.errors import TableError
+
+    if column is not None and column.strip().lower() == "none":
+        return None
+    name = column or "height_mm"
+    if name not in table.columns:
+        if column is None:
+            return None
+        raise TableError(f"--calibration-group {column!r}: no such column in the training table")
+    values = table[name]
+    if values.isna().any():
+        raise TableError(f"--calibration-group {name}: the column has empty values")
+    return values.astype(str).to_numpy()
 
 
 def classify(

@@ -47,6 +47,13 @@ def predict(
     band_high_hz: options.BandHigh = options.DEFAULT_BAND_HIGH_HZ,
     noise: options.Noise = options.DEFAULT_NOISE,
     start: options.Start = None,
+    level: float | None = typer.Option(
+        None,
+        "--level",
+        help="Add predicted_<target>_lower and _upper: the calibrated interval that holds the "
+        "truth with this probability (0 < LEVEL < 1, e.g. 0.9; regression models).",
+        show_default=False,
+    ),
 ) -> None:
     """Predict properties (mean and std) or the liquid (with probabilities) for each row.
 
@@ -55,19 +62,42 @@ def predict(
     oscillation fit's); they do not change a features CSV. Rows whose feature
     extraction failed are kept with empty predictions (a warning per row); rows
     outside the model's training domain are flagged in the ``out_of_domain``
-    column (and a warning): their predictions are extrapolations. --json prints
+    column (and a warning): their predictions are extrapolations. The std (and
+    --level's interval) is calibrated on the model's training rows and includes the
+    fit's λ and ω std (decay_rate_std, angular_frequency_std) propagated through
+    the model. --json prints
     the counts, the output path (or the rows) as one JSON object.
     """
     import numpy as np
 
     from liquidtouch._core import atomic
     from liquidtouch.batch.inputs import read_prediction_input
+    from liquidtouch.errors import TableError
     from liquidtouch.io.tables import feature_matrix
+    from liquidtouch.models.conformal import min_rows_for_level
     from liquidtouch.models.feature_rows import error_messages, failed_rows, row_list
     from liquidtouch.models.modelfile import load_model
 
     settings = options.fit_settings(loss, model, band_low_hz, band_high_hz, noise, start)
     fitted = load_model(model_file)
+    if level is not None:
+        if fitted.kind != "regression":
+            raise TableError("--level needs a regression model (from train), not a classifier")
+        need = min_rows_for_level(level)
+        for target in fitted.targets:
+            cal = fitted.calibration.get(target)
+            if cal is None:
+                raise TableError(
+                    f"--level: the model has no interval calibration for {target} (an older "
+                    f"model file, or --calibration-folds 0); retrain it with `liquidtouch "
+                    f"train` on at least {need} rows"
+                )
+            cal.quantile(level)  # refuses a calibration on too few rows, before extracting
+    elif fitted.kind == "regression" and not fitted.calibrated:
+        warn(
+            "the model's std is not calibrated (an older model file or --calibration-folds 0); "
+            "retrain it with `liquidtouch train` for a calibrated std and --level"
+        )
     table = read_prediction_input(
         input_path,
         jobs=jobs,
@@ -86,7 +116,7 @@ def predict(
             who = f"trial {table['trial'].iloc[i]}" if "trial" in table.columns else f"row {i + 1}"
             warn(f"{who}: {messages.iloc[i] or 'empty decay_rate or angular_frequency'}")
     good = table[~failed]
-    predicted = fitted.predict_table(good)
+    predicted = fitted.predict_table(good, level=level)
     result = table.copy()
     for column in predicted.columns:
         if column not in table.columns or column.startswith(("predicted_", "probability_")):
@@ -111,6 +141,8 @@ def predict(
             "n_predicted": int((~failed).sum()),
             "n_failed": int(failed.sum()),
             "n_out_of_domain": int(outside.sum()),
+            "level": level,
+            "calibrated": fitted.kind == "regression" and fitted.calibrated,
             "failed_rows": [int(i) + 1 for i in np.flatnonzero(failed)],
         }
         if out is None:  # the predictions themselves, NaN as null

@@ -22,6 +22,7 @@ import pandas as pd
 from liquidtouch.batch.features import extract_features
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.experiments import (
+    calibration,
     classification,
     containers,
     data_efficiency,
@@ -231,6 +232,8 @@ def run_experiments(
                  seed=seed),
         _attempt("transfer", "7. Container transfer", transfer.run, sugar_gpr, cuboid, out,
                  seed=seed),
+        _attempt("calibration", "8. Calibration of the ± values (ours)", calibration.run,
+                 sugar_table, features["other-liquids"]["gelsight"], out),
     ]  # fmt: skip
     return results
 

@@ -19,8 +19,12 @@ window's length, in e-foldings of the decay and in seconds — the damping of a 
 not exactly exponential, so the fit's std alone claims a precision a short
 window does not have (simulated water: the first λ emitted was 38 % off the
 final one while its std claimed 6 %). The final update keeps the final fit's
-std. Properties are predicted once both are reported, with the std propagated
-(:mod:`liquidtouch.live.properties`).
+std. Properties do not wait for these gates: a regression model's targets are
+predicted from every fit, the λ and ω std propagated and added to the model's
+calibrated std (:mod:`liquidtouch.live.properties`), and a target with an
+``until_std`` threshold is reported once its std meets it (so a height that
+depends on ω answers before λ's std is below 10 %). A classifier's probabilities
+wait until λ and ω are both reported.
 """
 
 from __future__ import annotations
@@ -147,7 +151,8 @@ class LiveEstimator:
     model : a :class:`~liquidtouch.models.property_model.PropertyModel`, optional: a
         regression model adds ``predicted`` properties with their std, a liquid
         classifier ``classified`` probabilities (no std, so no ``until_std`` target).
-    until_std : ``{target: std}`` thresholds (checked here; used by the caller's stop rule).
+    until_std : ``{target: std}`` thresholds (checked here; used by the caller's stop rule);
+        a model target is reported once its std meets its threshold.
     lowpass_hz, n_markers : as :func:`~liquidtouch.signal.tactile_signal`.
     fit_settings : the final fit's settings (default: ``extract``'s).
     refresh_s : stream time between refreshes [s].
@@ -175,6 +180,7 @@ class LiveEstimator:
         self.model_kind = check_live_model(model) if model is not None else ""
         self.targets = list(model.targets) if self.model_kind == "regression" else []
         check_until_std(dict(until_std or {}), self.targets)
+        self.until_std = dict(until_std or {})
         if not 0 < float(refresh_s) < math.inf:
             raise VideoError(f"refresh_s must be a time > 0 in seconds, got {refresh_s!r}")
         self.model = model
@@ -515,12 +521,19 @@ class LiveEstimator:
                 update.angular_frequency, update.angular_frequency_std = omega, omega_std
             if show_lam:
                 update.decay_rate, update.decay_rate_std = lam, lam_std
-            if self.model is not None and show_omega and show_lam:
-                features = (lam, lam_std, omega, omega_std)
-                if self.model_kind == "regression":
-                    update.predicted = predict_with_fit_std(self.model, *features)
-                else:
-                    update.classified = classify_with_fit_std(self.model, *features)
+            features = (lam, lam_std, omega, omega_std)
+            if self.model_kind == "regression":
+                # no λ/ω gate: a property is as good as its own propagated std says (a
+                # height that hangs on ω answers before λ is known to 10 %); a target
+                # with an until_std threshold is reported once its std meets it
+                predicted = predict_with_fit_std(self.model, *features)
+                update.predicted = {
+                    t: (mean, std)
+                    for t, (mean, std) in predicted.items()
+                    if final or std <= self.until_std.get(t, math.inf)
+                }
+            elif self.model is not None and show_omega and show_lam:
+                update.classified = classify_with_fit_std(self.model, *features)
         if math.isfinite(due_s):
             update.lag_s = time.monotonic() - due_s
         return update

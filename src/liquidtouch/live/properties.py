@@ -1,22 +1,22 @@
 """Properties from a streaming fit: the model's prediction with the fit's uncertainty in it.
 
 A :class:`~liquidtouch.models.property_model.PropertyModel` predicts each target
-from the features (λ [1/s], ω [rad/s]) with its own predictive std, as if the
-features were exact. Early in a stream they are not, so the fit's λ and ω std
-are propagated through the model by central differences one std either side
-(a linearisation whose step is the uncertainty itself, so curvature over that
-range counts) and added in quadrature::
+from the features (λ [1/s], ω [rad/s]) with its own (calibrated) predictive std.
+Early in a stream the features are far from exact, so their streamed std is
+propagated through the model and its variance added — by
+:meth:`PropertyModel.predict` itself (``X_std``; the delta method of
+:mod:`liquidtouch.models.propagation`, one implementation for ``predict``, the
+live estimate and the benchmarks)::
 
-    var = std_model(λ, ω)² + ((f(λ+σλ, ω) − f(λ−σλ, ω)) / 2)² + ((f(λ, ω+σω) − f(λ, ω−σω)) / 2)²
+    var = (s · std_model(λ, ω))² + dλ² + dω²,  dλ = (f(λ+σλ, ω) − f(λ−σλ, ω)) / 2, ...
 
-treating λ and ω as independent (the fit reports their std only). One call of
-``PropertyModel.predict`` on five rows: the cost does not grow with the targets.
+treating λ and ω as independent (the fit reports their std only).
 
 A liquid classifier gives class probabilities instead
-(:func:`classify_with_fit_std`): the mean of its probabilities at the same five
-points — the centre weighted 1/3, each ±1σ point 1/6 (the sigma points of a
-Gaussian in two dimensions) — so an uncertain λ spreads the probability over
-the classes it could belong to.
+(:func:`classify_with_fit_std`): the mean of its probabilities at five points
+(λ, ω), λ ± σλ, ω ± σω — the centre weighted 1/3, each ±1σ point 1/6 (the sigma
+points of a Gaussian in two dimensions) — so an uncertain λ spreads the
+probability over the classes it could belong to.
 """
 
 from __future__ import annotations
@@ -26,10 +26,7 @@ import math
 import numpy as np
 
 from liquidtouch.errors import ModelFileError
-
-#: λ below the central-difference step is clipped to this [1/s] (λ must stay > 0)
-MIN_DECAY_RATE = 1e-6
-
+from liquidtouch.models.propagation import MIN_DECAY_RATE
 
 #: weights of the five points (centre, λ ± σλ, ω ± σω) in a classifier's mean probabilities
 SIGMA_POINT_WEIGHTS = np.array([1 / 3, 1 / 6, 1 / 6, 1 / 6, 1 / 6])
@@ -77,17 +74,12 @@ def predict_with_fit_std(
 
     A NaN std of λ or ω counts as 0 (that feature's uncertainty is left out).
     """
-    rows = _five_rows(
-        float(decay_rate), _std_or_zero(decay_rate_std),
-        float(angular_frequency), _std_or_zero(angular_frequency_std),
-    )  # fmt: skip
-    out = {}
-    for target, (mean, std) in model.predict(rows).items():
-        mean = np.asarray(mean, dtype=float)
-        spread = 0.5 * (mean[1] - mean[2]), 0.5 * (mean[3] - mean[4])
-        total = math.sqrt(float(np.asarray(std)[0]) ** 2 + spread[0] ** 2 + spread[1] ** 2)
-        out[target] = (float(mean[0]), total)
-    return out
+    X = np.array([[float(decay_rate), float(angular_frequency)]])
+    X_std = np.array([[_std_or_zero(decay_rate_std), _std_or_zero(angular_frequency_std)]])
+    return {
+        target: (float(mean[0]), float(std[0]))
+        for target, (mean, std) in model.predict(X, X_std).items()
+    }
 
 
 def classify_with_fit_std(

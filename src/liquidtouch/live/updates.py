@@ -42,9 +42,10 @@ class LiveUpdate:
     decay_rate, decay_rate_std : λ and its std [1/s]; NaN until supported (the
         emission rule of :mod:`liquidtouch.live.estimator`).
     angular_frequency, angular_frequency_std : ω and its std [rad/s]; NaN until supported.
-    predicted : ``{target: (mean, std)}`` of the model (empty without a model or
-        until both λ and ω are supported); the std combines the model's
-        predictive std and the fit's λ/ω std propagated through the model.
+    predicted : ``{target: (mean, std)}`` of the model (empty without a model or a
+        fit; a target with an ``until_std`` threshold only once its std meets it);
+        the std combines the model's calibrated predictive std and the fit's λ/ω
+        std propagated through the model.
     classified : ``{label column: (class, {class: probability})}`` of a liquid
         classifier (empty without one or until both λ and ω are supported); the
         probabilities average the classifier's over λ, ω ± their std.

@@ -11,7 +11,8 @@ parsing, and :data:`~liquidtouch.models.kernel_limits.MAX_KERNEL_ROWS` training 
 per GP or SVM, :data:`~liquidtouch.models.kernel_limits.MAX_KERNEL_ROWS_TOTAL` per
 file, checked before refitting). Version 1 files (no ``sha256``, ``provenance``,
 ``domain``) still load; their training domain is derived from their training
-data. The format is described in ``docs/formats.md``.
+data. Version 2 files (no ``calibration``) load uncalibrated: ``predict`` warns
+and refuses ``--level``. The format is described in ``docs/formats.md``.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from liquidtouch._core import atomic
 from liquidtouch.errors import LiquidTouchError, ModelFileError
 from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.models.classifier import LiquidClassifier
+from liquidtouch.models.conformal import TargetCalibration
 from liquidtouch.models.feature_space import FeatureMap, TrainingDomain
 from liquidtouch.models.modelfile_checks import (
     document_sha256,
@@ -102,6 +104,7 @@ def model_to_dict(model: PropertyModel) -> dict[str, Any]:
         },
         "regressors": states["regressors"],
         "classifier": states["classifier"],
+        "calibration": {t: c.to_state() for t, c in model.calibration.items()},
     }
     try:
         # plain JSON types (numpy scalars, tuples -> lists), as a reader will see them
@@ -183,6 +186,10 @@ def model_from_dict(doc: Any, where: str = "model") -> PropertyModel:
                 regressors={t: regressors[t] for t in data.targets},
                 feature_map=fmap,
                 domain=_domain(data, regressors),
+                calibration={
+                    t: TargetCalibration.from_state(c.model_dump())
+                    for t, c in data.calibration.items()
+                },
             )
     except ModelFileError:
         raise

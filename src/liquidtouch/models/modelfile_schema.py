@@ -12,6 +12,8 @@ are embedded as lists; JSON floats round-trip exactly)::
      "domain": {"decay_rate": [min, max], "angular_frequency": [min, max], "margin": 0.1},
      "regressors": {target: {"model": "gpr" | "physics-gpr" | "quadratic", ...}},
      "classifier": {"model": "svm", "C": ..., "gamma": ..., ...} | null,
+     "calibration": {target: {"method": "cross-conformal", "n_folds": K,
+                              "random_state": 0, "scores": [...]}},
      "sha256": ...}
 
 Each estimator stores its hyperparameters (GP kernel: constant, RBF length
@@ -29,8 +31,9 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from liquidtouch.io.tables import FEATURE_COLUMNS
 
 FORMAT_NAME = "liquidtouch-model"
-#: Version 2 adds ``sha256``, ``provenance`` and ``domain``; version 1 files still load.
-FORMAT_VERSION = 2
+#: Version 2 adds ``sha256``, ``provenance`` and ``domain``; version 3 ``calibration``
+#: (cross-conformal scores per target). Versions 1 and 2 still load (uncalibrated).
+FORMAT_VERSION = 3
 
 PositiveFloat = Annotated[float, Field(gt=0)]
 Sha256 = Annotated[str, Field(pattern=r"^[0-9a-f]{64}$")]
@@ -133,6 +136,13 @@ class DomainState(_Strict):
         return self
 
 
+class CalibrationState(_Strict):
+    method: Literal["cross-conformal"]
+    n_folds: int = Field(ge=2)
+    random_state: int = 0
+    scores: list[Annotated[float, Field(ge=0)]] = Field(min_length=2)
+
+
 class ProvenanceState(_Strict):
     liquidtouch: str
     scikit_learn: str
@@ -159,6 +169,7 @@ class ModelFile(_Strict):
     domain: DomainState | None = None
     regressors: dict[str, RegressorState] = {}
     classifier: SVMState | None = None
+    calibration: dict[str, CalibrationState] = {}
     sha256: Sha256 | None = None
 
     @model_validator(mode="after")
@@ -172,6 +183,17 @@ class ModelFile(_Strict):
                 )
         elif self.classifier is None or self.regressors:
             raise ValueError("a classification model needs a classifier and no regressors")
+        unknown = sorted(set(self.calibration) - set(self.regressors))
+        if unknown:
+            raise ValueError(f"calibration of {', '.join(unknown)}: not a regressor's target")
+        for target, cal in self.calibration.items():
+            n_rows = len(self.regressors[target].X_train)
+            if len(cal.scores) != n_rows:
+                raise ValueError(
+                    f"calibration of {target}: {len(cal.scores)} scores for {n_rows} training rows"
+                )
+        if self.calibration and self.format_version < 3:
+            raise ValueError("calibration needs format version 3")
         if self.format_version >= 2:
             missing = [n for n in ("provenance", "sha256") if getattr(self, n) is None]
             if missing:

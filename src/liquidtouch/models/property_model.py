@@ -21,6 +21,12 @@ import pandas as pd
 from liquidtouch.errors import TableError
 from liquidtouch.io.tables import FEATURE_COLUMNS, feature_matrix
 from liquidtouch.models.classifier import LiquidClassifier
+from liquidtouch.models.conformal import (
+    DEFAULT_FOLDS,
+    TargetCalibration,
+    calibrate_regressor,
+    calibration_folds,
+)
 from liquidtouch.models.feature_space import (
     FeatureMap,
     TrainingDomain,
@@ -28,6 +34,7 @@ from liquidtouch.models.feature_space import (
 )
 from liquidtouch.models.kernel_limits import MAX_KERNEL_ROWS_TOTAL, check_kernel_rows
 from liquidtouch.models.physics_prior import PhysicsGPRegressor, prior_for_target
+from liquidtouch.models.propagation import clean_feature_std, propagated_variance
 from liquidtouch.models.quadratic import QuadraticRegressor
 from liquidtouch.models.regressors import GPRegressor
 from liquidtouch.models.validation import check_features
@@ -35,7 +42,9 @@ from liquidtouch.models.validation import check_features
 __all__ = [
     "MODEL_KINDS",
     "REGRESSORS",
+    "STD_COLUMNS",
     "PropertyModel",
+    "can_calibrate",
     "make_regressor",
     "train_classifier",
     "train_regression",
@@ -48,6 +57,9 @@ REGRESSORS: dict[str, type] = dict(
     zip(MODEL_KINDS, (GPRegressor, QuadraticRegressor, PhysicsGPRegressor), strict=True)
 )
 
+#: the features' std columns of a feature table (the fit's standard errors), propagated
+STD_COLUMNS: tuple[str, str] = ("decay_rate_std", "angular_frequency_std")
+
 
 class PropertyModel:
     """Regressors (one per target column) or a classifier, plus an optional feature map.
@@ -56,6 +68,13 @@ class PropertyModel:
     fitted single-target estimators, each trained on the two features
     ``FEATURE_COLUMNS`` (λ [1/s], ω [rad/s]). :meth:`predict` returns
     ``{target: (mean, std)}``.
+
+    ``calibration`` maps targets to their cross-conformal
+    :class:`~liquidtouch.models.conformal.TargetCalibration` (``train`` adds it):
+    the predicted std is then calibrated (``s · σ̂``), and :meth:`predict_interval`
+    answers any level. Without it the std is the estimator's own (not calibrated).
+    The fit's (λ, ω) std given to :meth:`predict` is propagated through the model
+    (:mod:`liquidtouch.models.propagation`) and its variance added.
 
     ``domain`` is the :class:`TrainingDomain`; by default the box of the
     estimators' training features (``X_train_``) with :data:`DOMAIN_MARGIN`, or
@@ -68,7 +87,7 @@ class PropertyModel:
     """
 
     #: the constructor's parameters, in its order (what :meth:`get_params` returns)
-    _PARAMS = ("regressors", "classifier", "label", "feature_map", "domain")
+    _PARAMS = ("regressors", "classifier", "label", "feature_map", "domain", "calibration")
 
     def __init__(
         self,
@@ -77,6 +96,7 @@ class PropertyModel:
         label: str | None = None,
         feature_map: FeatureMap | None = None,
         domain: TrainingDomain | None = None,
+        calibration: Mapping[str, TargetCalibration] | None = None,
     ) -> None:
         if bool(regressors) == (classifier is not None):
             raise TableError("a PropertyModel holds either regressors or a classifier")
@@ -93,6 +113,14 @@ class PropertyModel:
                     f"the estimator for {target!r} must be fitted on the "
                     f"{len(FEATURE_COLUMNS)} features ({', '.join(FEATURE_COLUMNS)})"
                 )
+        calibration = dict(calibration or {})
+        for target, cal in calibration.items():
+            if target not in (regressors or {}) or not isinstance(cal, TargetCalibration):
+                raise TableError(
+                    f"calibration of {target!r}: a TargetCalibration of one of the regressors' "
+                    "targets is needed"
+                )
+        self.calibration = calibration
         self.regressors = dict(regressors or {})
         self.classifier = classifier
         self.label = label
@@ -117,6 +145,7 @@ class PropertyModel:
             "label": self.label,
             "feature_map": self.feature_map,
             "domain": self.domain,
+            "calibration": dict(self.calibration),
         }
 
     def set_params(self, **params: Any) -> PropertyModel:
@@ -197,12 +226,69 @@ class PropertyModel:
         (a, b), (c, d) = bounds
         return f"λ in [{a:.4g}, {b:.4g}] 1/s, ω in [{c:.4g}, {d:.4g}] rad/s"
 
-    def predict(self, X: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-        """Regression: ``{target: (mean, std)}`` at the (n, 2) features ``X``."""
+    @property
+    def calibrated(self) -> bool:
+        """Whether every target's std is calibrated (a regression model from ``train``)."""
+        return bool(self.regressors) and set(self.calibration) == set(self.regressors)
+
+    def _predict_parts(
+        self, X: Any, X_std: Any = None, corr: Any = 0.0
+    ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """``{target: (mean, calibrated model std, propagated fit std)}``."""
         if self.classifier is not None:
             raise TableError("this is a classification model; use predict_proba / predict_table")
+        X = check_features(X)
+        X_std = clean_feature_std(X_std, X.shape[0])
         Xm = self._mapped(X)
-        return {t: r.predict(Xm, return_std=True) for t, r in self.regressors.items()}
+        out = {}
+        raw = {t: r.predict(Xm, return_std=True) for t, r in self.regressors.items()}
+        if np.any(X_std > 0):
+
+            def means(rows: np.ndarray) -> dict[str, np.ndarray]:
+                return {t: r.predict(self._mapped(rows)) for t, r in self.regressors.items()}
+
+            _, fit_var = propagated_variance(means, X, X_std, corr)
+        else:
+            fit_var = {t: np.zeros(X.shape[0]) for t in self.regressors}
+        for t, (mean, std) in raw.items():
+            scale = self.calibration[t].std_scale if t in self.calibration else 1.0
+            out[t] = (np.asarray(mean), scale * np.asarray(std), np.sqrt(fit_var[t]))
+        return out
+
+    def predict(
+        self, X: Any, X_std: Any = None, corr: Any = 0.0
+    ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """Regression: ``{target: (mean, std)}`` at the (n, 2) features ``X`` (λ [1/s], ω [rad/s]).
+
+        ``X_std``: (n, 2) std of the features (NaN or ``None``: exact), ``corr`` their
+        correlation; std² = (calibrated) model variance + propagated feature variance.
+        """
+        return {
+            t: (mean, np.hypot(model_std, fit_std))
+            for t, (mean, model_std, fit_std) in self._predict_parts(X, X_std, corr).items()
+        }
+
+    def predict_interval(
+        self, X: Any, level: float, X_std: Any = None, corr: Any = 0.0
+    ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """``{target: (lower, upper)}``: the calibrated level-``level`` interval (0 < level < 1).
+
+        ``mean ± (q_level / s) · std`` (:mod:`liquidtouch.models.conformal`). Raises
+        :class:`TableError` for a model without calibration or calibrated on too few rows.
+        """
+        if self.classifier is None:
+            missing = [t for t in self.regressors if t not in self.calibration]
+            if missing:
+                raise TableError(
+                    f"the model has no interval calibration for {', '.join(missing)} "
+                    "(a model file of an older liquidtouch, or trained on too few rows to "
+                    "calibrate); retrain it with `liquidtouch train`"
+                )
+            half = {t: self.calibration[t].half_width(level) for t in self.regressors}
+        out = {}
+        for t, (mean, std) in self.predict(X, X_std, corr).items():
+            out[t] = (mean - half[t] * std, mean + half[t] * std)
+        return out
 
     def predict_proba(self, X: Any) -> tuple[np.ndarray, np.ndarray]:
         """Classification: ``(predicted class, probabilities (n, n_classes))``."""
@@ -211,8 +297,13 @@ class PropertyModel:
         proba = self.classifier.predict_proba(self._mapped(X))
         return self.classifier.classes_[np.argmax(proba, axis=1)], proba
 
-    def predict_table(self, table: pd.DataFrame) -> pd.DataFrame:
-        """``table`` plus predicted columns (and their std, or class probabilities)."""
+    def predict_table(self, table: pd.DataFrame, level: float | None = None) -> pd.DataFrame:
+        """``table`` plus predicted columns (and their std, or class probabilities).
+
+        The table's :data:`STD_COLUMNS` (the fit's std), when present, are propagated
+        into ``predicted_<target>_std``. ``level``: add ``predicted_<target>_lower`` and
+        ``_upper``, the calibrated interval (:meth:`predict_interval`).
+        """
         X = feature_matrix(table)
         out = table.copy()
         if self.classifier is not None:
@@ -221,9 +312,16 @@ class PropertyModel:
             for j, name in enumerate(self.classifier.classes_):
                 out[f"probability_{name}"] = proba[:, j]
             return out
-        for target, (mean, std) in self.predict(X).items():
+        X_std = None
+        if all(c in table.columns for c in STD_COLUMNS):
+            X_std = table[list(STD_COLUMNS)].apply(pd.to_numeric, errors="coerce").to_numpy(float)
+        bounds = {} if level is None else self.predict_interval(X, level, X_std)
+        for target, (mean, std) in self.predict(X, X_std).items():
             out[f"predicted_{target}"] = mean
             out[f"predicted_{target}_std"] = std
+            if target in bounds:
+                out[f"predicted_{target}_lower"] = bounds[target][0]
+                out[f"predicted_{target}_upper"] = bounds[target][1]
         return out
 
     def training_mae(self) -> dict[str, float]:
@@ -251,6 +349,15 @@ class PropertyModel:
                 f"{target}: {reg.X_train_.shape[0]} rows, training MAE "
                 f"{fit_quality[target]:.4g}; {reg.describe()}"
             )
+            cal = self.calibration.get(target)
+            if cal is not None:
+                lines.append(
+                    f"  calibration: {cal.n_folds}-fold cross-conformal on {cal.n} rows; "
+                    f"std scale {cal.std_scale:.3g} (the model's std × this covers 68 % of "
+                    "held-out rows)"
+                )
+            else:
+                lines.append("  calibration: none (its std is not calibrated)")
         if not self.feature_map.is_identity:
             a, b = self.feature_map.alpha, self.feature_map.beta
             lines.append(
@@ -279,11 +386,18 @@ def train_regression(
     targets: Mapping[str, Any],
     model: str = "gpr",
     progress: Callable[[str], None] | None = None,
+    calibration_folds: int | None = None,
+    calibration_groups: Any = None,
 ) -> PropertyModel:
     """Fit one regressor of kind ``model`` per target; ``targets`` maps column → values.
 
     ``X`` is the (n, 2) array of (λ [1/s], ω [rad/s]); each target has n finite
     values. ``progress(target)`` is called after each target (for progress bars).
+    ``calibration_folds`` K: also calibrate each target's std and intervals by K-fold
+    cross-conformal (:func:`~liquidtouch.models.conformal.calibrate_regressor`; K more
+    fits per target), when every fold keeps the estimator's minimum of rows; ``None``:
+    no calibration. ``calibration_groups`` (n,): rows held out together (e.g. the fill
+    height of each row: a row is then predicted by a model that never saw its height).
     Raises :class:`TableError` for bad input, before any fitting.
     """
     if model not in REGRESSORS:
@@ -309,12 +423,30 @@ def train_regression(
             raise TableError(f"target {target}: {X.shape[0]} feature rows but {n_y} values")
         if model == "physics-gpr":
             prior_for_target(target)  # an unknown target fails before the first (slow) fit
-    regressors = {}
+    regressors, calibration = {}, {}
     for target, y in targets.items():
         regressors[target] = make_regressor(model, target).fit(X, y)
+        if calibration_folds is not None and can_calibrate(
+            model, X.shape[0], calibration_folds, calibration_groups
+        ):
+            calibration[target] = calibrate_regressor(
+                make_regressor(model, target), X, y, calibration_folds, groups=calibration_groups
+            )
         if progress is not None:
             progress(target)
-    return PropertyModel(regressors=regressors)
+    return PropertyModel(regressors=regressors, calibration=calibration)
+
+
+def can_calibrate(
+    model: str, n_rows: int, n_folds: int = DEFAULT_FOLDS, groups: Any = None
+) -> bool:
+    """Whether every cross-conformal fold leaves the estimator its minimum of training rows."""
+    try:
+        folds = calibration_folds(int(n_rows), int(n_folds), groups)
+    except TableError:
+        return False
+    need = getattr(REGRESSORS[model], "min_rows", 7)
+    return all(len(train) >= need for train, _ in folds)
 
 
 def train_classifier(X: Any, labels: Any, label: str = "liquid") -> PropertyModel:

@@ -142,7 +142,10 @@ def fit_transfer(
     theta = min(fits, key=lambda fit: fit.cost).x
     new_map = FeatureMap((float(theta[0]), float(theta[1])), (float(theta[2]), float(theta[3])))
     transferred = PropertyModel(
-        regressors=model.regressors, feature_map=inner.then(new_map), domain=model.domain
+        regressors=model.regressors,
+        feature_map=inner.then(new_map),
+        domain=model.domain,
+        calibration=model.calibration,  # the source container's: not re-measured here
     )
     return TransferResult(
         model=transferred,
