@@ -118,6 +118,10 @@ def record(
             grey=not colour,
             on_progress=on_progress,
         )
+    from liquidtouch.cli.format import warn
+
+    for message in summary.warnings:
+        warn(message)
     if as_json:
         typer.echo(json.dumps(summary.to_dict()))
         return

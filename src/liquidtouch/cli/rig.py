@@ -235,6 +235,10 @@ def run_trial_command(
             on_step=on_step,
         )
     summary = run.summary
+    from liquidtouch.cli.format import warn
+
+    for message in summary.warnings:
+        warn(message)
     result = {
         "trial": str(run.trial_dir),
         "push_start_s": run.push_start_s,

@@ -32,10 +32,22 @@ the GelSight SDK does), ``r15`` (640 × 480 at 30 fps), ``digit`` (320 × 240 at
 60 fps) and ``raw`` (frames as the camera gives them).
 
 **Nothing is hidden.** :class:`FrameStats` counts dropped frames (a gap between
-consecutive timestamps of more than 1.5 frame periods; a gap of g periods counts
-round(g) − 1 drops) and duplicated frames (a frame identical to the one before,
+consecutive timestamps of more than 1.5 measured frame periods; a gap of g periods
+counts round(g) − 1 drops) and duplicated frames (a frame identical to the one before,
 which a sensor with noise never produces; a driver repeating its buffer does).
 Duplicates are kept in the recording and counted.
+
+**What is kept can be read back.** Each camera's frames are kept in time order,
+at least :data:`MIN_FRAME_STEP_S` apart: a frame whose own clock (``X-Timestamp``,
+a driver's timestamp) steps back or stands still is re-anchored on its arrival
+time, counted in :attr:`Camera.reanchors` and logged as a warning. A camera whose
+frame size changes mid-capture fails (:class:`DeviceError`): a sensor's frames have
+one size, as ``extract`` requires.
+
+**Deadlines** bound whole calls, not single network reads: opening a stream
+(``open_timeout_s``, default :data:`DEFAULT_OPEN_TIMEOUT_S`), the warm-up
+(``warmup_timeout_s``, :data:`MAX_WARMUP_S`) and every read (``read_timeout_s``,
+:data:`DEFAULT_READ_TIMEOUT_S`), each at most :data:`MAX_TIMEOUT_S`.
 
 :class:`CaptureSession` reads each camera on its own :class:`CameraThread` into a
 queue, so a slow consumer never delays a camera's reads (and so its timestamps).
@@ -60,12 +72,15 @@ from liquidtouch.acquire.cameras.devices import (
     DEFAULT_READ_TIMEOUT_S,
     DEFAULT_WARMUP_FRAMES,
     DROP_GAP_PERIODS,
+    MAX_TIMEOUT_S,
     MAX_WARMUP_S,
+    MIN_FRAME_STEP_S,
     Camera,
     FileCamera,
     OpenCVCamera,
     SourceSpec,
     StreamEnded,
+    check_timeout,
 )
 from liquidtouch.acquire.cameras.mjpeg import MjpegCamera, MjpegStream, SenderClock
 from liquidtouch.acquire.cameras.profiles import PROFILES, CameraProfile, get_profile
@@ -82,7 +97,9 @@ __all__ = [
     "DEFAULT_WARMUP_FRAMES",
     "DROP_GAP_PERIODS",
     "END",
+    "MAX_TIMEOUT_S",
     "MAX_WARMUP_S",
+    "MIN_FRAME_STEP_S",
     "PROFILES",
     "SYSFS_VIDEO4LINUX",
     "Camera",
@@ -98,6 +115,7 @@ __all__ = [
     "SenderClock",
     "SourceSpec",
     "StreamEnded",
+    "check_timeout",
     "default_names",
     "get_profile",
     "open_camera",

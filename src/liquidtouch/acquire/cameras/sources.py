@@ -14,10 +14,12 @@ from liquidtouch.acquire.cameras.devices import (
     DEFAULT_OPEN_TIMEOUT_S,
     DEFAULT_READ_TIMEOUT_S,
     DEFAULT_WARMUP_FRAMES,
+    MAX_WARMUP_S,
     Camera,
     FileCamera,
     OpenCVCamera,
     SourceSpec,
+    check_timeout,
 )
 from liquidtouch.acquire.cameras.mjpeg import MjpegCamera
 from liquidtouch.acquire.cameras.profiles import CameraProfile, get_profile
@@ -102,17 +104,22 @@ def open_camera(
     warmup_frames: int | None = None,
     open_timeout_s: float = DEFAULT_OPEN_TIMEOUT_S,
     read_timeout_s: float = DEFAULT_READ_TIMEOUT_S,
+    warmup_timeout_s: float = MAX_WARMUP_S,
     speed: float = 1.0,
 ) -> Camera:
     """Open a camera source (see the module docstring) with a sensor ``profile``.
 
     ``warmup_frames`` frames are read and discarded after opening, then any frames
     that were waiting in buffers (default :data:`DEFAULT_WARMUP_FRAMES` for a live
-    camera or stream, 0 for a replayed file). ``open_timeout_s`` and
-    ``read_timeout_s`` bound the waits of network streams [s]; ``speed`` is the
-    replay speed of a video file. Raises :class:`DeviceError` if the source cannot
-    be opened or delivers no frames.
+    camera or stream, 0 for a replayed file). Deadlines for whole calls [s]:
+    ``open_timeout_s`` opening a network stream, ``warmup_timeout_s`` the whole
+    warm-up, ``read_timeout_s`` each frame later on. ``speed`` is the replay speed
+    of a video file. Raises :class:`DeviceError` if the source cannot be opened or
+    delivers no frames in time.
     """
+    open_timeout_s = check_timeout(open_timeout_s, "the camera open timeout")
+    read_timeout_s = check_timeout(read_timeout_s, "the camera read timeout")
+    warmup_timeout_s = check_timeout(warmup_timeout_s, "the camera warm-up timeout")
     prof = get_profile(profile)
     spec = parse_source(source)
     camera: Camera
@@ -130,7 +137,7 @@ def open_camera(
         warmup_frames = DEFAULT_WARMUP_FRAMES if camera.live else 0
     try:
         if warmup_frames or camera.live:
-            discarded = camera.warm_up(warmup_frames)
+            discarded = camera.warm_up(warmup_frames, warmup_timeout_s)
             logger.debug("camera %s: %d warm-up frames discarded", spec.text, discarded)
     except BaseException:
         camera.close()

@@ -39,10 +39,13 @@ from pathlib import Path
 
 from liquidtouch._core import atomic
 from liquidtouch.acquire.cameras import (
+    DEFAULT_OPEN_TIMEOUT_S,
     DEFAULT_READ_TIMEOUT_S,
+    MAX_WARMUP_S,
     Camera,
     CaptureSession,
     FrameStats,
+    check_timeout,
     default_names,
     get_profile,
     open_camera,
@@ -78,6 +81,8 @@ class Recorder:
     grey : store the luma only (default; what liquidtouch reads) or the BGR colour.
     warmup_frames : frames discarded after opening each camera (``None``: its default).
     read_timeout_s : a camera delivering no frame for this long [s] fails the recording.
+    open_timeout_s, warmup_timeout_s : deadlines [s] for opening a stream and for the
+        whole warm-up (:func:`~liquidtouch.acquire.cameras.open_camera`).
 
     Use :meth:`start`, :meth:`stop`, :meth:`finish` (or :meth:`abort`); or as a
     context manager, which aborts on any exception (Ctrl-C included) and finishes a
@@ -97,6 +102,8 @@ class Recorder:
         grey: bool = True,
         warmup_frames: int | None = None,
         read_timeout_s: float = DEFAULT_READ_TIMEOUT_S,
+        open_timeout_s: float = DEFAULT_OPEN_TIMEOUT_S,
+        warmup_timeout_s: float = MAX_WARMUP_S,
         speed: float = 1.0,
     ) -> None:
         self.sources = [str(s) for s in sources]
@@ -119,7 +126,9 @@ class Recorder:
         validate_meta({"fps": 30.0, **self.labels})
         self.grey = bool(grey)
         self.warmup_frames = warmup_frames
-        self.read_timeout_s = float(read_timeout_s)
+        self.read_timeout_s = check_timeout(read_timeout_s, "the camera read timeout")
+        self.open_timeout_s = check_timeout(open_timeout_s, "the camera open timeout")
+        self.warmup_timeout_s = check_timeout(warmup_timeout_s, "the camera warm-up timeout")
         self.speed = float(speed)
         self.out_dir = atomic.check_directory_target(out_dir)
         self.cameras: list[Camera] = []
@@ -148,6 +157,8 @@ class Recorder:
                         profile=self.profile,
                         warmup_frames=self.warmup_frames,
                         read_timeout_s=self.read_timeout_s,
+                        open_timeout_s=self.open_timeout_s,
+                        warmup_timeout_s=self.warmup_timeout_s,
                         speed=self.speed,
                     )
                 )
@@ -242,6 +253,8 @@ class Recorder:
             grey=self.grey,
         )
         self.check()
+        for warning in self.summary.warnings:
+            logger.warning("%s", warning)
         empty = [n for n, s in self.summary.sensors.items() if s.frames < 2]
         for name, s in self.summary.sensors.items():
             if s.lost:
