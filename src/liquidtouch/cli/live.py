@@ -20,6 +20,8 @@ from liquidtouch.cli import options
 
 #: frames published to the browser per sensor at most [Hz]
 SERVE_FRAME_HZ = 10.0
+#: longest --linger [s] (a day)
+MAX_LINGER_S = 86_400.0
 
 
 def register(app: typer.Typer) -> None:
@@ -80,9 +82,8 @@ def live(
         0.0,
         "--linger",
         metavar="SECONDS",
-        min=0.0,
-        help="With --serve: keep serving the final page this long after the stream ends [s] "
-        "(Ctrl-C ends it sooner).",
+        help="With --serve: keep serving the final page this long after the stream ends [s], "
+        "0 to 86400 (Ctrl-C ends it sooner).",
     ),
     fps: float | None = typer.Option(
         None,
@@ -91,7 +92,7 @@ def live(
         help="Frame rate of image folders without timestamps [Hz].",
         show_default=False,
     ),
-    lowpass_hz: options.Lowpass = options.DEFAULT_LOWPASS_HZ,
+    lowpass_hz: options.MarkerLowpass = options.DEFAULT_LOWPASS_HZ,
     n_markers: options.Markers = options.DEFAULT_MARKERS,
 ) -> None:
     """Estimate λ, ω (and, with --model, properties) while the frames come in.
@@ -99,8 +100,11 @@ def live(
     An estimate appears as soon as its std supports it; the stream stops at the end of
     the recording, after --max-duration, or once every --until-std target is met.
     """
+    from liquidtouch.errors import LiquidTouchError
     from liquidtouch.live import live_updates, parse_until_std
 
+    if not 0 <= linger_s <= MAX_LINGER_S:  # NaN and inf too
+        raise LiquidTouchError(f"--linger must be 0 to {MAX_LINGER_S:g} s, got {linger_s:g}")
     limits = parse_until_std(until_std)
     address = parse_serve(serve) if serve else None
     model = None

@@ -123,6 +123,11 @@ Lowpass = Annotated[
         "wrist forces).",
     ),
 ]
+MarkerLowpass = Annotated[
+    float,
+    typer.Option("--lowpass", metavar="HZ", help="Low-pass cut-off of the marker motion [Hz]."),
+]
+"""``--lowpass`` of the commands that only see markers (``live``)."""
 Markers = Annotated[
     int,
     typer.Option(

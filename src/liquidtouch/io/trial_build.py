@@ -19,6 +19,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from liquidtouch._core.checks import MAX_RATE_HZ
 from liquidtouch._core.progress import progress_bar
 from liquidtouch.clock import check_consistent
 from liquidtouch.errors import DatasetError
@@ -208,8 +209,11 @@ def check_fps(fps: float | None) -> float | None:
         value = float(fps)
     except (TypeError, ValueError):
         value = math.nan
-    if not 0 < value < math.inf:
-        raise DatasetError(f"the frame rate (--fps) must be a positive number in Hz, got {fps!r}")
+    if not 0 < value <= MAX_RATE_HZ:
+        raise DatasetError(
+            f"the frame rate (--fps) must be a positive number in Hz up to {MAX_RATE_HZ:g}, "
+            f"got {str(fps)[:40]}"
+        )
     return value
 
 
