@@ -122,7 +122,7 @@ def _wait(seconds: float, check: Callable[[], None], step_s: float = 0.05) -> No
         time.sleep(min(step_s, remaining))
 
 
-def _make_recorder(camera_sources, out_dir, *, names, params, labels):
+def _make_recorder(camera_sources, out_dir, *, names, params, labels, **camera_timeouts):
     return Recorder(
         camera_sources,
         out_dir,
@@ -130,6 +130,7 @@ def _make_recorder(camera_sources, out_dir, *, names, params, labels):
         profile=params.camera_profile,
         fmt=params.recording_format,
         labels=labels,
+        **camera_timeouts,
     )
 
 
@@ -153,14 +154,16 @@ def run_trial(
     extra_meta: Mapping[str, object] | None = None,
     on_step: Callable[[str], None] | None = None,
     recorder_factory: Callable[..., Any] = _make_recorder,
+    camera_timeouts: Mapping[str, float] | None = None,
 ) -> TrialRun:
     """Run one trial (module docstring: the steps and the safety rules); return it.
 
     ``camera_sources`` go to the :class:`~liquidtouch.acquire.recording.Recorder`
     (``names``: the sensors' names, default ``left``, ``right``); ``labels`` become
     meta.json labels; ``extra_meta`` adds meta.json fields. ``on_step(name)`` is
-    called as each step begins (for progress output). The trial directory
-    ``out_dir`` appears only when everything succeeded.
+    called as each step begins (for progress output). ``camera_timeouts``
+    (``open_timeout_s``, ``read_timeout_s``, ``warmup_timeout_s`` [s]) go to the
+    recorder. The trial directory ``out_dir`` appears only when everything succeeded.
     """
     params = ProtocolParameters() if params is None else params
     axis = AXES[params.push_axis]
@@ -172,7 +175,12 @@ def run_trial(
 
     log = TrialLog()
     recorder = recorder_factory(
-        list(camera_sources), out_dir, names=names, params=params, labels=dict(labels or {})
+        list(camera_sources),
+        out_dir,
+        names=names,
+        params=params,
+        labels=dict(labels or {}),
+        **dict(camera_timeouts or {}),
     )
     try:
         step("cameras")

@@ -94,6 +94,10 @@ def live(
     ),
     lowpass_hz: options.MarkerLowpass = options.DEFAULT_LOWPASS_HZ,
     n_markers: options.Markers = options.DEFAULT_MARKERS,
+    sensor: options.SensorProfile = options.SensorChoice.raw,
+    open_timeout_s: options.OpenTimeout = options.DEFAULT_OPEN_TIMEOUT_S,
+    read_timeout_s: options.ReadTimeout = options.DEFAULT_READ_TIMEOUT_S,
+    warmup_timeout_s: options.WarmupTimeout = options.DEFAULT_WARMUP_TIMEOUT_S,
 ) -> None:
     """Estimate λ, ω (and, with --model, properties) while the frames come in.
 
@@ -127,6 +131,12 @@ def live(
             lowpass_hz=lowpass_hz,
             n_markers=n_markers,
             on_frame=on_frame,
+            profile=str(sensor),
+            camera_options={
+                "open_timeout_s": open_timeout_s,
+                "read_timeout_s": read_timeout_s,
+                "warmup_timeout_s": warmup_timeout_s,
+            },
         ):
             if hub is not None:
                 hub.publish(update.to_dict(include_signal=True))
@@ -148,9 +158,9 @@ def live(
 
 def _linger(seconds: float, url: str) -> None:
     """Wait ``seconds`` [s] with the final page still served; Ctrl-C ends the wait early."""
-    from liquidtouch.cli.format import warn
+    from liquidtouch.cli.format import note
 
-    warn(f"the stream ended; the final page stays at {url} for {seconds:g} s (Ctrl-C ends it)")
+    note(f"the stream ended; the final page stays at {url} for {seconds:g} s (Ctrl-C ends it)")
     try:
         time.sleep(seconds)
     except KeyboardInterrupt:
@@ -159,13 +169,13 @@ def _linger(seconds: float, url: str) -> None:
 
 def _start_serving(host: str, port: int):
     """The hub, its web server and an ``on_frame`` that publishes ≤ SERVE_FRAME_HZ per sensor."""
-    from liquidtouch.cli.format import warn
+    from liquidtouch.cli.format import note
     from liquidtouch.live.hub import LiveHub
     from liquidtouch.live.web import start_server
 
     hub = LiveHub()
     server = start_server(hub, host=host, port=port)
-    warn(f"serving the live view at {server.url}")
+    note(f"serving the live view at {server.url}")
     last: dict[str, float] = {}
 
     def on_frame(frame, positions, reference) -> None:

@@ -18,15 +18,6 @@ import typer
 from liquidtouch.cli import options
 
 
-class ProfileChoice(StrEnum):
-    """``record --sensor`` (``acquire.cameras.PROFILES``)."""
-
-    raw = "raw"
-    mini = "mini"
-    r15 = "r15"
-    digit = "digit"
-
-
 class FormatChoice(StrEnum):
     """``record --format`` (``acquire.recording.FORMATS``)."""
 
@@ -64,13 +55,7 @@ def record(
         help="Trial directory to create (new, or an empty directory).",
         show_default=False,
     ),
-    sensor: ProfileChoice = typer.Option(
-        ProfileChoice.raw,
-        "--sensor",
-        help="Sensor profile: mini (MJPG 3280x2464 at 25 fps, 1/7 border cropped, "
-        "320x240), r15 (640x480, 30 fps), digit (320x240, 60 fps), raw (as the camera "
-        "gives them).",
-    ),
+    sensor: options.SensorProfile = options.SensorChoice.raw,
     fmt: FormatChoice = typer.Option(
         FormatChoice.ffv1,
         "--format",
@@ -90,6 +75,9 @@ def record(
     as_json: bool = typer.Option(
         False, "--json", help="Print one JSON object on stdout (the recording summary)."
     ),
+    open_timeout_s: options.OpenTimeout = options.DEFAULT_OPEN_TIMEOUT_S,
+    read_timeout_s: options.ReadTimeout = options.DEFAULT_READ_TIMEOUT_S,
+    warmup_timeout_s: options.WarmupTimeout = options.DEFAULT_WARMUP_TIMEOUT_S,
 ) -> None:
     """Record GelSight cameras (or streams, or replayed videos) into a trial directory.
 
@@ -117,6 +105,9 @@ def record(
             labels=labels,
             grey=not colour,
             on_progress=on_progress,
+            open_timeout_s=open_timeout_s,
+            read_timeout_s=read_timeout_s,
+            warmup_timeout_s=warmup_timeout_s,
         )
     from liquidtouch.cli.format import warn
 

@@ -179,6 +179,16 @@ def run_trial_command(
     as_json: bool = typer.Option(
         False, "--json", help="Print one JSON object on stdout (trial, push times, summary)."
     ),
+    sensor: options.SensorChoice | None = typer.Option(
+        None,
+        "--sensor",
+        help="Sensor profile of the cameras (as record --sensor: mini, r15, digit, raw); "
+        "default: the protocol file's camera_profile, else raw.",
+        show_default=False,
+    ),
+    open_timeout_s: options.OpenTimeout = options.DEFAULT_OPEN_TIMEOUT_S,
+    read_timeout_s: options.ReadTimeout = options.DEFAULT_READ_TIMEOUT_S,
+    warmup_timeout_s: options.WarmupTimeout = options.DEFAULT_WARMUP_TIMEOUT_S,
 ) -> None:
     """Run one trial on a robot: grasp, lift, record, push, hold, lower, release.
 
@@ -205,6 +215,10 @@ def run_trial_command(
         if not math.isfinite(seconds):
             raise LiquidTouchError(f"--seconds must be a finite number, got {seconds}")
         params = protocol_from_mapping({**params.model_dump(), "hold_s": seconds}, "--seconds")
+    if sensor is not None:
+        params = protocol_from_mapping(
+            {**params.model_dump(), "camera_profile": str(sensor)}, "--sensor"
+        )
     labels = {k: v for k, v in typed_labels(label).items() if v is not None}
     if name and len(name) != len(camera):
         raise LiquidTouchError(f"{len(camera)} --camera but {len(name)} --name")
@@ -233,6 +247,11 @@ def run_trial_command(
             names=name or None,
             extra_meta=extra,
             on_step=on_step,
+            camera_timeouts={
+                "open_timeout_s": open_timeout_s,
+                "read_timeout_s": read_timeout_s,
+                "warmup_timeout_s": warmup_timeout_s,
+            },
         )
     summary = run.summary
     from liquidtouch.cli.format import warn

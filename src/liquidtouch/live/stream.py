@@ -55,6 +55,8 @@ def live_updates(
     refresh_s: float = REFRESH_S,
     threaded: bool | None = None,
     on_frame: FrameCallback | None = None,
+    profile: str = "raw",
+    camera_options: Mapping[str, float] | None = None,
 ) -> Iterator[LiveUpdate]:
     """Updates of the streaming estimate of ``sources``; the last has ``final=True``.
 
@@ -76,6 +78,9 @@ def live_updates(
     refresh_s : stream time between refreshes [s].
     threaded : refresh on a worker thread (default: when frames are paced in real time).
     on_frame : called after each tracked frame (e.g. to show the markers).
+    profile, camera_options : cameras only: the sensor profile (``mini``, ...) and
+        ``open_camera``'s deadlines (``open_timeout_s``, ``read_timeout_s``,
+        ``warmup_timeout_s`` [s]).
     """
     limits = _until_std(until_std)
     if isinstance(model, str | os.PathLike):
@@ -85,7 +90,9 @@ def live_updates(
     if isinstance(sources, Sequence) and all(isinstance(s, str | os.PathLike) for s in sources):
         names = list(sensors) if sensors else sensor_names(sources, fps=fps)
         paced = realtime or not all(is_recording(s) for s in sources)
-        frames: Iterable[LiveFrame] = open_frames(sources, realtime=realtime, fps=fps)
+        frames: Iterable[LiveFrame] = open_frames(
+            sources, realtime=realtime, fps=fps, profile=profile, camera_options=camera_options
+        )
     else:
         if not sensors:
             raise VideoError("give the sensor names (sensors=...) of a stream of LiveFrame objects")
