@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from liquidtouch.acquire.cameras import END, CaptureSession, open_camera
+from liquidtouch.acquire.cameras import END, CaptureSession, check_distinct_sources, open_camera
 from liquidtouch.errors import DeviceError
 from liquidtouch.io.dataset import trial_sensor_starts
 from liquidtouch.io.frames import iter_frames
@@ -104,6 +104,7 @@ def camera_frames(
     the generator is closed or ends (every source ended or failed; a failure is
     raised as :class:`DeviceError` after the frames before it).
     """
+    check_distinct_sources(list(sources))
     cameras = []
     try:
         for source in sources:

@@ -6,7 +6,12 @@
 - ``"/dev/video2"``: a device path;
 - ``"name:GelSight Mini"``: the first (lowest-numbered) V4L2 device whose
   ``/sys/class/video4linux/video*/name`` contains that text (case-insensitive),
-  the way the GelSight SDK finds its sensors (:data:`SYSFS_VIDEO4LINUX`);
+  the way the GelSight SDK finds its sensors (:data:`SYSFS_VIDEO4LINUX`); two
+  sensors of one model share a name, so pick them apart by serial:
+- ``"serial:2BJ7-4F8Q"``: the capture node whose ``/dev/v4l/by-id/`` link
+  (``usb-<vendor>_<product>_<serial>-video-index0``) contains that text
+  (:data:`V4L_BY_ID`), or such a link itself (``/dev/v4l/by-id/...``, any link
+  to a ``/dev/videoN``);
 - ``"http://..."``: an MJPEG stream (a GelSight R1.5 streams with mjpg-streamer:
   ``http://gsr1500x.local:8080/?action=stream``), read by
   :mod:`~liquidtouch.acquire.cameras.mjpeg` with open and read timeouts;
@@ -52,6 +57,9 @@ one size, as ``extract`` requires.
 :class:`CaptureSession` reads each camera on its own :class:`CameraThread` into a
 queue, so a slow consumer never delays a camera's reads (and so its timestamps).
 
+Two sources that are one camera (an index and a ``name:`` resolving to it, the same
+URL twice) are refused (:func:`check_distinct_sources`).
+
 Takes camera sources (strings); gives open :class:`Camera` objects, timed frames and
 their statistics. The modules, by concept: :mod:`~.sources` (resolving and opening
 sources), :mod:`~.profiles` (sensor profiles), :mod:`~.devices` (the :class:`Camera`
@@ -86,9 +94,12 @@ from liquidtouch.acquire.cameras.mjpeg import MjpegCamera, MjpegStream, SenderCl
 from liquidtouch.acquire.cameras.profiles import PROFILES, CameraProfile, get_profile
 from liquidtouch.acquire.cameras.sources import (
     SYSFS_VIDEO4LINUX,
+    V4L_BY_ID,
+    check_distinct_sources,
     open_camera,
     parse_source,
     resolve_device_name,
+    resolve_serial,
 )
 
 __all__ = [
@@ -102,6 +113,7 @@ __all__ = [
     "MIN_FRAME_STEP_S",
     "PROFILES",
     "SYSFS_VIDEO4LINUX",
+    "V4L_BY_ID",
     "Camera",
     "CameraProfile",
     "CameraThread",
@@ -115,10 +127,12 @@ __all__ = [
     "SenderClock",
     "SourceSpec",
     "StreamEnded",
+    "check_distinct_sources",
     "check_timeout",
     "default_names",
     "get_profile",
     "open_camera",
     "parse_source",
     "resolve_device_name",
+    "resolve_serial",
 ]

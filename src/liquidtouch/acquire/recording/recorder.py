@@ -45,6 +45,7 @@ from liquidtouch.acquire.cameras import (
     Camera,
     CaptureSession,
     FrameStats,
+    check_distinct_sources,
     check_timeout,
     default_names,
     get_profile,
@@ -109,6 +110,7 @@ class Recorder:
         self.sources = [str(s) for s in sources]
         if not self.sources:
             raise DeviceError("give at least one camera source to record")
+        check_distinct_sources(self.sources)
         self.names = list(names) if names is not None else default_names(len(self.sources))
         if len(self.names) != len(self.sources):
             raise DeviceError(f"{len(self.sources)} sources but {len(self.names)} names")
