@@ -277,7 +277,7 @@ def test_serial_and_by_id_links_and_the_same_camera_twice(tmp_path, monkeypatch)
         with pytest.raises(DeviceError, match="are the same camera"):
             sources.check_distinct_sources(pair)
     with pytest.raises(DeviceError, match="are the same camera"):  # before opening anything
-        Recorder(["name:GelSight Mini", "name:gelsight mini"], tmp_path / "t")
+        Recorder(["name:GelSight Mini", "name:gelsight mini"], tmp_path / "t").open()
 
 
 def test_source_strings() -> None:

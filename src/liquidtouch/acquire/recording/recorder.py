@@ -110,7 +110,6 @@ class Recorder:
         self.sources = [str(s) for s in sources]
         if not self.sources:
             raise DeviceError("give at least one camera source to record")
-        check_distinct_sources(self.sources)
         self.names = list(names) if names is not None else default_names(len(self.sources))
         if len(self.names) != len(self.sources):
             raise DeviceError(f"{len(self.sources)} sources but {len(self.names)} names")
@@ -151,6 +150,7 @@ class Recorder:
             return self
         if self._state != "new":
             raise DeviceError(f"this recorder is {self._state}; make a new one")
+        check_distinct_sources(self.sources)  # before any camera is opened
         try:
             for source in self.sources:
                 self.cameras.append(
