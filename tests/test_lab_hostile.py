@@ -166,3 +166,26 @@ def test_the_simulated_gripper_refuses_numbers_python_would_take() -> None:
 def test_live_linger_is_range_checked(tmp_path, capsys, linger) -> None:
     status, err = _run(capsys, "live", tmp_path, "--linger", linger)
     assert status == 2 and "--linger must be 0 to 86400 s" in _one_error_line(err)
+
+
+def test_a_100_kb_value_gives_a_short_error_line(tmp_path, capsys) -> None:
+    """A 100 KB label gave a 100 054-byte error line; values are cut to 80 characters."""
+    root = tmp_path / "data"
+    assert main(["dataset", "init", str(root)]) == 0
+    capsys.readouterr()
+    video = tmp_path / "left.mp4"
+    video.write_bytes(b"x" * 100)
+    for extra in (["-l", "liquid=" + "x" * 100_000], ["--name", "y" * 100_000]):
+        status, err = _run(capsys, "dataset", "add", root, video, *extra)
+        line = _one_error_line(err)
+        assert status == 2 and len(line) < 400, len(line)
+
+
+@pytest.mark.parametrize("command", [["record"], ["run-trial"], ["live"]])
+def test_camera_commands_share_sensor_and_deadline_options(capsys, command) -> None:
+    assert main([*command, "--help"]) == 0
+    text = capsys.readouterr().out
+    for flag in ("--sensor", "--open-timeout", "--read-timeout", "--warmup-timeout"):
+        assert flag in text, (command, flag)
+    if command == ["live"]:
+        assert "wrench" not in text  # --lowpass: the markers only
