@@ -27,6 +27,7 @@ from liquidtouch.acquire.cameras import (
     resolve_device_name,
     sources,
 )
+from liquidtouch.acquire.recording import Recorder
 from liquidtouch.errors import DeviceError
 from liquidtouch.protocols.mjpeg import BOUNDARY
 from liquidtouch.sim.rig.mjpeg import MjpegServer
@@ -243,6 +244,40 @@ def test_name_resolution_through_sysfs(tmp_path, monkeypatch) -> None:
     if not Path("/dev/video2").exists():
         with pytest.raises(DeviceError, match="/dev/video2 does not exist"):
             open_camera("name:GelSight Mini")
+
+
+def test_serial_and_by_id_links_and_the_same_camera_twice(tmp_path, monkeypatch) -> None:
+    """Two GelSight Minis share a name: `name:GelSight Mini` twice opened one device twice.
+    Now the same camera twice is refused, and `serial:` / by-id links pick each one."""
+    for index, name in {2: "GelSight Mini R0B", 4: "GelSight Mini R0B"}.items():
+        (tmp_path / f"video{index}").mkdir()
+        (tmp_path / f"video{index}" / "name").write_text(name + "\n")
+    by_id = tmp_path / "by-id"
+    by_id.mkdir()
+    for index, serial in {2: "2BJ7-4F8Q", 4: "2BJ7-9X1Z"}.items():
+        link = by_id / f"usb-GelSight_GelSight_Mini_R0B_{serial}-video-index0"
+        link.symlink_to(tmp_path / f"video{index}")
+        (by_id / f"usb-GelSight_GelSight_Mini_R0B_{serial}-video-index1").symlink_to(tmp_path)
+    monkeypatch.setattr(sources, "SYSFS_VIDEO4LINUX", tmp_path)
+    monkeypatch.setattr(sources, "V4L_BY_ID", by_id)
+    assert parse_source("serial:9x1z").target == 4
+    assert parse_source("serial:2BJ7-4F8Q").target == 2
+    with pytest.raises(DeviceError, match="2 cameras with serial '2BJ7'"):
+        parse_source("serial:2BJ7")
+    with pytest.raises(DeviceError, match="no camera with serial 'nope'"):
+        parse_source("serial:nope")
+    specs = sources.check_distinct_sources(["serial:4F8Q", "serial:9X1Z"])
+    assert [s.target for s in specs] == [2, 4]
+    for pair in (
+        ["name:GelSight Mini", "name:GelSight Mini"],
+        ["name:GelSight Mini", "2"],
+        ["/dev/video4", "serial:9X1Z"],
+        ["http://127.0.0.1:9/stream", "http://127.0.0.1:9/stream"],
+    ):
+        with pytest.raises(DeviceError, match="are the same camera"):
+            sources.check_distinct_sources(pair)
+    with pytest.raises(DeviceError, match="are the same camera"):  # before opening anything
+        Recorder(["name:GelSight Mini", "name:gelsight mini"], tmp_path / "t").open()
 
 
 def test_source_strings() -> None:

@@ -110,6 +110,21 @@ def test_classify_and_predict_probabilities(files, capsys) -> None:
     assert np.allclose(proba.sum(axis=1), 1.0)
 
 
+def test_predict_prints_a_readable_table_on_a_terminal(files, capsys, monkeypatch) -> None:
+    """Campaign: `predict` on a terminal printed a 36-column CSV; now a table (the CSV when
+    piped, with -o or in --json)."""
+    import liquidtouch.cli.predict as predict_cli
+
+    model = files / "h.json"
+    assert main(["train", str(files / "train.csv"), "-t", "height_mm", "-o", str(model)]) == 0
+    capsys.readouterr()
+    monkeypatch.setattr(predict_cli, "stdout_is_terminal", lambda: True)
+    assert main(["predict", str(model), str(files / "test.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "predictions" in out and "height_mm" in out and "±" in out
+    assert "predicted_height_mm_std" not in out and "," not in out.splitlines()[0]
+
+
 def test_transfer_command(files, capsys) -> None:
     base = files / "base.json"
     assert (

@@ -283,3 +283,83 @@ def test_dataset_help(capsys) -> None:
         assert out.startswith("Usage: liquidtouch " + " ".join(command))
     assert main(["dataset", "add", "--help"]) == 0
     assert "Frame rate [Hz]" in " ".join(capsys.readouterr().out.split())
+
+
+@pytest.mark.parametrize("name", ["manifest.csv/x", "features.csv/x", "tables.csv", "meta.json/a"])
+def test_names_of_the_datasets_own_files_are_refused(simulated, tmp_path, capsys, name) -> None:
+    """Campaign: a failed `--name manifest.csv/x` left a manifest.csv/ folder (every later
+    add failed); `--name features.csv/x` was accepted and broke `features`."""
+    _, directory, _ = simulated
+    root = init_dataset(tmp_path / "data")
+    before = _snapshot(root)
+    status, _, err = _run(capsys, "dataset", "add", root, directory / "left.mp4", "--name", name)
+    assert status == 2 and "is reserved for the dataset's own files" in err, err
+    assert _snapshot(root) == before
+    assert add_trial(root, [directory / "left.mp4"]).n_trials == 1
+
+
+def test_a_failed_add_removes_the_folders_it_made(simulated, tmp_path, monkeypatch) -> None:
+    _, directory, _ = simulated
+    from liquidtouch.io import recordings
+
+    root = init_dataset(tmp_path / "data")
+    before = _snapshot(root)
+
+    def broken(*args, **kwargs):
+        raise DatasetError("disk full")
+
+    monkeypatch.setattr(recordings, "append_manifest_row", broken)
+    with pytest.raises(DatasetError):
+        add_trial(root, [directory / "left.mp4"], name="water/deep/h25")
+    assert _snapshot(root) == before
+
+
+def test_frames_are_checked_at_add_time_like_extract_does(tmp_path, capsys) -> None:
+    """36 001 images (over the 36 000 frames tracked), empty images, PNGs of two sizes:
+    refused by `add` (they used to be added and then refused by `features`)."""
+    import cv2
+
+    root = init_dataset(tmp_path / "data")
+    before = _snapshot(root)
+    many = tmp_path / "many"
+    many.mkdir()
+    for k in range(36_001):
+        (many / f"{k:06d}.png").touch()
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    for k in range(3):
+        (empty / f"{k}.png").touch()
+    sizes = tmp_path / "sizes"
+    sizes.mkdir()
+    cv2.imwrite(str(sizes / "0.png"), np.zeros((20, 30), np.uint8))
+    cv2.imwrite(str(sizes / "1.png"), np.zeros((20, 40), np.uint8))
+    cases = [
+        (many, "holds 36001 images, more than the 36000 frames"),
+        (empty, "is empty (0 bytes)"),
+        (sizes, "1.png is 40x20 but 0.png is 30x20"),
+    ]
+    for folder, message in cases:
+        status, _, err = _run(capsys, "dataset", "add", root, folder, "--fps", "30")
+        assert status == 2 and message in err, err
+    assert _snapshot(root) == before
+
+
+def test_link_of_a_symlinked_video_and_the_reason_a_link_failed(
+    simulated, tmp_path: Path, monkeypatch, capsys
+) -> None:
+    _, directory, _ = simulated
+    root = init_dataset(tmp_path / "data")
+    alias = tmp_path / "alias.mp4"
+    alias.symlink_to(directory / "left.mp4")
+    status, _, err = _run(capsys, "dataset", "add", root, alias, "--link", "--name", "a")
+    assert status == 0, err
+    assert not (root / "a" / "alias.mp4").is_symlink()
+    assert (root / "a" / "alias.mp4").stat().st_ino == (directory / "left.mp4").stat().st_ino
+
+    def too_many_links(src, dst, *args, **kwargs):
+        raise OSError(31, "Too many links")
+
+    monkeypatch.setattr(os, "link", too_many_links)
+    added = add_trial(root, [directory / "left.mp4"], link=True, name="b")
+    assert any("hard-link limit" in w for w in added.warnings), added.warnings
+    assert not any("another file system" in w for w in added.warnings)

@@ -267,3 +267,28 @@ def test_reproduce_end_to_end_through_videos(tmp_path, monkeypatch) -> None:
     pd.testing.assert_series_equal(
         pd.Series(ours, name="ours").loc[summary.index], summary, check_names=False
     )
+
+
+def test_demo_prints_a_line_per_stage_when_stderr_is_not_a_terminal(tmp_path, capsys, monkeypatch):
+    """Campaign: `demo` piped into a log printed nothing for minutes."""
+    import liquidtouch.experiments.reproduce as rep
+    from liquidtouch.cli import main
+    from liquidtouch.errors import LiquidTouchError
+
+    monkeypatch.setattr(rep, "prepare_dataset", lambda *a, **k: {})
+    monkeypatch.setattr(rep, "run_experiments", lambda *a, **k: [])
+
+    def stop(*args, **kwargs):
+        raise LiquidTouchError("stopped before the report (test)")
+
+    monkeypatch.setattr(rep, "write_report", stop)
+    monkeypatch.setattr(rep, "failure_note", lambda features: "")
+    monkeypatch.chdir(tmp_path)
+    assert main(["demo", "--out", "nowhere-report"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    stages = [line.split(" ", 1)[1] for line in lines[:-1]]
+    assert [s.split(":")[0] for s in stages[: len(rep.DATASETS)]] == [
+        f"dataset {i}/{len(rep.DATASETS)}" for i in range(1, len(rep.DATASETS) + 1)
+    ]
+    assert stages[-2:] == ["the seven experiments", "writing the report to nowhere-report"]
+    assert lines[-1] == "error: stopped before the report (test)"

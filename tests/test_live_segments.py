@@ -150,7 +150,9 @@ def test_ctrl_c_gives_one_final_update() -> None:
             if t_s > 5.0:
                 raise KeyboardInterrupt
             dx = 1.2 * np.exp(-0.5 * max(t_s - 1, 0)) * np.sin(12 * max(t_s - 1, 0))
-            yield LiveFrame("left", float(t_s), render_blobs([*centres, dx, 0], noise=2.0, seed=k))
+            yield LiveFrame(
+                "left", float(t_s), render_blobs(centres + np.array([dx, 0.0]), noise=2.0, seed=k)
+            )
 
     updates = list(live_updates(frames(), sensors=["left"]))
     finals = [u for u in updates if u.final]

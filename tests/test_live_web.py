@@ -76,6 +76,20 @@ def test_page_is_self_contained_and_nothing_else_is_served() -> None:
     assert client.get("/frame/left.jpg").status_code == 404  # no such sensor (yet)
     assert client.post("/").status_code == 405
     assert client.post("/stream").status_code == 405
+    assert client.head("/").status_code == 405  # as docs/formats.md says: GET only
+    assert client.head("/frame/left.jpg").status_code == 405
+
+
+def test_a_browser_closing_its_page_is_not_an_error(caplog) -> None:
+    """asyncio logged "socket.send() raised exception." ×7 (a WARNING) when a browser left."""
+    import logging
+
+    with caplog.at_level(logging.DEBUG):
+        logging.getLogger("asyncio").warning("socket.send() raised exception.")
+        logging.getLogger("asyncio").warning("something else")
+    warnings = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
+    assert warnings == ["something else"]
+    assert any("browser went away" in r.getMessage() for r in caplog.records)
 
 
 def test_stream_sends_history_then_new_updates_then_end() -> None:

@@ -70,6 +70,8 @@ class Scripted:
             try:
                 conn.recv(4096)  # the request
                 for item in self.script:
+                    if self.done.is_set():
+                        break
                     if isinstance(item, bytes):
                         conn.sendall(item)
                     else:
@@ -171,7 +173,7 @@ def test_a_bad_jpeg_is_skipped_and_counted_and_a_stall_times_out():
         try:
             assert frame_number(cam.read(timeout_s=0.5)[1]) == 1 and cam.bad_frames == 1
             start = time.monotonic()
-            with pytest.raises(DeviceError, match=r"no data within 0\.5 s"):
+            with pytest.raises(DeviceError, match=r"no complete frame within 0\.5 s"):
                 cam.read(timeout_s=0.5)
             assert time.monotonic() - start < 2.0
         finally:
@@ -220,3 +222,67 @@ def test_close_wakes_a_blocked_read():
         cam.close()
         thread.join(timeout=3.0)
         assert not thread.is_alive() and errors and time.monotonic() - start < 2.0
+
+
+def drip(data: bytes, pause_s: float = 0.2) -> list:
+    """``data`` one byte at a time, ``pause_s`` apart (a sender that never quite stalls)."""
+    script: list = []
+    for byte in data:
+        script += [bytes([byte]), pause_s]
+    return script
+
+
+def test_opening_a_dripping_stream_has_a_whole_call_deadline():
+    """Response headers arriving a byte every 0.2 s: each recv is quick, the open is not."""
+    with Scripted(drip(HEAD)) as server:
+        start = time.monotonic()
+        with pytest.raises(DeviceError, match=r"could not be opened: no answer within 1 s"):
+            MjpegCamera(server.url, get_profile("raw"), open_timeout_s=1.0)
+        assert time.monotonic() - start < 2.5
+
+
+def test_reading_a_dripping_part_has_a_whole_call_deadline():
+    with Scripted([HEAD, part(0), *drip(part(1))]) as server:
+        cam = camera(server.url, read_timeout_s=1.0)
+        try:
+            assert frame_number(cam.read(timeout_s=1.0)[1]) == 0
+            start = time.monotonic()
+            with pytest.raises(DeviceError, match=r"no complete frame within 1 s"):
+                cam.read(timeout_s=1.0)
+            assert time.monotonic() - start < 2.0
+        finally:
+            cam.close()
+
+
+def test_warm_up_has_a_whole_call_deadline():
+    """A frame every 0.6 s: each read is within its 2 s, but 10 warm-up frames take 6 s."""
+    script = [HEAD]
+    for k in range(20):
+        script += [part(k, stamp=100.0 + k), 0.6]
+    with Scripted(script) as server:
+        start = time.monotonic()
+        with pytest.raises(DeviceError, match=r"of 10 warm-up frames within 1\.5 s"):
+            open_camera(server.url, warmup_timeout_s=1.5, read_timeout_s=2.0)
+        assert time.monotonic() - start < 3.0
+    for bad in (0.0, -1.0, float("inf"), float("nan"), 1e9):
+        with pytest.raises(DeviceError, match="warm-up timeout must be a number of seconds"):
+            open_camera("http://127.0.0.1:9/stream", warmup_timeout_s=bad)
+
+
+def test_a_sender_clock_that_steps_back_or_freezes_is_reanchored_on_arrival():
+    """X-Timestamps 100.0, 100.033, then 95 (back), then 95 three times (frozen), then on:
+    every frame is returned, in order, and the steps are counted."""
+    stamps = [100.0, 100.033, 95.0, 95.0, 95.0, 95.0, 95.033, 95.066]
+    script = [HEAD]
+    for k, stamp in enumerate(stamps):
+        script += [part(k, stamp=stamp), 0.03]
+    with Scripted(script) as server:
+        cam = camera(server.url)
+        try:
+            got = [cam.read(timeout_s=2.0) for _ in stamps]
+        finally:
+            cam.close()
+    times = np.array([t for t, _ in got])
+    assert [frame_number(image) for _, image in got] == list(range(len(stamps)))
+    assert (np.diff(times) > 0).all(), np.diff(times)
+    assert cam.reanchors == 4

@@ -310,3 +310,75 @@ def test_recording_a_replayed_trial_gives_the_same_fit(tmp_path) -> None:
         assert after.fit.decay_rate == pytest.approx(before.fit.decay_rate, rel=0.03), fmt
         assert after.fit.angular_frequency == pytest.approx(before.fit.angular_frequency, rel=0.002)
         assert after.fit.decay_rate == pytest.approx(trial.true_decay_rate, rel=0.15)
+
+
+def _reads_back(trial: Path) -> None:
+    """What `extract` reads first: every sensor's frames and times, validated."""
+    from liquidtouch.io.frames import iter_frames
+    from liquidtouch.io.sources import resolve_sources
+
+    meta = read_trial_meta(trial)
+    for _name, source, _rate in resolve_sources(trial):
+        times = np.array([t for t, _ in iter_frames(source, fps=meta.fps)])
+        assert len(times) >= 10 and (np.diff(times) > 0).all()
+
+
+@pytest.mark.parametrize(
+    ("fmt", "clock", "what"),
+    [
+        ("ffv1", lambda t: t - 5.0 if t > T_STEP else t, "steps back 5 s once"),
+        ("png", lambda t: min(t, T_STEP) if t < T_STEP + 1.0 else t - 1.0, "freezes for 1 s"),
+    ],
+)
+def test_a_camera_clock_that_steps_back_or_freezes_gives_a_trial_that_reads(
+    tmp_path, capsys, fmt, clock, what
+) -> None:
+    """Campaign finding: the trial was written, then refused by `extract` (140 of 180
+    frames dropped). Now those frames are timed on arrival, counted, warned about."""
+    global T_STEP
+    T_STEP = time.monotonic() + 1.0
+    out = tmp_path / "t"
+    with MjpegServer(CodedFrames(), fps=FPS, sender_clock=clock) as server:
+        code = main(["record", server.url, "--seconds", "2.5", "--out", str(out), "--format", fmt])
+        sent = len(server.sent_timestamps)
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "warning: sensor left: the camera's clock stepped back or stood still" in captured.err
+    _reads_back(out)
+    rec = read_trial_meta(out).model_extra["recording"]["sensors"]["left"]
+    assert rec["reanchored"] >= 1, what
+    assert rec["frames"] >= 0.8 * sent - 10  # nothing silently dropped
+
+
+T_STEP = 0.0
+
+
+def test_a_frame_size_change_stops_the_recording_with_an_error(tmp_path, capsys) -> None:
+    """A raw camera that switches mode mid-recording: error, nothing written."""
+    small, large = CodedFrames(320, 240), CodedFrames(400, 240)
+    calls = []
+
+    def frames():
+        calls.append(1)
+        return small() if len(calls) < 40 else large()
+
+    out = tmp_path / "t"
+    with MjpegServer(frames, fps=FPS) as server:
+        code = main(["record", server.url, "--seconds", "3", "--out", str(out), "--format", "png"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "error: sensor left: the frame size changed from 320x240x3 to 400x240x3" in err
+    assert _leftovers(tmp_path, "t") == []
+
+
+def test_drops_are_counted_against_the_measured_rate() -> None:
+    """A GelSight Mini streaming 15 fps in its 25 fps mode: no drops (was 224 of 225)."""
+    from liquidtouch.acquire.cameras import FrameStats
+
+    stats = FrameStats(nominal_fps=25.0)
+    image = np.zeros((4, 4), np.uint8)
+    for k in range(225):
+        stats.add(k / 15.0, image + (k % 7))
+    assert stats.drops == 0
+    stats.add(226 / 15.0, image)  # one frame missing at the measured rate
+    assert stats.drops == 1

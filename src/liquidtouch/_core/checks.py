@@ -12,7 +12,21 @@ from __future__ import annotations
 import math
 import numbers
 
+import numpy as np
+
 from liquidtouch.errors import LiquidTouchError, TableError
+
+MAX_ABS_SIGNAL = 1e12
+"""Largest magnitude of a signal value taken in (``fit``'s ``u``, any unit; pixels in
+practice, where 1e12 is already absurd): beyond it the fit's squares overflow."""
+MAX_ABS_POSITION_PX = 1e6
+"""Largest magnitude of a marker position taken in [px] (a sensor image is < 1e5 px)."""
+MAX_ABS_TIME_S = 1e11
+"""Largest magnitude of a time taken in [s] (epoch seconds, ~1.8e9, fit well)."""
+MIN_TIME_STEP_S = 1e-6
+"""Smallest step between consecutive frame or sample times [s] (1 MHz)."""
+MAX_RATE_HZ = 1.0 / MIN_TIME_STEP_S
+"""Largest frame or sample rate taken in [Hz]."""
 
 
 def as_number(value: object) -> float:
@@ -72,3 +86,34 @@ def check_positive(
             f"{name} must be a finite number {'>=' if allow_zero else '>'} 0; got {value!r}"
         )
     return float(value)  # type: ignore[arg-type]
+
+
+def check_magnitude(
+    values: np.ndarray,
+    what: str,
+    limit: float,
+    unit: str,
+    error: type[LiquidTouchError] = TableError,
+) -> None:
+    """Refuse finite ``values`` of magnitude over ``limit`` [``unit``] (NaN is let through:
+    the caller says what a missing value means)."""
+    values = np.asarray(values, dtype=float)
+    big = np.abs(values) > limit
+    if big.any():
+        k = int(np.argmax(big.ravel()))
+        raise error(
+            f"{what} holds {int(big.sum())} value(s) beyond ±{limit:g} {unit} (first "
+            f"{values.ravel()[k]:.3g}); such numbers are not a measurement"
+        )
+
+
+def check_time_steps(t: np.ndarray, what: str, error: type[LiquidTouchError] = TableError) -> None:
+    """Refuse times [s] beyond :data:`MAX_ABS_TIME_S` or closer than :data:`MIN_TIME_STEP_S`
+    (in order; the caller has checked that they increase)."""
+    check_magnitude(t, what, MAX_ABS_TIME_S, "s", error)
+    steps = np.diff(np.asarray(t, dtype=float))
+    if steps.size and float(np.min(steps)) < MIN_TIME_STEP_S:
+        raise error(
+            f"{what} has steps of {float(np.min(steps)):.3g} s; consecutive times must be at "
+            f"least {MIN_TIME_STEP_S:g} s apart (at most {MAX_RATE_HZ:g} Hz)"
+        )

@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from liquidtouch.acquire.arms import Arm
+from liquidtouch.acquire.deadlines import TRIAL_READ_TIMEOUT_S
 from liquidtouch.acquire.grippers import Gripper
 from liquidtouch.acquire.protocol_params import (
     ProtocolParameters,
@@ -50,7 +51,6 @@ from liquidtouch.protocols import gcl
 
 __all__ = [
     "AXES",
-    "CAMERA_TIMEOUT_S",
     "TrialLog",
     "TrialRun",
     "failed_run_dir",
@@ -136,23 +136,15 @@ def _wait(seconds: float, check: Callable[[], None], step_s: float = 0.05) -> No
         time.sleep(min(step_s, remaining))
 
 
-#: how long a camera may deliver nothing before the trial fails [s]: generous, so that a
-#: loaded two-core machine (the rig, ``live`` and a browser sharing it) does not abort a
-#: trial on a camera that is only late (2 of 7 runs failed at 2 s)
-CAMERA_TIMEOUT_S = 10.0
-
-
 def make_recorder(
-    camera_sources,
-    out_dir,
-    *,
-    names,
-    params,
-    labels,
-    read_timeout_s=CAMERA_TIMEOUT_S,
-    on_frame=None,
+    camera_sources, out_dir, *, names, params, labels, on_frame=None, **camera_timeouts
 ):
-    """The trial's :class:`Recorder` (``run_trial``'s default ``recorder_factory``)."""
+    """The trial's :class:`Recorder` (``run_trial``'s default ``recorder_factory``).
+
+    ``camera_timeouts``: ``open_timeout_s``, ``read_timeout_s`` (default
+    :data:`~liquidtouch.acquire.deadlines.TRIAL_READ_TIMEOUT_S`), ``warmup_timeout_s`` [s].
+    """
+    camera_timeouts.setdefault("read_timeout_s", TRIAL_READ_TIMEOUT_S)
     return Recorder(
         camera_sources,
         out_dir,
@@ -160,8 +152,8 @@ def make_recorder(
         profile=params.camera_profile,
         fmt=params.recording_format,
         labels=labels,
-        read_timeout_s=read_timeout_s,
         on_frame=on_frame,
+        **camera_timeouts,
     )
 
 
@@ -211,6 +203,7 @@ def run_trial(
     on_step: Callable[[str], None] | None = None,
     recorder_factory: Callable[..., Any] = make_recorder,
     on_event: Callable[[str, float], None] | None = None,
+    camera_timeouts: Mapping[str, float] | None = None,
 ) -> TrialRun:
     """Run one trial (module docstring: the steps and the safety rules); return it.
 
@@ -219,10 +212,10 @@ def run_trial(
     meta.json labels; ``extra_meta`` adds meta.json fields. ``on_step(name)`` is
     called as each step begins (for progress output); ``on_event(name, t_s)`` as each
     event is logged [s, :func:`time.monotonic`] (the live estimate takes the push and the
-    end of the hold from them). ``recorder_factory``: e.g. ``functools.partial(make_recorder,
-    read_timeout_s=S)`` for another camera timeout. The trial directory ``out_dir``
-    appears only when everything succeeded; a failed run writes ``DIR.failed/run.json``
-    (:func:`write_failed_run`).
+    end of the hold from them). ``camera_timeouts`` (``open_timeout_s``,
+    ``read_timeout_s``, ``warmup_timeout_s`` [s]) go to ``recorder_factory``
+    (:func:`make_recorder`). The trial directory ``out_dir`` appears only when everything
+    succeeded; a failed run writes ``DIR.failed/run.json`` (:func:`write_failed_run`).
     """
     params = ProtocolParameters() if params is None else params
     axis = AXES[params.push_axis]
@@ -239,6 +232,7 @@ def run_trial(
         names=names,
         params=params,
         labels=dict(labels or {}),
+        **dict(camera_timeouts or {}),
     )
     try:
         step("cameras")

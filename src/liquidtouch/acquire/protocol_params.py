@@ -55,8 +55,9 @@ class ProtocolParameters(BaseModel):
     release_speed_mm_s: float = Field(20.0, gt=0.0, le=420.0)
     log_interval_s: float = Field(1.0, ge=0.1, le=60.0)
     """How often the gripper's readings and the arm's pose are logged while holding [s]."""
-    camera_profile: str = "raw"
-    """The cameras' sensor profile (``raw``, ``mini``, ``r15``, ``digit``)."""
+    camera_profile: Literal["raw", "mini", "r15", "digit"] = "raw"
+    """The cameras' sensor profile (``acquire.cameras.PROFILES``: ``raw``, ``mini``, ``r15``,
+    ``digit``; ``run-trial --sensor``)."""
     recording_format: Literal["ffv1", "png"] = "ffv1"
 
     def model_post_init(self, _context: Any) -> None:

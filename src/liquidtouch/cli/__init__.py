@@ -36,6 +36,7 @@ from liquidtouch.cli import (
     rig,
     simulate,
 )
+from liquidtouch.cli.format import cut_values
 from liquidtouch.cli.paths import guard_output_paths
 from liquidtouch.errors import LiquidTouchError
 
@@ -117,8 +118,9 @@ def _command():
 
 
 def error_exit(message: str) -> int:
-    """Print ``error: message`` on stderr; return the exit status for bad input."""
-    print(f"error: {message}", file=sys.stderr)
+    """Print ``error: message`` on stderr (values over 80 characters cut); return the exit
+    status for bad input."""
+    print(f"error: {cut_values(message)}", file=sys.stderr)
     return 2
 
 

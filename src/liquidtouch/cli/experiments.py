@@ -94,14 +94,25 @@ def _stdout_to_stderr():
 
 def _run_and_report(as_json: bool, **options) -> None:
     """Run the reproduction; print the summary table, or (``as_json``) one JSON object."""
+    from liquidtouch._core.progress import on_terminal
     from liquidtouch.experiments.reproduce import reproduce as run
 
+    if not on_terminal():  # no progress bars: one line per stage instead (a log, CI, a pipe)
+        options["on_stage"] = stage_line
     if not as_json:
         _print_summary(run(**options))
         return
     with _stdout_to_stderr():
         reproduction = run(**options)
     typer.echo(json.dumps(reproduction_json(reproduction), ensure_ascii=False, allow_nan=False))
+
+
+def stage_line(text: str) -> None:
+    """One stage of the reproduction as a line on stderr, with the time of day."""
+    import sys
+    import time
+
+    print(f"{time.strftime('%H:%M:%S')} {text}", file=sys.stderr, flush=True)
 
 
 _JSON_HELP = "Print one JSON object (summary metrics and paths) on stdout; progress on stderr."

@@ -8,11 +8,15 @@ what only the commands need:
 - :func:`fit_table`: the slow/fast-mode table of an oscillation fit, units in
   the headers (escaped: rich would read ``[rad/s]`` as markup);
 - :func:`fit_quality`: one line of fit quality;
-- :func:`warn`: a ``warning: ...`` line on stderr (stdout stays the result).
+- :func:`warn`: a ``warning: ...`` line on stderr (stdout stays the result);
+  :func:`note`: an informational line on stderr;
+- :func:`cut_values`: every over-long value of a message cut to
+  :data:`MAX_VALUE_CHARS` (a 100 KB label must not give a 100 KB error line).
 """
 
 from __future__ import annotations
 
+import re
 from typing import TYPE_CHECKING
 
 from liquidtouch._core.numbers import (
@@ -24,7 +28,23 @@ from liquidtouch._core.numbers import (
 if TYPE_CHECKING:
     from rich.table import Table
 
-__all__ = ["fit_quality", "fit_table", "warn"]
+__all__ = ["MAX_VALUE_CHARS", "cut_values", "fit_quality", "fit_table", "note", "warn"]
+
+MAX_VALUE_CHARS = 80
+"""Longest run of non-blank characters (a value, a path) printed in a message."""
+_LONG = re.compile(r"\S{" + str(MAX_VALUE_CHARS + 1) + ",}")
+
+
+def cut_values(message: str) -> str:
+    """``message`` with every run of over :data:`MAX_VALUE_CHARS` non-blank characters cut
+    to its first and last characters around ``…`` (a path keeps its file name)."""
+    half = (MAX_VALUE_CHARS - 1) // 2
+
+    def cut(match: re.Match[str]) -> str:
+        text = match.group(0)
+        return f"{text[:half]}…{text[-(MAX_VALUE_CHARS - 1 - half) :]}"
+
+    return _LONG.sub(cut, message)
 
 
 def fit_table(result: object, title: str) -> Table:
@@ -66,4 +86,11 @@ def warn(message: str) -> None:
     """Print ``warning: message`` on stderr."""
     import typer
 
-    typer.echo(f"warning: {message}", err=True)
+    typer.echo(f"warning: {cut_values(message)}", err=True)
+
+
+def note(message: str) -> None:
+    """Print ``message`` on stderr: what the user should know, not a warning."""
+    import typer
+
+    typer.echo(cut_values(message), err=True)

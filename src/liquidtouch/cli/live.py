@@ -17,12 +17,19 @@ from pathlib import Path
 import typer
 
 from liquidtouch._core.numbers import with_uncertainty
+from liquidtouch.acquire.deadlines import (
+    DEFAULT_OPEN_TIMEOUT_S,
+    DEFAULT_READ_TIMEOUT_S,
+    DEFAULT_WARMUP_TIMEOUT_S,
+)
 from liquidtouch.cli import options
 
 logger = logging.getLogger("liquidtouch.cli.live")
 
 #: frames published to the browser per sensor at most [Hz]
 SERVE_FRAME_HZ = 10.0
+#: longest --linger [s] (a day)
+MAX_LINGER_S = 86_400.0
 
 
 def register(app: typer.Typer) -> None:
@@ -83,9 +90,8 @@ def live(
         0.0,
         "--linger",
         metavar="SECONDS",
-        min=0.0,
-        help="With --serve: keep serving the final page this long after the stream ends [s] "
-        "(Ctrl-C ends it sooner).",
+        help="With --serve: keep serving the final page this long after the stream ends [s], "
+        "0 to 86400 (Ctrl-C ends it sooner).",
     ),
     fps: float | None = typer.Option(
         None,
@@ -94,16 +100,23 @@ def live(
         help="Frame rate of image folders without timestamps [Hz].",
         show_default=False,
     ),
-    lowpass_hz: options.Lowpass = options.DEFAULT_LOWPASS_HZ,
+    lowpass_hz: options.MarkerLowpass = options.DEFAULT_LOWPASS_HZ,
     n_markers: options.Markers = options.DEFAULT_MARKERS,
+    sensor: options.SensorProfile = options.SensorChoice.raw,
+    open_timeout_s: options.OpenTimeout = DEFAULT_OPEN_TIMEOUT_S,
+    read_timeout_s: options.ReadTimeout = DEFAULT_READ_TIMEOUT_S,
+    warmup_timeout_s: options.WarmupTimeout = DEFAULT_WARMUP_TIMEOUT_S,
 ) -> None:
     """Estimate λ, ω (and, with --model, properties) while the frames come in.
 
     An estimate appears as soon as its std supports it; the stream stops at the end of
     the recording, after --max-duration, or once every --until-std target is met.
     """
+    from liquidtouch.errors import LiquidTouchError
     from liquidtouch.live import live_updates, parse_until_std
 
+    if not 0 <= linger_s <= MAX_LINGER_S:  # NaN and inf too
+        raise LiquidTouchError(f"--linger must be 0 to {MAX_LINGER_S:g} s, got {linger_s:g}")
     limits = parse_until_std(until_std)
     address = parse_serve(serve) if serve else None
     model = None
@@ -126,6 +139,12 @@ def live(
             lowpass_hz=lowpass_hz,
             n_markers=n_markers,
             on_frame=on_frame,
+            profile=str(sensor),
+            camera_options={
+                "open_timeout_s": open_timeout_s,
+                "read_timeout_s": read_timeout_s,
+                "warmup_timeout_s": warmup_timeout_s,
+            },
         )
         try:
             for update in updates:
@@ -160,9 +179,9 @@ def _show(update, hub, as_json: bool) -> None:
 
 def _linger(seconds: float, url: str) -> None:
     """Wait ``seconds`` [s] with the final page still served; Ctrl-C ends the wait early."""
-    from liquidtouch.cli.format import warn
+    from liquidtouch.cli.format import note
 
-    warn(f"the stream ended; the final page stays at {url} for {seconds:g} s (Ctrl-C ends it)")
+    note(f"the stream ended; the final page stays at {url} for {seconds:g} s (Ctrl-C ends it)")
     try:
         time.sleep(seconds)
     except KeyboardInterrupt:
@@ -171,13 +190,13 @@ def _linger(seconds: float, url: str) -> None:
 
 def _start_serving(host: str, port: int):
     """The hub, its web server and an ``on_frame`` that publishes ≤ SERVE_FRAME_HZ per sensor."""
-    from liquidtouch.cli.format import warn
+    from liquidtouch.cli.format import note
     from liquidtouch.live.hub import LiveHub
     from liquidtouch.live.web import start_server
 
     hub = LiveHub()
     server = start_server(hub, host=host, port=port)
-    warn(f"serving the live view at {server.url}")
+    note(f"serving the live view at {server.url}")
     last: dict[str, float] = {}
 
     def on_frame(frame, positions, reference) -> None:

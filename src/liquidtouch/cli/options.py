@@ -142,6 +142,11 @@ Lowpass = Annotated[
         "wrist forces).",
     ),
 ]
+MarkerLowpass = Annotated[
+    float,
+    typer.Option("--lowpass", metavar="HZ", help="Low-pass cut-off of the marker motion [Hz]."),
+]
+"""``--lowpass`` of the commands that only see markers (``live``)."""
 Markers = Annotated[
     int,
     typer.Option(
@@ -261,3 +266,51 @@ def fit_settings(
         noise=str(noise),
         start=DEFAULT_START if start is None else start,
     )
+
+
+# --- cameras (record, run-trial, live) --------------------------------------------------
+
+
+class SensorChoice(StrEnum):
+    """The camera sensor profiles (``acquire.cameras.PROFILES``), for every command that
+    opens cameras: ``record``, ``run-trial`` and ``live``."""
+
+    raw = "raw"
+    mini = "mini"
+    r15 = "r15"
+    digit = "digit"
+
+
+SensorProfile = Annotated[
+    SensorChoice,
+    typer.Option(
+        "--sensor",
+        help="Sensor profile of the cameras: mini (GelSight Mini: MJPG 3280x2464 at 25 fps, "
+        "1/7 border cropped, 320x240), r15 (640x480, 30 fps), digit (320x240, 60 fps), raw "
+        "(frames as the camera gives them).",
+    ),
+]
+OpenTimeout = Annotated[
+    float,
+    typer.Option(
+        "--open-timeout",
+        metavar="SECONDS",
+        help="Deadline for opening a network camera stream, as a whole [s].",
+    ),
+]
+ReadTimeout = Annotated[
+    float,
+    typer.Option(
+        "--read-timeout",
+        metavar="SECONDS",
+        help="Deadline for each frame, as a whole: a camera that delivers none fails [s].",
+    ),
+]
+WarmupTimeout = Annotated[
+    float,
+    typer.Option(
+        "--warmup-timeout",
+        metavar="SECONDS",
+        help="Deadline for the cameras' whole warm-up after opening, first frame included [s].",
+    ),
+]

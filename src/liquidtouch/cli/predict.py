@@ -9,6 +9,7 @@ Registered by :func:`liquidtouch.cli.models.register`.
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -149,8 +150,53 @@ def predict(
             records = json.loads(result.to_json(orient="records", double_precision=15))
             summary["rows"] = records
         typer.echo(json.dumps(summary, ensure_ascii=False))
-    elif out is None:
+    elif out is None and stdout_is_terminal():
+        _print_table(result, fitted.targets)
+    elif out is None:  # piped: the CSV, as -o writes it
         typer.echo(result.to_csv(index=False), nl=False)
     else:
         extra = f", {int(failed.sum())} without features" if failed.any() else ""
         typer.echo(f"wrote {out} ({len(table)} rows{extra}; predicted {', '.join(fitted.targets)})")
+
+
+def stdout_is_terminal() -> bool:
+    """Whether stdout is an interactive terminal (a table then, else the CSV)."""
+    try:
+        return sys.stdout.isatty()
+    except (AttributeError, ValueError):
+        return False
+
+
+def _print_table(result, targets: list[str]) -> None:
+    """The predictions as a readable table on stdout: one row per input row, each target's
+    value ± std (a class and its probability), λ, ω and whether it lies out of domain."""
+    import math
+
+    from rich.console import Console
+    from rich.table import Table
+
+    from liquidtouch._core.numbers import with_uncertainty
+
+    table = Table(title=f"predictions ({len(result)} rows)")
+    table.add_column("trial" if "trial" in result.columns else "row")
+    for column in ("λ [1/s]", "ω [rad/s]", *targets, "out of domain"):
+        table.add_column(column.replace("[", "\\["), justify="right")
+    for i in range(len(result)):
+        values = result.iloc[i].to_dict()
+        cells = [str(values.get("trial", i + 1))]
+        for name in ("decay_rate", "angular_frequency"):
+            value = values.get(name, math.nan)
+            cells.append("—" if value is None or value != value else f"{value:.4g}")
+        for target in targets:
+            mean = values.get(f"predicted_{target}")
+            std = values.get(f"predicted_{target}_std")
+            if isinstance(mean, str):
+                share = values.get(f"probability_{mean}")
+                cells.append(mean + (f" ({share:.0%})" if isinstance(share, float) else ""))
+            elif mean is None or mean != mean:
+                cells.append("—")
+            else:
+                cells.append(with_uncertainty(mean, std if std is not None else math.nan))
+        cells.append("yes" if values.get("out_of_domain") else "")
+        table.add_row(*cells)
+    Console(soft_wrap=False).print(table)

@@ -15,16 +15,12 @@ from pathlib import Path
 
 import typer
 
+from liquidtouch.acquire.deadlines import (
+    DEFAULT_OPEN_TIMEOUT_S,
+    DEFAULT_READ_TIMEOUT_S,
+    DEFAULT_WARMUP_TIMEOUT_S,
+)
 from liquidtouch.cli import options
-
-
-class ProfileChoice(StrEnum):
-    """``record --sensor`` (``acquire.cameras.PROFILES``)."""
-
-    raw = "raw"
-    mini = "mini"
-    r15 = "r15"
-    digit = "digit"
 
 
 class FormatChoice(StrEnum):
@@ -64,13 +60,7 @@ def record(
         help="Trial directory to create (new, or an empty directory).",
         show_default=False,
     ),
-    sensor: ProfileChoice = typer.Option(
-        ProfileChoice.raw,
-        "--sensor",
-        help="Sensor profile: mini (MJPG 3280x2464 at 25 fps, 1/7 border cropped, "
-        "320x240), r15 (640x480, 30 fps), digit (320x240, 60 fps), raw (as the camera "
-        "gives them).",
-    ),
+    sensor: options.SensorProfile = options.SensorChoice.raw,
     fmt: FormatChoice = typer.Option(
         FormatChoice.ffv1,
         "--format",
@@ -90,6 +80,9 @@ def record(
     as_json: bool = typer.Option(
         False, "--json", help="Print one JSON object on stdout (the recording summary)."
     ),
+    open_timeout_s: options.OpenTimeout = DEFAULT_OPEN_TIMEOUT_S,
+    read_timeout_s: options.ReadTimeout = DEFAULT_READ_TIMEOUT_S,
+    warmup_timeout_s: options.WarmupTimeout = DEFAULT_WARMUP_TIMEOUT_S,
 ) -> None:
     """Record GelSight cameras (or streams, or replayed videos) into a trial directory.
 
@@ -117,7 +110,14 @@ def record(
             labels=labels,
             grey=not colour,
             on_progress=on_progress,
+            open_timeout_s=open_timeout_s,
+            read_timeout_s=read_timeout_s,
+            warmup_timeout_s=warmup_timeout_s,
         )
+    from liquidtouch.cli.format import warn
+
+    for message in summary.warnings:
+        warn(message)
     if as_json:
         typer.echo(json.dumps(summary.to_dict()))
         return

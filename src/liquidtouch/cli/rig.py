@@ -23,6 +23,11 @@ from pathlib import Path
 
 import typer
 
+from liquidtouch.acquire.deadlines import (
+    DEFAULT_OPEN_TIMEOUT_S,
+    DEFAULT_WARMUP_TIMEOUT_S,
+    TRIAL_READ_TIMEOUT_S,
+)
 from liquidtouch.cli import options
 
 rig_app = typer.Typer(
@@ -180,13 +185,6 @@ def run_trial_command(
     as_json: bool = typer.Option(
         False, "--json", help="Print one JSON object on stdout (trial, push times, summary)."
     ),
-    camera_timeout_s: float = typer.Option(
-        10.0,
-        "--camera-timeout",
-        metavar="SECONDS",
-        min=0.1,
-        help="A camera that delivers nothing this long fails the trial [s].",
-    ),
     model_file: Path | None = typer.Option(
         None,
         "--model",
@@ -211,6 +209,16 @@ def run_trial_command(
         help="Live: the estimate is final once every TARGET's std is below STD.",
         show_default=False,
     ),
+    sensor: options.SensorChoice | None = typer.Option(
+        None,
+        "--sensor",
+        help="Sensor profile of the cameras (as record --sensor: mini, r15, digit, raw); "
+        "default: the protocol file's camera_profile, else raw.",
+        show_default=False,
+    ),
+    open_timeout_s: options.OpenTimeout = DEFAULT_OPEN_TIMEOUT_S,
+    read_timeout_s: options.ReadTimeout = TRIAL_READ_TIMEOUT_S,
+    warmup_timeout_s: options.WarmupTimeout = DEFAULT_WARMUP_TIMEOUT_S,
 ) -> None:
     """Run one trial on a robot: grasp, lift, record, push, hold, lower, release.
 
@@ -234,6 +242,10 @@ def run_trial_command(
         if not math.isfinite(seconds):
             raise LiquidTouchError(f"--seconds must be a finite number, got {seconds}")
         params = protocol_from_mapping({**params.model_dump(), "hold_s": seconds}, "--seconds")
+    if sensor is not None:
+        params = protocol_from_mapping(
+            {**params.model_dump(), "camera_profile": str(sensor)}, "--sensor"
+        )
     labels = {k: v for k, v in typed_labels(label).items() if v is not None}
     if name and len(name) != len(camera):
         raise LiquidTouchError(f"{len(camera)} --camera but {len(name)} --name")
@@ -246,7 +258,12 @@ def run_trial_command(
     from liquidtouch.acquire.protocol import make_recorder
 
     live_run = None
-    factory = functools.partial(make_recorder, read_timeout_s=camera_timeout_s)
+    factory = functools.partial(
+        make_recorder,
+        open_timeout_s=open_timeout_s,
+        read_timeout_s=read_timeout_s,
+        warmup_timeout_s=warmup_timeout_s,
+    )
     if live or model_file is not None or serve or until_std:
         from liquidtouch.cli.live_trial import LiveTrial
 
@@ -302,6 +319,10 @@ def _run(gripper, arm, camera, out, params, labels, name, on_step, factory, live
 
 def _report(run, as_json: bool, live_run) -> None:
     summary = run.summary
+    from liquidtouch.cli.format import warn
+
+    for message in summary.warnings:
+        warn(message)
     result = {
         "trial": str(run.trial_dir),
         "push_start_s": run.push_start_s,

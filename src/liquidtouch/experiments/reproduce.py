@@ -248,8 +248,12 @@ def reproduce(
     data_dir: str | Path | None = None,
     seed: int = 0,
     realism: str = "clean",
+    on_stage: Callable[[str], None] | None = None,
 ) -> Reproduction:
     """Simulate, extract, run the seven experiments and write ``report.md`` / ``report.html``.
+
+    ``on_stage(text)`` is called as each stage begins (one line of text: e.g. for a log
+    when no progress bar is shown).
 
     The simulated datasets go to ``data_dir`` (default :func:`default_data_dir`:
     ``<out_dir>-data``), under ``quick-seed<seed>`` or ``full-seed<seed>``, and are
@@ -268,9 +272,15 @@ def reproduce(
     seconds: dict[str, float] = {}
     features: dict[str, dict[str, pd.DataFrame]] = {}
     reused: list[str] = []
-    for preset in DATASETS:
+    stage = on_stage or (lambda _text: None)
+    for number, preset in enumerate(DATASETS, 1):
         if (data_root / preset / MANIFEST_NAME).is_file():
             reused.append(preset)
+        stage(
+            f"dataset {number}/{len(DATASETS)}: {preset} "
+            f"({'reusing the simulated trials' if preset in reused else 'simulating'}, "
+            "then extracting features)"
+        )
         start = time.perf_counter()
         features[preset] = prepare_dataset(
             preset,
@@ -284,6 +294,7 @@ def reproduce(
         )
         seconds[f"data: {preset}"] = time.perf_counter() - start
 
+    stage("the seven experiments")
     start = time.perf_counter()
     roots = {preset: data_root / preset for preset in DATASETS}
     results = run_experiments(features, out, seed=seed, dataset_roots=roots)
@@ -327,6 +338,7 @@ def reproduce(
             "workers": f"{jobs}" + (f" (dask {dask_address})" if dask_address else ""),
         }
     )
+    stage(f"writing the report to {out}")
     md, html = write_report(
         results,
         out,

@@ -22,6 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
+from liquidtouch._core.checks import (
+    MAX_ABS_POSITION_PX,
+    MAX_RATE_HZ,
+    check_magnitude,
+    check_time_steps,
+)
 from liquidtouch.errors import TableError
 from liquidtouch.io.signal_csv import check_csv_bounds, shorten
 from liquidtouch.tracking.track import marker_spacing
@@ -53,8 +59,11 @@ def read_marker_csv(
     if not path.is_file():
         raise TableError(f"marker CSV {path} does not exist")
     name = sensor if sensor is not None else (path.stem or "sensor")
-    if fps is not None and not 0 < _number(fps) < math.inf:
-        raise TableError(f"the frame rate (--fps) must be a positive number in Hz, got {fps!r}")
+    if fps is not None and not 0 < _number(fps) <= MAX_RATE_HZ:
+        raise TableError(
+            f"the frame rate (--fps) must be a positive number in Hz up to {MAX_RATE_HZ:g}, "
+            f"got {shorten(repr(fps), 40)}"
+        )
     check_csv_bounds(path, "marker CSV")
     columns, table = _read_marker_table(path)
     where = shorten(path)
@@ -62,6 +71,7 @@ def read_marker_csv(
     row = _integer_column(table, "row", where)
     col = _integer_column(table, "col", where)
     xy = np.column_stack([_float_column(table, c, where) for c in ("x", "y")])
+    check_magnitude(xy, f"{where}: columns x, y", MAX_ABS_POSITION_PX, "px")
     if (frame < 0).any():
         raise TableError(f"{where}: frame numbers must be >= 0")
     frames, frame_idx = np.unique(frame, return_inverse=True)
@@ -203,6 +213,7 @@ def _reference(
     reference = positions[first_valid, np.arange(n_markers)]
     if "x0" in columns and "y0" in columns:
         start = np.column_stack([_float_column(table, c, where) for c in ("x0", "y0")])
+        check_magnitude(start, f"{where}: columns x0, y0", MAX_ABS_POSITION_PX, "px")
         order = np.argsort(frame, kind="stable")
         _, first_row = np.unique(marker_idx[order], return_index=True)
         rows = order[first_row]
@@ -241,6 +252,7 @@ def _frame_times(
                 f"{where}: t_s must increase with the frame number, but frame {frames[k + 1]} "
                 f"({low[k + 1]:g} s) is not after frame {frames[k]} ({low[k]:g} s)"
             )
+        check_time_steps(low, f"{where}: column t_s")
         return low - low[0]
     if fps is None:
         raise TableError(

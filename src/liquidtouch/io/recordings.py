@@ -17,6 +17,7 @@ Concurrent ``add``s to one dataset are serialised by a lock on the marker file.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import shutil
@@ -26,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from liquidtouch._core import atomic
-from liquidtouch.errors import DatasetError
+from liquidtouch.errors import DatasetError, LiquidTouchError
 from liquidtouch.io.dataset import TrialMeta, read_trial_meta, write_trial_meta
 from liquidtouch.io.dataset_dir import (
     append_manifest_row,
@@ -198,16 +199,23 @@ def add_trial(
                 source={"kind": kind, **built.source},
             )
             write_trial_meta(tmp, meta)
-            _check_trial(tmp, kind)
             target = root / name
+            try:
+                _check_trial(tmp, kind)
+            except LiquidTouchError as exc:  # name the trial, not the hidden folder
+                raise type(exc)(str(exc).replace(str(tmp), str(target))) from None
             row = {"trial": name, **({"split": split} if split is not None else {}), **checked}
             with atomic.deferred_interrupt():
-                target.parent.mkdir(parents=True, exist_ok=True)
-                os.rename(tmp, target)
+                made: list[Path] = []
                 try:
+                    _make_parents(root, target, made)
+                    os.rename(tmp, target)
                     n_trials = append_manifest_row(root, header, rows, row)
                 except BaseException:
                     shutil.rmtree(target, ignore_errors=True)
+                    for folder in reversed(made):  # the folders this add created, deepest first
+                        with contextlib.suppress(OSError):
+                            folder.rmdir()
                     raise
         finally:
             if tmp.exists():
@@ -226,6 +234,16 @@ def add_trial(
         copied=built.copied,
         warnings=warnings,
     )
+
+
+def _make_parents(root: Path, target: Path, made: list[Path]) -> None:
+    """Create the folders between ``root`` and ``target``; list those it created in ``made``."""
+    folder = root
+    for part in target.relative_to(root).parts[:-1]:
+        folder = folder / part
+        if not folder.is_dir():
+            folder.mkdir()
+            made.append(folder)
 
 
 def _umask() -> int:

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from liquidtouch._core import atomic
+from liquidtouch._core.checks import MAX_ABS_SIGNAL, check_magnitude, check_time_steps
 from liquidtouch.errors import TableError
 
 __all__ = [
@@ -113,8 +114,9 @@ def read_signal_csv(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarra
     TableError
         Not a file, larger than :data:`MAX_CSV_BYTES`, a header longer than
         :data:`MAX_HEADER_BYTES` or wider than :data:`MAX_CSV_COLUMNS`, no data
-        rows, columns ``t`` or ``u`` missing, a non-numeric or empty cell, or
-        NaN/inf values.
+        rows, columns ``t`` or ``u`` missing, a non-numeric or empty cell,
+        NaN/inf values, ``|u|`` over ``MAX_ABS_SIGNAL`` or times beyond
+        ``MAX_ABS_TIME_S`` or closer than ``MIN_TIME_STEP_S`` (``_core.checks``).
     """
     import pandas as pd
 
@@ -152,7 +154,11 @@ def read_signal_csv(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarra
                 f"{shorten(repr(table[name].iloc[row]), 40)})"
             )
         columns.append(values)
-    return columns[0], columns[1]
+    t, u = columns
+    check_magnitude(u, f"{where}: column 'u'", MAX_ABS_SIGNAL, "(any unit)")
+    order = np.sort(t)
+    check_time_steps(order[np.r_[True, np.diff(order) != 0]], f"{where}: column 't'")
+    return t, u
 
 
 def write_signal_csv(path: str | os.PathLike[str], t: np.ndarray, u: np.ndarray) -> None:

@@ -10,6 +10,7 @@ temporary directory and say what ``meta.json`` must record (:class:`BuiltTrial`)
 
 from __future__ import annotations
 
+import errno
 import math
 import os
 import re
@@ -18,6 +19,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from liquidtouch._core.checks import MAX_RATE_HZ
 from liquidtouch._core.progress import progress_bar
 from liquidtouch.clock import check_consistent
 from liquidtouch.errors import DatasetError
@@ -28,9 +30,13 @@ from liquidtouch.io.labels import MAX_NAME
 from liquidtouch.io.marker_csv import read_marker_csv
 from liquidtouch.io.rosbag import import_bag
 from liquidtouch.io.trial_tracks import TRACKS_NAME
-from liquidtouch.tracking.tracks import save_tracks
+from liquidtouch.tracking.tracks import MAX_FRAMES, save_tracks
 
 TRIAL_PREFIX = "trial-"
+RESERVED_NAMES = (MANIFEST_NAME, FEATURES_NAME, META_NAME)
+"""Names a trial (or its top folder) cannot take: the dataset's own files."""
+RESERVED_SUFFIXES = (".csv", ".json")
+"""Nor names ending so (the dataset's tables and the files ``features`` writes beside them)."""
 _NAME_PART = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
 _SENSOR_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]*")
 
@@ -51,8 +57,18 @@ def check_trial_name(root: Path, name: str, existing: Sequence[str]) -> str:
             "'/' between folder levels, e.g. water/h25-run1"
         )
     trial_path(root, name)
-    if len(parts) == 1 and (name in (MANIFEST_NAME, FEATURES_NAME) or name.endswith(".csv")):
-        raise DatasetError(f"trial name {name!r} is reserved for the dataset's tables")
+    top = parts[0]
+    if top in RESERVED_NAMES or top.lower().endswith(RESERVED_SUFFIXES):
+        raise DatasetError(
+            f"trial name {name!r}: {top!r} is reserved for the dataset's own files "
+            f"({', '.join(RESERVED_NAMES)}, *{', *'.join(RESERVED_SUFFIXES)}); choose --name"
+        )
+    for depth in range(1, len(parts)):
+        folder = root.joinpath(*parts[:depth])
+        if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
+            raise DatasetError(
+                f"trial name {name!r}: {folder} is not a folder of trials; choose --name"
+            )
     if name in existing:
         raise DatasetError(f"{root / MANIFEST_NAME} already lists trial {name!r}; choose --name")
     for other in existing:
@@ -107,6 +123,7 @@ def _inspect_source(path: Path) -> _Source:
                 f"{path} is a trial directory; give its videos (or add it to the manifest by hand)"
             )
         files = image_files(path)
+        check_image_frames(path, files)
         stamps = read_folder_timestamps(path, len(files))
         fps = None
         if stamps is not None and len(stamps) > 1:
@@ -117,17 +134,69 @@ def _inspect_source(path: Path) -> _Source:
             f"{path} is one image; give the folder of a sensor's images (or its video)"
         )
     info = video_info(path)
+    declared = info.frames
+    if declared > MAX_FRAMES:
+        raise DatasetError(
+            f"{path} holds {declared} frames, more than the {MAX_FRAMES} tracked per sensor "
+            "(a trial is the push and ~15 s of ring-down); cut it to the trial first"
+        )
     return _Source(path, False, info.fps if info.fps > 0 else None)
 
 
-def _place(src: Path, dst: Path, link: bool) -> bool:
-    """Hard-link (if ``link``) or copy ``src`` to ``dst``; True if it was linked."""
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def check_image_frames(folder: Path, files: Sequence[Path]) -> None:
+    """The checks ``extract`` would make on reading a sensor's image folder, made cheaply
+    up front: at most :data:`MAX_FRAMES` images, none empty, and PNGs (read from their
+    header) of one size. :class:`DatasetError` names the first offender."""
+    if len(files) > MAX_FRAMES:
+        raise DatasetError(
+            f"{folder} holds {len(files)} images, more than the {MAX_FRAMES} frames tracked "
+            "per sensor (a trial is the push and ~15 s of ring-down); give the trial's frames"
+        )
+    size = None
+    for file in files:
+        try:
+            with open(file, "rb") as handle:
+                head = handle.read(24)
+        except OSError as exc:
+            raise DatasetError(f"cannot read image {file}: {exc.strerror or exc}") from None
+        if not head:
+            raise DatasetError(f"image {file} is empty (0 bytes); every frame must be an image")
+        if file.suffix.lower() != ".png":
+            continue
+        if len(head) < 24 or not head.startswith(PNG_SIGNATURE) or head[12:16] != b"IHDR":
+            raise DatasetError(f"image {file} is not a PNG image (no PNG header)")
+        dims = (int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big"))
+        if size is None:
+            size, first = dims, file
+        elif dims != size:
+            raise DatasetError(
+                f"image {file} is {dims[0]}x{dims[1]} but {first.name} is {size[0]}x{size[1]}; "
+                "all frames of a sensor must have one size"
+            )
+
+
+LINK_FAILURES = {
+    errno.EXDEV: "on another file system",
+    errno.EMLINK: "at the file system's hard-link limit",
+    errno.EPERM: "not allowed to be hard-linked here",
+    errno.EACCES: "not allowed to be hard-linked here",
+}
+"""Why ``os.link`` failed, by errno (the file is copied instead)."""
+
+
+def _place(src: Path, dst: Path, link: bool, reasons: set[str]) -> bool:
+    """Hard-link (if ``link``) or copy ``src`` to ``dst`` (a symlink: what it points to);
+    True if it was linked. Why a link failed goes into ``reasons``."""
+    src = src.resolve()  # a symlinked recording: its file, never the link itself
     if link:
         try:
             os.link(src, dst)
             return True
-        except OSError:  # another file system, or links not allowed: copy
-            pass
+        except OSError as exc:  # copied instead; the reason is reported
+            reasons.add(LINK_FAILURES.get(exc.errno, exc.strerror or str(exc)))
     shutil.copy2(src, dst)
     return False
 
@@ -140,8 +209,11 @@ def check_fps(fps: float | None) -> float | None:
         value = float(fps)
     except (TypeError, ValueError):
         value = math.nan
-    if not 0 < value < math.inf:
-        raise DatasetError(f"the frame rate (--fps) must be a positive number in Hz, got {fps!r}")
+    if not 0 < value <= MAX_RATE_HZ:
+        raise DatasetError(
+            f"the frame rate (--fps) must be a positive number in Hz up to {MAX_RATE_HZ:g}, "
+            f"got {str(fps)[:40]}"
+        )
     return value
 
 
@@ -205,22 +277,23 @@ def build_from_files(
                     "stream; meta.json records --fps (videos are timed by their own timestamps)"
                 )
     entries, linked, copied = [], 0, 0
+    reasons: set[str] = set()
     for it, sensor in zip(items, names, strict=True):
         if it.folder:
             entry = sensor
             (tmp / entry).mkdir()
             files = [*it.images, *([it.path / TIMESTAMPS_NAME] if it.has_timestamps else [])]
             for file in files:
-                done = _place(file, tmp / entry / file.name, link)
+                done = _place(file, tmp / entry / file.name, link, reasons)
                 linked, copied = linked + done, copied + (not done)
         else:
             entry = sensor + it.path.suffix.lower()
-            done = _place(it.path, tmp / entry, link)
+            done = _place(it.path, tmp / entry, link, reasons)
             linked, copied = linked + done, copied + (not done)
         entries.append(entry)
     if link and copied:
         warnings.append(
-            f"copied {copied} file(s) that could not be hard-linked (another file system?)"
+            f"copied {copied} file(s) that could not be hard-linked ({'; '.join(sorted(reasons))})"
         )
     source = {"inputs": [p.name for p in paths]}
     return BuiltTrial(entries, names, rate, None, source, linked, copied, warnings)

@@ -21,13 +21,13 @@ import math
 import os
 import queue
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from liquidtouch.acquire.cameras import END, CaptureSession, open_camera
+from liquidtouch.acquire.cameras import END, CaptureSession, check_distinct_sources, open_camera
 from liquidtouch.errors import DeviceError
 from liquidtouch.io.dataset import trial_sensor_starts
 from liquidtouch.io.frames import iter_frames
@@ -95,6 +95,7 @@ def camera_frames(
     *,
     names: Sequence[str] | None = None,
     profile: str = "raw",
+    camera_options: Mapping[str, float] | None = None,
 ) -> Iterator[LiveFrame]:
     """Frames of live cameras (any :func:`open_camera` source), as they arrive.
 
@@ -103,10 +104,11 @@ def camera_frames(
     the generator is closed or ends (every source ended or failed; a failure is
     raised as :class:`DeviceError` after the frames before it).
     """
+    check_distinct_sources(list(sources))
     cameras = []
     try:
         for source in sources:
-            cameras.append(open_camera(source, profile=profile))
+            cameras.append(open_camera(source, profile=profile, **dict(camera_options or {})))
         session = CaptureSession(cameras, names)
     except BaseException:
         for camera in cameras:
@@ -143,6 +145,7 @@ def open_frames(
     realtime: bool = False,
     fps: float | None = None,
     profile: str = "raw",
+    camera_options: Mapping[str, float] | None = None,
 ) -> Iterator[LiveFrame]:
     """Frames of recordings (:func:`replay_frames`) or of live cameras (:func:`camera_frames`).
 
@@ -156,4 +159,4 @@ def open_frames(
             "give either recordings (video files, image folders, a trial directory) or "
             "cameras, not both"
         )
-    return camera_frames([str(s) for s in sources], profile=profile)
+    return camera_frames([str(s) for s in sources], profile=profile, camera_options=camera_options)

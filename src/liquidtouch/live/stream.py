@@ -58,6 +58,8 @@ def live_updates(
     protocol: bool = False,
     on_event: Callable[[], Iterable[tuple[str, float]]] | None = None,
     stop: Callable[[], bool] | None = None,
+    profile: str = "raw",
+    camera_options: Mapping[str, float] | None = None,
 ) -> Iterator[LiveUpdate]:
     """Updates of the streaming estimate of ``sources``; the last has ``final=True``.
 
@@ -83,6 +85,9 @@ def live_updates(
         the new ``(name, t_s)`` since its last call [s, on the frames' clock]; the push and
         the end of the hold are then taken from them.
     stop : called after each frame; True ends the stream (``stopped_because="stopped"``).
+    profile, camera_options : cameras only: the sensor profile (``mini``, ...) and
+        ``open_camera``'s deadlines (``open_timeout_s``, ``read_timeout_s``,
+        ``warmup_timeout_s`` [s]).
 
     Ctrl-C (a ``KeyboardInterrupt`` in the loop, or thrown into this generator by the
     caller with ``.throw``) ends the stream with its final update
@@ -96,7 +101,9 @@ def live_updates(
     if isinstance(sources, Sequence) and all(isinstance(s, str | os.PathLike) for s in sources):
         names = list(sensors) if sensors else sensor_names(sources, fps=fps)
         paced = realtime or not all(is_recording(s) for s in sources)
-        frames: Iterable[LiveFrame] = open_frames(sources, realtime=realtime, fps=fps)
+        frames: Iterable[LiveFrame] = open_frames(
+            sources, realtime=realtime, fps=fps, profile=profile, camera_options=camera_options
+        )
     else:
         if not sensors:
             raise VideoError("give the sensor names (sensors=...) of a stream of LiveFrame objects")

@@ -163,11 +163,32 @@ async def lifespan(app: Starlette) -> AsyncIterator[None]:
         logger.info("live view: stopped (%d still watching)", app.state.readers)
 
 
+def _get_only(path: str, endpoint) -> Route:
+    """A GET route that answers nothing else (starlette would add HEAD): 405 otherwise."""
+    route = Route(path, endpoint, methods=["GET"])
+    route.methods = {"GET"}
+    return route
+
+
 ROUTES = [
-    Route("/", page, methods=["GET"]),
-    Route("/stream", events, methods=["GET"]),
-    Route("/frame/{sensor}.jpg", frame, methods=["GET"]),
+    _get_only("/", page),
+    _get_only("/stream", events),
+    _get_only("/frame/{sensor}.jpg", frame),
 ]
+
+
+class _BrowserGone(logging.Filter):
+    """asyncio's "socket.send() raised exception." when a browser closed its page: not an
+    error of ours; logged at DEBUG on this module's logger instead."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.getMessage().startswith("socket.send() raised exception"):
+            logger.debug("live view: a browser went away while being sent to")
+            return False
+        return True
+
+
+logging.getLogger("asyncio").addFilter(_BrowserGone())
 
 
 def create_app(

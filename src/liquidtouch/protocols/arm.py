@@ -33,6 +33,7 @@ in the base frame; speeds [m/s], accelerations [m/s²]. A line is at most
 from __future__ import annotations
 
 import json
+import math
 from typing import Any
 
 __all__ = [
@@ -100,10 +101,23 @@ def error_reply(ident: int | None, error: str) -> dict[str, Any]:
     return {"id": ident, "ok": False, "error": error}
 
 
+def _finite(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"number out of range: {text[:40]}")
+    return value
+
+
+def _no_constant(name: str) -> float:
+    raise ValueError(f"{name} is not a number")
+
+
 def decode(line: str | bytes) -> dict[str, Any] | None:
-    """The JSON object on ``line``; ``None`` when it is not one."""
+    """The JSON object on ``line``; ``None`` when it is not one, or holds a number that is
+    not finite (``1e999``, ``NaN``), an integer of over 4300 digits or nesting too deep
+    for the parser."""
     try:
-        message = json.loads(line)
-    except (json.JSONDecodeError, UnicodeDecodeError):
+        message = json.loads(line, parse_float=_finite, parse_constant=_no_constant)
+    except (ValueError, UnicodeDecodeError, RecursionError):  # JSONDecodeError is a ValueError
         return None
     return message if isinstance(message, dict) else None

@@ -39,6 +39,7 @@ motion commands are refused (``ERR E_ACCESS_DENIED``) until ``FSACK()``.
 
 from __future__ import annotations
 
+import math
 import re
 
 __all__ = [
@@ -66,6 +67,7 @@ __all__ = [
     "HOLDING",
     "HOME",
     "IDLE",
+    "MAX_ARG_CHARS",
     "MAX_FORCE_N",
     "MAX_SPEED_MM_S",
     "MAX_WIDTH_MM",
@@ -86,6 +88,7 @@ __all__ = [
     "error_code",
     "error_reply",
     "format_value",
+    "parse_args",
     "parse_call",
     "parse_query_reply",
     "query",
@@ -181,6 +184,28 @@ def parse_call(line: str) -> tuple[str, str] | None:
     """``(NAME, argument text)`` of a command line (upper case, spaces removed), or ``None``."""
     match = _CALL.match(line.upper().replace(" ", ""))
     return None if match is None else (match.group(1), match.group(2))
+
+
+_NUMBER = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)(E[+-]?\d{1,3})?", re.IGNORECASE)
+MAX_ARG_CHARS = 32
+"""Longest parameter of a command [characters]."""
+
+
+def parse_args(arg_text: str) -> list[float] | None:
+    """The parameters of a command (``"25.00,59.00"``) as finite floats; ``None`` when one
+    is not a plain decimal number (``1_0_0``, ``inf``, ``0x10`` and empty ones are refused,
+    though Python's ``float`` would take some of them)."""
+    if not arg_text:
+        return []
+    values = []
+    for text in arg_text.split(","):
+        if len(text) > MAX_ARG_CHARS or not _NUMBER.fullmatch(text):
+            return None
+        value = float(text)
+        if not math.isfinite(value):
+            return None
+        values.append(value)
+    return values
 
 
 def reply(word: str, command: str) -> str:

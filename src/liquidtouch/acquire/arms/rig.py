@@ -10,6 +10,7 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
+from liquidtouch._core.checks import is_real
 from liquidtouch.acquire.arms.motion import check_move, check_pose, linear_move_duration
 from liquidtouch.acquire.device_link import LineConnection
 from liquidtouch.errors import DeviceError
@@ -18,6 +19,9 @@ from liquidtouch.protocols import arm as wire
 __all__ = ["RigArm"]
 
 logger = logging.getLogger(__name__)
+
+MAX_TRUTH = 1e6
+"""Largest λ [1/s] or ω [rad/s] taken from the rig's truth."""
 
 
 class RigArm:
@@ -85,8 +89,15 @@ class RigArm:
             raise DeviceError(f"the rig arm refused {cmd}: {reply.get('error', 'no reason given')}")
         return reply
 
+    def _result(self, reply: dict[str, Any], key: str, cmd: str) -> Any:
+        """The reply's ``key``; :class:`DeviceError` when the rig left it out."""
+        if key not in reply:
+            raise DeviceError(f"the rig arm's reply to {cmd} has no {key!r}")
+        return reply[key]
+
     def get_pose(self) -> list[float]:
-        return check_pose(self.request(wire.GET_POSE)["pose"], "arm's reported pose")
+        reply = self.request(wire.GET_POSE)
+        return check_pose(self._result(reply, "pose", wire.GET_POSE), "arm's reported pose")
 
     def move_linear(
         self, pose: Sequence[float], speed_m_s: float, acceleration_m_s2: float
@@ -107,14 +118,22 @@ class RigArm:
             with contextlib.suppress(DeviceError):
                 self.stop()
             raise
-        return check_pose(reply["pose"], "arm's reported pose")
+        return check_pose(self._result(reply, "pose", wire.MOVE_L), "arm's reported pose")
 
     def stop(self, deceleration_m_s2: float = 2.0) -> None:
         self.request(wire.STOP, acceleration=float(deceleration_m_s2))
 
     def truth(self) -> dict[str, Any]:
-        """The simulated liquid's ground truth (λ, ω) and labels."""
-        return self.request(wire.TRUTH)["truth"]
+        """The simulated liquid's ground truth (λ [1/s], ω [rad/s]) and labels; checked:
+        :class:`DeviceError` when λ or ω is missing or not a positive finite number."""
+        truth = self._result(self.request(wire.TRUTH), "truth", wire.TRUTH)
+        if not isinstance(truth, dict):
+            raise DeviceError("the rig arm's truth is not a JSON object")
+        for key in ("true_decay_rate", "true_angular_frequency"):
+            value = truth.get(key)
+            if not is_real(value) or not 0 < value < MAX_TRUTH:
+                raise DeviceError(f"the rig arm's truth has no valid {key} (got {str(value)[:40]})")
+        return truth
 
     def status(self) -> dict[str, Any]:
         """The rig's state (gripper, arm, trial clock)."""

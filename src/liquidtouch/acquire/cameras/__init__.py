@@ -6,7 +6,12 @@
 - ``"/dev/video2"``: a device path;
 - ``"name:GelSight Mini"``: the first (lowest-numbered) V4L2 device whose
   ``/sys/class/video4linux/video*/name`` contains that text (case-insensitive),
-  the way the GelSight SDK finds its sensors (:data:`SYSFS_VIDEO4LINUX`);
+  the way the GelSight SDK finds its sensors (:data:`SYSFS_VIDEO4LINUX`); two
+  sensors of one model share a name, so pick them apart by serial:
+- ``"serial:2BJ7-4F8Q"``: the capture node whose ``/dev/v4l/by-id/`` link
+  (``usb-<vendor>_<product>_<serial>-video-index0``) contains that text
+  (:data:`V4L_BY_ID`), or such a link itself (``/dev/v4l/by-id/...``, any link
+  to a ``/dev/videoN``);
 - ``"http://..."``: an MJPEG stream (a GelSight R1.5 streams with mjpg-streamer:
   ``http://gsr1500x.local:8080/?action=stream``), read by
   :mod:`~liquidtouch.acquire.cameras.mjpeg` with open and read timeouts;
@@ -32,13 +37,28 @@ the GelSight SDK does), ``r15`` (640 × 480 at 30 fps), ``digit`` (320 × 240 at
 60 fps) and ``raw`` (frames as the camera gives them).
 
 **Nothing is hidden.** :class:`FrameStats` counts dropped frames (a gap between
-consecutive timestamps of more than 1.5 frame periods; a gap of g periods counts
-round(g) − 1 drops) and duplicated frames (a frame identical to the one before,
+consecutive timestamps of more than 1.5 measured frame periods; a gap of g periods
+counts round(g) − 1 drops) and duplicated frames (a frame identical to the one before,
 which a sensor with noise never produces; a driver repeating its buffer does).
 Duplicates are kept in the recording and counted.
 
+**What is kept can be read back.** Each camera's frames are kept in time order,
+at least :data:`MIN_FRAME_STEP_S` apart: a frame whose own clock (``X-Timestamp``,
+a driver's timestamp) steps back or stands still is re-anchored on its arrival
+time, counted in :attr:`Camera.reanchors` and logged as a warning. A camera whose
+frame size changes mid-capture fails (:class:`DeviceError`): a sensor's frames have
+one size, as ``extract`` requires.
+
+**Deadlines** bound whole calls, not single network reads: opening a stream
+(``open_timeout_s``), the warm-up (``warmup_timeout_s``) and every read
+(``read_timeout_s``), each at most :data:`MAX_TIMEOUT_S`; the defaults are in
+:mod:`liquidtouch.acquire.deadlines`.
+
 :class:`CaptureSession` reads each camera on its own :class:`CameraThread` into a
 queue, so a slow consumer never delays a camera's reads (and so its timestamps).
+
+Two sources that are one camera (an index and a ``name:`` resolving to it, the same
+URL twice) are refused (:func:`check_distinct_sources`).
 
 Takes camera sources (strings); gives open :class:`Camera` objects, timed frames and
 their statistics. The modules, by concept: :mod:`~.sources` (resolving and opening
@@ -56,35 +76,38 @@ from liquidtouch.acquire.cameras.capture import (
     default_names,
 )
 from liquidtouch.acquire.cameras.devices import (
-    DEFAULT_OPEN_TIMEOUT_S,
-    DEFAULT_READ_TIMEOUT_S,
     DEFAULT_WARMUP_FRAMES,
     DROP_GAP_PERIODS,
-    MAX_WARMUP_S,
+    MAX_TIMEOUT_S,
+    MIN_FRAME_STEP_S,
     Camera,
     FileCamera,
     OpenCVCamera,
     SourceSpec,
     StreamEnded,
+    check_timeout,
 )
 from liquidtouch.acquire.cameras.mjpeg import MjpegCamera, MjpegStream, SenderClock
 from liquidtouch.acquire.cameras.profiles import PROFILES, CameraProfile, get_profile
 from liquidtouch.acquire.cameras.sources import (
     SYSFS_VIDEO4LINUX,
+    V4L_BY_ID,
+    check_distinct_sources,
     open_camera,
     parse_source,
     resolve_device_name,
+    resolve_serial,
 )
 
 __all__ = [
-    "DEFAULT_OPEN_TIMEOUT_S",
-    "DEFAULT_READ_TIMEOUT_S",
     "DEFAULT_WARMUP_FRAMES",
     "DROP_GAP_PERIODS",
     "END",
-    "MAX_WARMUP_S",
+    "MAX_TIMEOUT_S",
+    "MIN_FRAME_STEP_S",
     "PROFILES",
     "SYSFS_VIDEO4LINUX",
+    "V4L_BY_ID",
     "Camera",
     "CameraProfile",
     "CameraThread",
@@ -98,9 +121,12 @@ __all__ = [
     "SenderClock",
     "SourceSpec",
     "StreamEnded",
+    "check_distinct_sources",
+    "check_timeout",
     "default_names",
     "get_profile",
     "open_camera",
     "parse_source",
     "resolve_device_name",
+    "resolve_serial",
 ]

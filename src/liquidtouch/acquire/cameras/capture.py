@@ -16,15 +16,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from liquidtouch.acquire.cameras.devices import (
-    DEFAULT_READ_TIMEOUT_S,
     DROP_GAP_PERIODS,
-    MAX_WARMUP_S,
+    MIN_FRAME_STEP_S,
     Camera,
     StreamEnded,
 )
+from liquidtouch.acquire.deadlines import DEFAULT_READ_TIMEOUT_S, DEFAULT_WARMUP_TIMEOUT_S
 from liquidtouch.errors import DeviceError
 
 logger = logging.getLogger(__name__)
+
+MIN_MEASURED_GAPS = 10
+"""Frame intervals needed before drops are counted against the measured period."""
 
 # --- statistics -------------------------------------------------------------------------
 
@@ -33,8 +36,10 @@ logger = logging.getLogger(__name__)
 class FrameStats:
     """Frame count, timing, drops and duplicates of one camera's frames so far.
 
-    ``nominal_fps`` [Hz] sets the frame period for drop detection; without it the
-    median interval of the frames so far is used.
+    Drops are counted against the measured frame period, the median interval of
+    the frames so far (a GelSight Mini that gives 15 fps in a 25 fps mode drops
+    nothing); ``nominal_fps`` [Hz] stands in until :data:`MIN_MEASURED_GAPS`
+    intervals have been seen.
     """
 
     nominal_fps: float | None = None
@@ -60,11 +65,14 @@ class FrameStats:
 
     @property
     def period_s(self) -> float | None:
-        """The frame period [s]: 1 / nominal fps, else the median interval so far."""
+        """The frame period [s]: the median interval so far (1 / nominal fps before
+        :data:`MIN_MEASURED_GAPS` intervals, or the median of fewer without it)."""
+        if len(self._gaps) >= MIN_MEASURED_GAPS or (self._gaps and not self.nominal_fps):
+            median = float(np.median(self._gaps))
+            if median > 0:
+                return median
         if self.nominal_fps:
             return 1.0 / self.nominal_fps
-        if self._gaps:
-            return float(np.median(self._gaps))
         return None
 
     @property
@@ -155,15 +163,29 @@ class CameraThread(threading.Thread):
                 while not self._stop_event.is_set() and not math.isfinite(self.keep_from_t_s):
                     self._stop_event.wait(0.005)
             quick_s = 0.25 / self.camera.nominal_fps if self.camera.nominal_fps else 0.005
+            last_t_s = -math.inf
+            shape: tuple[int, ...] | None = None
             while not self._stop_event.is_set():
                 before = time.monotonic()
                 t_s, image = self.camera.read(self.read_timeout_s)
-                if time.monotonic() - before >= quick_s:  # waited for it: no stale frames left
+                arrival = time.monotonic()
+                if arrival - before >= quick_s:  # waited for it: no stale frames left
                     self.fresh.set()
+                if t_s < last_t_s + MIN_FRAME_STEP_S:  # its clock stepped back or stood still
+                    t_s = self._reanchor(t_s, last_t_s, arrival)
+                last_t_s = t_s
                 if self._stop_event.is_set() or t_s > self.keep_until_t_s:
                     break
                 if t_s < self.keep_from_t_s:  # primed, not yet recording: keep buffers empty
                     continue
+                if shape is None:
+                    shape = image.shape
+                elif image.shape != shape:  # extract reads one frame size per sensor
+                    raise DeviceError(
+                        f"the frame size changed from {_size(shape)} to {_size(image.shape)} "
+                        f"at frame {index}; a recording keeps one size per sensor (give a "
+                        "--sensor profile, which resizes, or fix the camera's mode)"
+                    )
                 duplicate = self.stats.add(t_s, image)
                 self.sink(Frame(self.sensor, index, t_s, image, duplicate))
                 index += 1
@@ -175,6 +197,21 @@ class CameraThread(threading.Thread):
             self.error = exc
         finally:
             self.ended.set()
+
+    def _reanchor(self, t_s: float, last_t_s: float, arrival_s: float) -> float:
+        """A frame timed ``t_s`` [s] not after the one before (``last_t_s``): timed on
+        ``arrival_s`` instead (kept after the one before), counted and logged."""
+        self.camera.reanchors += 1
+        logger.log(
+            logging.WARNING if self.camera.reanchors == 1 else logging.DEBUG,
+            "sensor %s: the camera's clock went from %.6f to %.6f s (back or standing "
+            "still); frames re-anchored on arrival time (%d so far)",
+            self.sensor,
+            last_t_s,
+            t_s,
+            self.camera.reanchors,
+        )
+        return max(arrival_s, last_t_s + MIN_FRAME_STEP_S)
 
     def keep(self, from_t_s: float) -> None:
         """Hand on the frames captured from ``from_t_s`` [s, monotonic] on; drop earlier ones."""
@@ -238,11 +275,11 @@ class CaptureSession:
     def start(self) -> CaptureSession:
         """Keep every frame captured from now on [s, monotonic: :attr:`start_t_s`] (once).
 
-        First waits (at most :data:`MAX_WARMUP_S`) until every live camera's thread has
+        First waits (at most :data:`DEFAULT_WARMUP_TIMEOUT_S`) until every live camera's thread has
         read the frames that were waiting in buffers since it was opened."""
         if not self._started:
             self.prime()
-            deadline = time.monotonic() + MAX_WARMUP_S
+            deadline = time.monotonic() + DEFAULT_WARMUP_TIMEOUT_S
             for thread in self.threads:  # stale frames read before the start, not after it
                 while not (thread.fresh.is_set() or thread.ended.is_set()):
                     if time.monotonic() > deadline:
@@ -309,6 +346,10 @@ class CaptureSession:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _size(shape: tuple[int, ...]) -> str:
+    return f"{shape[1]}x{shape[0]}" + (f"x{shape[2]}" if len(shape) > 2 else "")
 
 
 def default_names(n: int) -> list[str]:

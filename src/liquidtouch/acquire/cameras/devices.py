@@ -17,20 +17,37 @@ from pathlib import Path
 import numpy as np
 
 from liquidtouch.acquire.cameras.profiles import CameraProfile
+from liquidtouch.acquire.deadlines import (
+    DEFAULT_OPEN_TIMEOUT_S,
+    DEFAULT_READ_TIMEOUT_S,
+    DEFAULT_WARMUP_TIMEOUT_S,
+)
 from liquidtouch.errors import DeviceError
 
 logger = logging.getLogger(__name__)
 
-DEFAULT_READ_TIMEOUT_S = 2.0
-"""How long :meth:`Camera.read` waits for a frame before raising :class:`DeviceError` [s]."""
-DEFAULT_OPEN_TIMEOUT_S = 5.0
-"""How long opening a network stream may take [s]."""
 DEFAULT_WARMUP_FRAMES = 10
 """Frames read and thrown away after opening a live camera (auto-exposure, stale buffers)."""
 DROP_GAP_PERIODS = 1.5
 """A timestamp gap of more than this many frame periods means dropped frames."""
-MAX_WARMUP_S = 5.0
-"""Warm-up gives up after this long [s] (then the camera is not delivering)."""
+MAX_TIMEOUT_S = 600.0
+"""Largest open, read or warm-up timeout accepted [s]."""
+MIN_FRAME_STEP_S = 1e-6
+"""Consecutive frames of one camera must be at least this far apart [s] (the timestamp
+files' resolution): a frame whose clock steps back or stands still is re-anchored."""
+
+
+def check_timeout(value: float, what: str) -> float:
+    """``value`` [s] as a float in (0, :data:`MAX_TIMEOUT_S`]; :class:`DeviceError` otherwise."""
+    try:
+        seconds = float(value)
+    except (TypeError, ValueError):
+        seconds = math.nan
+    if not 0 < seconds <= MAX_TIMEOUT_S:
+        raise DeviceError(
+            f"{what} must be a number of seconds in (0, {MAX_TIMEOUT_S:g}], got {str(value)[:40]}"
+        )
+    return seconds
 
 
 class StreamEnded(DeviceError):
@@ -61,6 +78,10 @@ class Camera:
     source: str
     profile: CameraProfile
     nominal_fps: float | None = None
+    read_timeout_s: float = DEFAULT_READ_TIMEOUT_S
+    """The whole-call deadline of one read [s] (warm-up and capture threads use it)."""
+    reanchors: int = 0
+    """Frames whose own clock stepped back or stood still, timed on arrival instead."""
 
     def read(self, timeout_s: float = DEFAULT_READ_TIMEOUT_S) -> tuple[float, np.ndarray]:
         """The next frame; :class:`DeviceError` when none comes within ``timeout_s`` seconds,
@@ -79,26 +100,56 @@ class Camera:
         """Whether frames come at the source's own pace (a camera or stream, not a file)."""
         return True
 
-    def warm_up(self, frames: int) -> int:
+    def warm_up(self, frames: int, timeout_s: float = DEFAULT_WARMUP_TIMEOUT_S) -> int:
         """Read and discard ``frames`` frames, then any stale frames buffered before now.
 
         A frame counts as stale when it arrived less than a quarter of a frame period
         after the previous one (it was waiting in a buffer). Returns how many frames
-        were discarded; stops after :data:`MAX_WARMUP_S`.
+        were discarded. The whole warm-up has ``timeout_s`` [s]: the first frame may
+        take all of it (a camera starting up), every later one at most
+        :attr:`read_timeout_s`; the ``frames`` frames not read by then raise
+        :class:`DeviceError`, the search for stale frames just ends.
         """
-        start = time.monotonic()
+        deadline = time.monotonic() + float(timeout_s)
+        wanted = max(0, int(frames))
         discarded = 0
-        for _ in range(max(0, int(frames))):
-            self.read()
+
+        def read_one() -> float:
+            """Read a frame within what is left of the warm-up; return how long it took."""
+            before = time.monotonic()
+            remaining = deadline - before
+            limited = remaining if discarded == 0 else min(self.read_timeout_s, remaining)
+            try:
+                if remaining <= 0:
+                    raise DeviceError("no time left")
+                self.read(limited)
+            except StreamEnded:
+                raise
+            except DeviceError:
+                if limited < remaining or discarded >= wanted:
+                    raise  # the read's own deadline, or the search for stale frames
+                raise DeviceError(
+                    f"camera {self.source} delivered {discarded} of {wanted} warm-up frames "
+                    f"within {timeout_s:g} s; is it streaming (or give a longer warm-up "
+                    "timeout)?"
+                ) from None
+            return time.monotonic() - before
+
+        for _ in range(wanted):
+            read_one()
             discarded += 1
         if not self.live or not self.nominal_fps:
             return discarded
         quick = 0.25 / self.nominal_fps
-        while time.monotonic() - start < MAX_WARMUP_S:
-            before = time.monotonic()
-            self.read()
+        while deadline - time.monotonic() > 0:
+            try:
+                took = read_one()
+            except DeviceError:
+                if discarded > 0 and time.monotonic() >= deadline:
+                    break  # out of time while looking for stale frames: none are left
+                raise
             discarded += 1
-            if time.monotonic() - before >= quick:
+            if took >= quick:
                 break
         return discarded
 
@@ -127,6 +178,7 @@ class OpenCVCamera(Camera):
 
         self.source = spec.text
         self.profile = profile
+        self.read_timeout_s = float(read_timeout_s)
         self._spec = spec
         self._lock = threading.Lock()
         timeouts = [

@@ -12,7 +12,7 @@ itself, so it sees each part's ``X-Timestamp`` header.
 a part without ``Content-Length`` runs to the next boundary line, or the stream's end
 if its JPEG is complete). ``--B--`` or
 the server closing between parts ends the stream (:class:`StreamEnded`); closing
-inside a part, a part that breaks the format, or no byte for ``read_timeout_s``
+inside a part, a part that breaks the format, or no complete part within ``read_timeout_s``
 raise :class:`DeviceError`. A JPEG
 that does not decode is skipped (it shows as a dropped frame) and counted in
 :attr:`MjpegCamera.bad_frames`.
@@ -23,7 +23,15 @@ sender→receiver offset, the minimum of ``arrival − sender time`` over the la
 :data:`OFFSET_WINDOW_S` seconds of frames: the network only ever delays a frame,
 so the least delayed frame shows the offset (plus the smallest latency), and
 jitter does not reach the timestamps. A part without it is stamped on arrival
-(a part without ``Content-Length`` arrives only with the next boundary).
+(a part without ``Content-Length`` arrives only with the next boundary). When the
+sender's clock steps back or stands still (an ``X-Timestamp`` not after the one
+before) the offset is learnt anew from that frame, which is stamped on arrival: the
+frames stay in order and the step is counted (:attr:`Camera.reanchors`) and logged
+as a warning.
+
+**Deadlines.** Opening (connect, request, response headers) and each read are
+bounded as a whole (:data:`DEFAULT_OPEN_TIMEOUT_S`, :data:`DEFAULT_READ_TIMEOUT_S`),
+not per network read: a sender that drips a byte a second fails the call in time.
 """
 
 from __future__ import annotations
@@ -40,13 +48,9 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
-from liquidtouch.acquire.cameras.devices import (
-    DEFAULT_OPEN_TIMEOUT_S,
-    DEFAULT_READ_TIMEOUT_S,
-    Camera,
-    StreamEnded,
-)
+from liquidtouch.acquire.cameras.devices import Camera, StreamEnded
 from liquidtouch.acquire.cameras.profiles import CameraProfile
+from liquidtouch.acquire.deadlines import DEFAULT_OPEN_TIMEOUT_S, DEFAULT_READ_TIMEOUT_S
 from liquidtouch.errors import DeviceError
 from liquidtouch.protocols import mjpeg
 
@@ -95,9 +99,11 @@ class SenderClock:
 class MjpegStream:
     """One HTTP connection to an MJPEG stream; :meth:`read_part` gives its next part.
 
-    ``open_timeout_s`` bounds connecting and the response headers,
-    ``read_timeout_s`` every later wait for bytes [s]. Raises :class:`DeviceError`
-    when the URL cannot be opened or does not serve a multipart stream.
+    Both timeouts bound a whole call, not each network read (a sender that drips a
+    byte a second cannot hold a call longer): ``open_timeout_s`` connecting, the
+    request and the response headers, ``read_timeout_s`` each :meth:`read_part` [s].
+    Raises :class:`DeviceError` when the URL cannot be opened or does not serve a
+    multipart stream.
     """
 
     def __init__(
@@ -112,10 +118,14 @@ class MjpegStream:
             raise DeviceError(f"{url!r} is not an http:// or https:// stream URL")
         self.url = url
         self.read_timeout_s = float(read_timeout_s)
+        open_timeout_s = float(open_timeout_s)
         kind = (
             http.client.HTTPSConnection if parts.scheme == "https" else http.client.HTTPConnection
         )
-        self._conn = kind(parts.hostname, parts.port, timeout=float(open_timeout_s))
+        self._conn = kind(parts.hostname, parts.port, timeout=open_timeout_s)
+        self._sock: socket.socket | None = None
+        self._buffer = bytearray()
+        self._deadline = math.inf
         target = (parts.path or "/") + (f"?{parts.query}" if parts.query else "")
         headers = {
             "Accept": f"{mjpeg.MULTIPART_TYPE}, {mjpeg.JPEG_TYPE}",
@@ -124,15 +134,40 @@ class MjpegStream:
         if parts.username:  # mjpg-streamer's -c user:password
             token = f"{parts.username}:{parts.password or ''}".encode()
             headers["Authorization"] = "Basic " + base64.b64encode(token).decode("ascii")
+        start = time.monotonic()
+        expired = threading.Event()
+
+        def expire() -> None:  # the whole open overran: wake the blocked read
+            expired.set()
+            self.interrupt()
+
+        watchdog: threading.Timer | None = None
         try:
-            self._conn.request("GET", target, headers=headers)
+            self._conn.connect()  # bounded by open_timeout_s itself
             # kept: once the response owns the connection (Connection: close) conn.sock is None
             self._sock = self._conn.sock
+            left_s = max(0.0, open_timeout_s - (time.monotonic() - start))
+            watchdog = threading.Timer(left_s, expire)
+            watchdog.daemon = True
+            watchdog.start()
+            self._conn.request("GET", target, headers=headers)
             response = self._conn.getresponse()
         except (OSError, http.client.HTTPException) as exc:
             self._conn.close()
-            logger.info("stream %s could not be opened: %s", url, exc)
-            raise DeviceError(f"stream {url} could not be opened: {exc}") from None
+            if self._sock is not None:
+                self._sock.close()
+            reason = f"no answer within {open_timeout_s:g} s" if expired.is_set() else exc
+            logger.info("stream %s could not be opened: %s", url, reason)
+            raise DeviceError(f"stream {url} could not be opened: {reason}") from None
+        finally:
+            if watchdog is not None:
+                watchdog.cancel()
+        if expired.is_set():  # fired just as the headers completed: the socket is shut
+            response.close()
+            self._conn.close()
+            raise DeviceError(
+                f"stream {url} could not be opened: no answer within {open_timeout_s:g} s"
+            )
         kind_header = response.getheader("Content-Type", "")
         boundary = mjpeg.parse_boundary(kind_header)
         if response.status != 200 or boundary is None:
@@ -140,46 +175,48 @@ class MjpegStream:
             self._conn.close()
             raise DeviceError(
                 f"stream {url} could not be opened: the server answered {response.status} "
-                f"{response.reason} with {kind_header or 'no Content-Type'!r}, not a "
+                f"{response.reason[:80]} with {kind_header[:80] or 'no Content-Type'!r}, not a "
                 f"{mjpeg.MULTIPART_TYPE} MJPEG stream"
             )
         self._response = response
-        self.set_read_timeout(self.read_timeout_s)
         self._boundary = b"--" + boundary.encode("latin-1")
         self._pending: bytes | None = None  # a boundary line already read (no Content-Length)
-        logger.info("connected to MJPEG stream %s (boundary %r)", url, boundary)
+        logger.info("connected to MJPEG stream %s (boundary %r)", url, boundary[:80])
 
-    def read_part(self) -> tuple[float, dict[str, str], bytes]:
+    def read_part(self, timeout_s: float | None = None) -> tuple[float, dict[str, str], bytes]:
         """``(arrival_s, headers, body)`` of the next part; ``arrival_s`` on time.monotonic.
 
-        Header names are lower case. :class:`StreamEnded` at the stream's end,
-        :class:`DeviceError` on a timeout or a broken part (module docstring).
+        The whole part must arrive within ``timeout_s`` [s] (default
+        :attr:`read_timeout_s`). Header names are lower case. :class:`StreamEnded` at
+        the stream's end, :class:`DeviceError` on a timeout or a broken part (module
+        docstring).
         """
+        timeout_s = self.read_timeout_s if timeout_s is None else float(timeout_s)
+        self._deadline = time.monotonic() + timeout_s
         try:
             self._skip_to_boundary()
             headers = self._headers()
             body = self._body(headers.get(mjpeg.LENGTH_HEADER.lower()))
         except TimeoutError:
             raise DeviceError(
-                f"stream {self.url} delivered no data within {self.read_timeout_s:g} s; is the "
-                "sensor still streaming?"
+                f"stream {self.url} delivered no complete frame within {timeout_s:g} s; is "
+                "the sensor still streaming?"
             ) from None
         except (OSError, http.client.HTTPException) as exc:
             raise DeviceError(f"stream {self.url} broke off: {exc}") from None
         return time.monotonic(), headers, body
 
     def set_read_timeout(self, timeout_s: float) -> None:
-        """Wait at most ``timeout_s`` [s] for the next bytes of the stream."""
+        """Give each later :meth:`read_part` at most ``timeout_s`` [s] as a whole."""
         self.read_timeout_s = float(timeout_s)
-        try:
-            self._sock.settimeout(self.read_timeout_s)
-        except OSError:  # closed at the stream's end (http.client): the next read says so
-            pass
 
     def interrupt(self) -> None:
         """Wake a read blocked on the socket (from another thread): it fails at once."""
+        sock = self._sock if self._sock is not None else self._conn.sock
+        if sock is None:
+            return
         try:
-            self._sock.shutdown(socket.SHUT_RDWR)
+            sock.shutdown(socket.SHUT_RDWR)
         except OSError:  # already closed or never connected
             pass
 
@@ -187,15 +224,58 @@ class MjpegStream:
         """Close the connection (idempotent)."""
         self._response.close()
         self._conn.close()
-        self._sock.close()
+        if self._sock is not None:
+            self._sock.close()
 
-    # --- parsing ------------------------------------------------------------------------
+    # --- reading against the call's deadline ------------------------------------------
+
+    def _fill(self) -> bool:
+        """Read what the socket has (at most one receive) into the buffer, waiting at most
+        until the call's deadline; ``False`` at the end of the stream."""
+        remaining = self._deadline - time.monotonic()
+        if remaining <= 0:
+            raise TimeoutError
+        if self._response.isclosed():  # http.client closed it at the stream's end
+            return False
+        assert self._sock is not None
+        try:
+            self._sock.settimeout(remaining)
+        except OSError:  # closed at the stream's end: the read below says so
+            pass
+        chunk = self._response.read1(65536)
+        if not chunk:
+            return False
+        self._buffer += chunk
+        return True
 
     def _line(self) -> bytes:
-        line = self._response.readline(MAX_LINE_BYTES + 1)
-        if len(line) > MAX_LINE_BYTES:
-            raise DeviceError(f"stream {self.url}: a line longer than {MAX_LINE_BYTES} bytes")
-        return line
+        searched = 0
+        while True:
+            end = self._buffer.find(b"\n", searched)
+            if end >= 0:
+                if end + 1 > MAX_LINE_BYTES:
+                    break
+                line = bytes(self._buffer[: end + 1])
+                del self._buffer[: end + 1]
+                return line
+            if len(self._buffer) > MAX_LINE_BYTES:
+                break
+            searched = len(self._buffer)
+            if not self._fill():  # the end: what is left is the last line
+                line = bytes(self._buffer)
+                self._buffer.clear()
+                return line
+        raise DeviceError(f"stream {self.url}: a line longer than {MAX_LINE_BYTES} bytes")
+
+    def _read_exact(self, size: int) -> bytes:
+        while len(self._buffer) < size:
+            if not self._fill():
+                break
+        data = bytes(self._buffer[:size])
+        del self._buffer[:size]
+        return data
+
+    # --- parsing ------------------------------------------------------------------------
 
     def _skip_to_boundary(self) -> None:
         if self._pending is not None:
@@ -235,15 +315,15 @@ class MjpegStream:
         if length_text is None:
             return self._body_to_boundary()
         try:
-            length = int(length_text)
+            length = int(length_text[:20])
         except ValueError:
             length = -1
         if not 0 < length <= MAX_PART_BYTES:
             raise DeviceError(
-                f"stream {self.url}: part Content-Length {length_text!r} is not a size in "
+                f"stream {self.url}: part Content-Length {length_text[:40]!r} is not a size in "
                 f"1..{MAX_PART_BYTES} bytes"
             )
-        body = self._response.read(length)
+        body = self._read_exact(length)
         if len(body) < length:
             raise DeviceError(
                 f"stream {self.url} closed inside a frame ({len(body)} of {length} bytes)"
@@ -289,8 +369,9 @@ class MjpegCamera(Camera):
         """Parts whose JPEG did not decode (skipped: they show as dropped frames)."""
         self.sender_timed: bool | None = None
         """Whether the last part carried ``X-Timestamp`` (``None`` before the first)."""
+        self.read_timeout_s = float(read_timeout_s)
         self._lock = threading.Lock()
-        self._open_timeout_s = float(open_timeout_s)
+        self._last_sender_s = -math.inf
         self._stream: MjpegStream | None = MjpegStream(
             url, open_timeout_s=open_timeout_s, read_timeout_s=read_timeout_s
         )
@@ -301,12 +382,14 @@ class MjpegCamera(Camera):
         with self._lock:
             if self._stream is None:
                 raise DeviceError(f"stream {self.source} is closed")
-            if self.sender_timed is None:  # the first frame: a sender may still be starting up
-                timeout_s = max(float(timeout_s), self._open_timeout_s)
-            self._stream.set_read_timeout(timeout_s)
             deadline = time.monotonic() + float(timeout_s)
-            while True:
-                arrival, headers, body = self._stream.read_part()
+            while True:  # the whole call, skipped parts included, ends by the deadline
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    raise DeviceError(
+                        f"stream {self.source}: no decodable JPEG within {timeout_s:g} s"
+                    )
+                arrival, headers, body = self._stream.read_part(remaining)
                 image = cv2.imdecode(np.frombuffer(body, np.uint8), cv2.IMREAD_UNCHANGED)
                 if image is not None:
                     break
@@ -318,10 +401,6 @@ class MjpegCamera(Camera):
                     len(body),
                     self.bad_frames,
                 )
-                if time.monotonic() > deadline:
-                    raise DeviceError(
-                        f"stream {self.source}: no decodable JPEG within {timeout_s:g} s"
-                    )
         stamp = headers.get(mjpeg.TIMESTAMP_HEADER.lower())
         if self.sender_timed is None:
             logger.info(
@@ -335,13 +414,27 @@ class MjpegCamera(Camera):
         if stamp is None:
             return arrival, image
         try:
-            sender_s = float(stamp)
+            sender_s = float(stamp[:40])
         except ValueError:
             sender_s = math.nan
         if not math.isfinite(sender_s):
             raise DeviceError(
                 f"stream {self.source}: {mjpeg.TIMESTAMP_HEADER} {stamp[:40]!r} is not seconds"
             )
+        if sender_s <= self._last_sender_s:  # the sender's clock stepped back or froze
+            self.reanchors += 1
+            logger.log(
+                logging.WARNING if self.reanchors == 1 else logging.DEBUG,
+                "stream %s: %s went from %.6f to %.6f s (the sender's clock stepped back or "
+                "stood still); frames re-anchored on arrival time (%d so far)",
+                self.source,
+                mjpeg.TIMESTAMP_HEADER,
+                self._last_sender_s,
+                sender_s,
+                self.reanchors,
+            )
+            self.clock = SenderClock(self.clock.window_s)  # learn the offset anew from here
+        self._last_sender_s = sender_s
         return self.clock.to_local(sender_s, arrival), image
 
     def close(self) -> None:

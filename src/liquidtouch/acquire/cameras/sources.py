@@ -11,24 +11,39 @@ import re
 from pathlib import Path
 
 from liquidtouch.acquire.cameras.devices import (
-    DEFAULT_OPEN_TIMEOUT_S,
-    DEFAULT_READ_TIMEOUT_S,
     DEFAULT_WARMUP_FRAMES,
     Camera,
     FileCamera,
     OpenCVCamera,
     SourceSpec,
+    check_timeout,
 )
 from liquidtouch.acquire.cameras.mjpeg import MjpegCamera
 from liquidtouch.acquire.cameras.profiles import CameraProfile, get_profile
+from liquidtouch.acquire.deadlines import (
+    DEFAULT_OPEN_TIMEOUT_S,
+    DEFAULT_READ_TIMEOUT_S,
+    DEFAULT_WARMUP_TIMEOUT_S,
+)
 from liquidtouch.errors import DeviceError
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["SYSFS_VIDEO4LINUX", "open_camera", "parse_source", "resolve_device_name"]
+__all__ = [
+    "SYSFS_VIDEO4LINUX",
+    "V4L_BY_ID",
+    "check_distinct_sources",
+    "open_camera",
+    "parse_source",
+    "resolve_device_name",
+    "resolve_serial",
+]
 
 SYSFS_VIDEO4LINUX = Path("/sys/class/video4linux")
 """Where V4L2 devices list their names (patched by tests to a fake tree)."""
+V4L_BY_ID = Path("/dev/v4l/by-id")
+"""udev's stable links to V4L2 devices, named after the USB device and its serial
+(``usb-<vendor>_<product>_<serial>-video-index0``; patched by tests)."""
 
 
 # --- sources ----------------------------------------------------------------------------
@@ -70,8 +85,40 @@ def resolve_device_name(name: str) -> int:
     )
 
 
+def resolve_serial(serial: str) -> int:
+    """The V4L2 index of the capture node (``video-index0``) whose :data:`V4L_BY_ID` link
+    name contains ``serial`` (case-insensitive); :class:`DeviceError` listing the links
+    when none or several devices match."""
+    wanted = serial.strip().lower()
+    if not wanted:
+        raise DeviceError("give a serial number after 'serial:', e.g. serial:2BJ7-4F8Q")
+    try:
+        links = sorted(p for p in V4L_BY_ID.iterdir() if p.name.endswith("-video-index0"))
+    except OSError:
+        links = []
+    matches = [link for link in links if wanted in link.name.lower()]
+    if len(matches) != 1:
+        listing = ", ".join(link.name for link in links) or f"no {V4L_BY_ID} links"
+        what = "no camera" if not matches else f"{len(matches)} cameras"
+        raise DeviceError(
+            f"{what} with serial {serial[:40]!r} in {V4L_BY_ID}: found {listing}; give more "
+            "of the serial (see `ls -l /dev/v4l/by-id/`)"
+        )
+    return _device_index(matches[0], f"serial:{serial}")
+
+
+def _device_index(path: Path, text: str) -> int:
+    """The index N of the /dev/videoN that ``path`` (a device node or a link to one) is."""
+    real = os.path.realpath(path)
+    match = re.fullmatch(r"video(\d+)", os.path.basename(real))
+    if match is None:
+        raise DeviceError(f"camera source {text[:80]!r} is {real[:80]}, not a /dev/videoN device")
+    return int(match.group(1))
+
+
 def parse_source(source: str | int | os.PathLike[str]) -> SourceSpec:
-    """Classify a source string (see the module docstring); resolve ``name:`` to an index."""
+    """Classify a source string (see the module docstring); resolve ``name:``,
+    ``serial:`` and links such as ``/dev/v4l/by-id/...`` to a device index."""
     text = str(source).strip()
     if not text:
         raise DeviceError("empty camera source; give an index, /dev/videoN, name:..., a URL")
@@ -79,9 +126,13 @@ def parse_source(source: str | int | os.PathLike[str]) -> SourceSpec:
         return SourceSpec("device", int(text), text)
     if text.lower().startswith("name:"):
         return SourceSpec("device", resolve_device_name(text[5:]), text)
+    if text.lower().startswith("serial:"):
+        return SourceSpec("device", resolve_serial(text[7:]), text)
     match = re.fullmatch(r"/dev/video(\d+)", text)
     if match:
         return SourceSpec("device", int(match.group(1)), text)
+    if text.startswith("/dev/") and Path(text).is_symlink():  # /dev/v4l/by-id/..., by-path
+        return SourceSpec("device", _device_index(Path(text), text), text)
     if re.match(r"^(https?|rtsp|rtsps|rtmp|udp|tcp)://", text, flags=re.IGNORECASE):
         return SourceSpec("url", text, text)
     path = Path(text)
@@ -95,6 +146,27 @@ def parse_source(source: str | int | os.PathLike[str]) -> SourceSpec:
     )
 
 
+def check_distinct_sources(sources: list[str]) -> list[SourceSpec]:
+    """Parse every source; :class:`DeviceError` when two of them are the same camera (a
+    device index, a ``name:`` or ``serial:`` resolving to it, a link to it; the same URL or
+    file): one device opened twice would give every frame to one of them."""
+    specs = [parse_source(source) for source in sources]
+    seen: dict[object, SourceSpec] = {}
+    for spec in specs:
+        key: object = (spec.kind, spec.target)
+        if spec.kind == "file":
+            key = ("file", os.path.realpath(str(spec.target)))
+        if key in seen:
+            what = f"/dev/video{spec.target}" if spec.kind == "device" else str(spec.target)
+            raise DeviceError(
+                f"camera sources {seen[key].text[:80]!r} and {spec.text[:80]!r} are the same "
+                f"camera ({what[:80]}); give each sensor's camera once (name: matches the "
+                "first device with that name: pick each by serial:... or /dev/v4l/by-id/...)"
+            )
+        seen[key] = spec
+    return specs
+
+
 def open_camera(
     source: str | int | os.PathLike[str],
     *,
@@ -102,17 +174,22 @@ def open_camera(
     warmup_frames: int | None = None,
     open_timeout_s: float = DEFAULT_OPEN_TIMEOUT_S,
     read_timeout_s: float = DEFAULT_READ_TIMEOUT_S,
+    warmup_timeout_s: float = DEFAULT_WARMUP_TIMEOUT_S,
     speed: float = 1.0,
 ) -> Camera:
     """Open a camera source (see the module docstring) with a sensor ``profile``.
 
     ``warmup_frames`` frames are read and discarded after opening, then any frames
     that were waiting in buffers (default :data:`DEFAULT_WARMUP_FRAMES` for a live
-    camera or stream, 0 for a replayed file). ``open_timeout_s`` and
-    ``read_timeout_s`` bound the waits of network streams [s]; ``speed`` is the
-    replay speed of a video file. Raises :class:`DeviceError` if the source cannot
-    be opened or delivers no frames.
+    camera or stream, 0 for a replayed file). Deadlines for whole calls [s]:
+    ``open_timeout_s`` opening a network stream, ``warmup_timeout_s`` the whole
+    warm-up, ``read_timeout_s`` each frame later on. ``speed`` is the replay speed
+    of a video file. Raises :class:`DeviceError` if the source cannot be opened or
+    delivers no frames in time.
     """
+    open_timeout_s = check_timeout(open_timeout_s, "the camera open timeout")
+    read_timeout_s = check_timeout(read_timeout_s, "the camera read timeout")
+    warmup_timeout_s = check_timeout(warmup_timeout_s, "the camera warm-up timeout")
     prof = get_profile(profile)
     spec = parse_source(source)
     camera: Camera
@@ -130,7 +207,7 @@ def open_camera(
         warmup_frames = DEFAULT_WARMUP_FRAMES if camera.live else 0
     try:
         if warmup_frames or camera.live:
-            discarded = camera.warm_up(warmup_frames)
+            discarded = camera.warm_up(warmup_frames, warmup_timeout_s)
             logger.debug("camera %s: %d warm-up frames discarded", spec.text, discarded)
     except BaseException:
         camera.close()

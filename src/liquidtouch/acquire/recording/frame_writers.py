@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from liquidtouch.acquire.cameras import Frame
-from liquidtouch.errors import OutputError
+from liquidtouch.acquire.cameras import MIN_FRAME_STEP_S, Frame
+from liquidtouch.errors import DeviceError, OutputError
 from liquidtouch.io.frame_times import TIMESTAMPS_NAME, VIDEO_TIMESTAMPS_SUFFIX
 
 __all__ = [
@@ -44,12 +44,28 @@ class FrameWriter:
         self.t0_s = t0_s
         self.times: list[float] = []
         self.duplicates: list[bool] = []
+        self._shape: tuple[int, ...] | None = None
 
     @property
     def entry(self) -> str:
         raise NotImplementedError
 
     def write(self, frame: Frame, image: np.ndarray) -> None:
+        """Encode one frame, after the checks ``extract`` applies when reading it back:
+        times increasing by at least :data:`MIN_FRAME_STEP_S` [s], one frame size."""
+        if self.times and frame.t_s < self.times[-1] + MIN_FRAME_STEP_S:
+            raise DeviceError(
+                f"sensor {self.name}: frame {len(self.times)} is timed {frame.t_s:.6f} s, not "
+                f"after the frame before ({self.times[-1]:.6f} s)"
+            )
+        if self._shape is None:
+            self._shape = image.shape
+        elif image.shape != self._shape:
+            raise DeviceError(
+                f"sensor {self.name}: frame {len(self.times)} is {image.shape[1]}x"
+                f"{image.shape[0]}, the first was {self._shape[1]}x{self._shape[0]}; a "
+                "recording keeps one frame size per sensor"
+            )
         self._encode(image, len(self.times), frame.t_s)
         self.times.append(frame.t_s)
         self.duplicates.append(frame.duplicate)

@@ -39,13 +39,19 @@ from pathlib import Path
 
 from liquidtouch._core import atomic
 from liquidtouch.acquire.cameras import (
-    DEFAULT_READ_TIMEOUT_S,
     Camera,
     CaptureSession,
     FrameStats,
+    check_distinct_sources,
+    check_timeout,
     default_names,
     get_profile,
     open_camera,
+)
+from liquidtouch.acquire.deadlines import (
+    DEFAULT_OPEN_TIMEOUT_S,
+    DEFAULT_READ_TIMEOUT_S,
+    DEFAULT_WARMUP_TIMEOUT_S,
 )
 from liquidtouch.acquire.recording.meta import build_meta, check_meta_fields, validate_meta
 from liquidtouch.acquire.recording.summary import RecordingSummary, summarise
@@ -80,6 +86,8 @@ class Recorder:
     read_timeout_s : a camera delivering no frame for this long [s] fails the recording.
     on_frame : ``on_frame(sensor, frame)`` for every frame recorded (on the capture thread:
         must not block), e.g. to estimate live from the frames being recorded.
+    open_timeout_s, warmup_timeout_s : deadlines [s] for opening a stream and for the
+        whole warm-up (:func:`~liquidtouch.acquire.cameras.open_camera`).
 
     Use :meth:`start`, :meth:`stop`, :meth:`finish` (or :meth:`abort`); or as a
     context manager, which aborts on any exception (Ctrl-C included) and finishes a
@@ -99,6 +107,8 @@ class Recorder:
         grey: bool = True,
         warmup_frames: int | None = None,
         read_timeout_s: float = DEFAULT_READ_TIMEOUT_S,
+        open_timeout_s: float = DEFAULT_OPEN_TIMEOUT_S,
+        warmup_timeout_s: float = DEFAULT_WARMUP_TIMEOUT_S,
         speed: float = 1.0,
         on_frame=None,
     ) -> None:
@@ -122,7 +132,9 @@ class Recorder:
         validate_meta({"fps": 30.0, **self.labels})
         self.grey = bool(grey)
         self.warmup_frames = warmup_frames
-        self.read_timeout_s = float(read_timeout_s)
+        self.read_timeout_s = check_timeout(read_timeout_s, "the camera read timeout")
+        self.open_timeout_s = check_timeout(open_timeout_s, "the camera open timeout")
+        self.warmup_timeout_s = check_timeout(warmup_timeout_s, "the camera warm-up timeout")
         self.speed = float(speed)
         self.out_dir = atomic.check_directory_target(out_dir)
         self.cameras: list[Camera] = []
@@ -143,6 +155,7 @@ class Recorder:
             return self
         if self._state != "new":
             raise DeviceError(f"this recorder is {self._state}; make a new one")
+        check_distinct_sources(self.sources)  # before any camera is opened
         try:
             for source in self.sources:
                 self.cameras.append(
@@ -151,6 +164,8 @@ class Recorder:
                         profile=self.profile,
                         warmup_frames=self.warmup_frames,
                         read_timeout_s=self.read_timeout_s,
+                        open_timeout_s=self.open_timeout_s,
+                        warmup_timeout_s=self.warmup_timeout_s,
                         speed=self.speed,
                     )
                 )
@@ -245,6 +260,8 @@ class Recorder:
             grey=self.grey,
         )
         self.check()
+        for warning in self.summary.warnings:
+            logger.warning("%s", warning)
         empty = [n for n, s in self.summary.sensors.items() if s.frames < 2]
         for name, s in self.summary.sensors.items():
             if s.lost:

@@ -27,6 +27,8 @@ class SensorSummary:
     start_t_s: float | None
     end_t_s: float | None
     file: str | None = None
+    reanchored: int = 0
+    """Frames whose camera clock stepped back or stood still, timed on arrival instead."""
 
     @property
     def lost(self) -> int:
@@ -52,6 +54,17 @@ class RecordingSummary:
     errors: dict[str, str] = field(default_factory=dict)
 
     @property
+    def warnings(self) -> list[str]:
+        """One line per sensor whose camera clock had to be re-anchored (not an error: the
+        frames are in order and readable, but their times there are arrival times)."""
+        return [
+            f"sensor {s.name}: the camera's clock stepped back or stood still; {s.reanchored} "
+            "frame(s) timed on arrival instead"
+            for s in self.sensors.values()
+            if s.reanchored
+        ]
+
+    @property
     def fps(self) -> float | None:
         """The measured frame rate over all sensors [Hz] (their mean), for meta.json."""
         rates = [s.measured_fps for s in self.sensors.values() if s.measured_fps]
@@ -61,6 +74,7 @@ class RecordingSummary:
         out = asdict(self)
         out["trial_dir"] = str(self.trial_dir) if self.trial_dir else None
         out["fps"] = self.fps
+        out["warnings"] = self.warnings
         return out
 
 
@@ -96,6 +110,7 @@ def summarise(
             start_t_s=s.first_t_s,
             end_t_s=s.last_t_s,
             file=writer.entry,
+            reanchored=int(getattr(camera, "reanchors", 0)),
         )
     errors = {name: str(error) for name, error in session.errors.items()}
     for name, error in pool.errors.items():

@@ -64,7 +64,7 @@ class _Connection:
                 while b"\n" in buffer:
                     raw, _, buffer = buffer.partition(b"\n")
                     if raw.strip():
-                        self.handle(raw)
+                        self.handle_safely(raw)
         finally:
             self.stop_move()
             with contextlib.suppress(OSError):
@@ -79,11 +79,21 @@ class _Connection:
         if thread is not None:
             thread.join(timeout=2.0)
 
+    def handle_safely(self, raw: bytes) -> None:
+        """:meth:`handle`; anything it did not foresee is answered with an error reply
+        (and logged), so that a bad request never ends the connection's thread."""
+        try:
+            self.handle(raw)
+        except Exception as exc:
+            logger.warning("rig arm: a request failed: %s: %s", type(exc).__name__, exc)
+            logger.debug("rig arm: the failed request", exc_info=True)
+            self.send(wire.error_reply(None, f"bad request: {type(exc).__name__}"))
+
     def handle(self, raw: bytes) -> None:
         request = wire.decode(raw)
         if request is None:
             logger.warning("rig arm: a request that is not a JSON object: %r", raw[:80])
-            self.send(wire.error_reply(None, "not a JSON object"))
+            self.send(wire.error_reply(None, "not a JSON object (or a number out of range)"))
             return
         ident = request.get("id")
         if isinstance(ident, bool) or not isinstance(ident, int):

@@ -84,7 +84,7 @@ class _Connection:
                 while b"\n" in buffer:
                     raw, _, buffer = buffer.partition(b"\n")
                     line = raw.decode("ascii", errors="replace").strip()
-                    if line and self.handle(line):
+                    if line and self.handle_safely(line):
                         return
         finally:
             self.close()
@@ -108,6 +108,17 @@ class _Connection:
         with contextlib.suppress(OSError):
             self.sock.close()
 
+    def handle_safely(self, line: str) -> bool:
+        """:meth:`handle`; anything it did not foresee is answered ``ERR E_CMD_FORMAT_ERROR``
+        (and logged), so that a bad command never ends the connection's thread."""
+        try:
+            return self.handle(line)
+        except Exception as exc:
+            logger.warning("GCL: a command failed: %s: %s", type(exc).__name__, exc)
+            logger.debug("GCL: the failed command", exc_info=True)
+            self.error(GclError(gcl.E_CMD_FORMAT_ERROR, f"bad command: {type(exc).__name__}"))
+            return False
+
     def handle(self, line: str) -> bool:
         """Answer one command line; True when the connection is to be closed."""
         upper = line.upper()
@@ -127,10 +138,9 @@ class _Connection:
             self.error(GclError(gcl.E_CMD_UNKNOWN, f"unknown command {line[:40]}"))
             return False
         name, arg_text = call
-        try:
-            args = [float(a) for a in arg_text.split(",")] if arg_text else []
-        except ValueError:
-            self.error(GclError(gcl.E_CMD_FORMAT_ERROR, "parameters must be numbers"))
+        args = gcl.parse_args(arg_text)
+        if args is None:
+            self.error(GclError(gcl.E_CMD_FORMAT_ERROR, "parameters must be decimal numbers"))
             return False
         logger.debug("GCL: %s(%s)", name, arg_text)
         if name == gcl.BYE:

@@ -130,6 +130,8 @@ class MjpegServer:
     timed : call ``frame_source(t_s)`` with the frame's capture time [s, time.monotonic]
         (its ``X-Timestamp``), to render the scene at that time: on a busy machine the
         producer thread can be descheduled for tens of ms between the stamp and the call.
+    sender_clock : maps a frame's capture time [s] to the ``X-Timestamp`` sent (default:
+        the same): a camera whose clock steps back or freezes, for tests and rehearsals.
 
     Use as a context manager, or call :meth:`start` and :meth:`stop`. An exception
     raised by ``frame_source`` stops the stream and is kept in :attr:`error`.
@@ -144,6 +146,7 @@ class MjpegServer:
         port: int = 0,
         quality: int = 95,
         timed: bool = False,
+        sender_clock: Callable[[float], float] | None = None,
     ) -> None:
         if not 0 < float(fps) <= 1000:
             raise DeviceError(f"the stream's frame rate must be in (0, 1000] Hz, got {fps!r}")
@@ -155,6 +158,7 @@ class MjpegServer:
         self.port = int(port)
         self.quality = int(quality)
         self.timed = bool(timed)
+        self.sender_clock = sender_clock
         self.sent_timestamps: list[float] = []
         """Capture time [s, time.monotonic] of every frame, in frame_source call order."""
         self.error: BaseException | None = None
@@ -263,7 +267,8 @@ class MjpegServer:
                     self._cond.notify_all()
                 return
             self.sent_timestamps.append(t_s)
-            part = (index, t_s, jpeg.tobytes())
+            stamp = t_s if self.sender_clock is None else float(self.sender_clock(t_s))
+            part = (index, stamp, jpeg.tobytes())
             with self._cond:
                 for pending in self._clients:
                     pending.append(part)
