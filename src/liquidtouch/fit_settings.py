@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from liquidtouch.fit.choices import DEFAULT_MODEL
 from liquidtouch.tracking.detect import as_number
 
 AUTO = "auto"
@@ -27,23 +28,24 @@ class FitSettings:
     :func:`~liquidtouch.fit.oscillation.fit_oscillation`. ``start`` is ``"auto"``
     (the free decay after the push: :func:`~liquidtouch.segment.free_decay`) or a
     time [s] on the signal's clock: the samples from then on are fitted. The
-    defaults are what ``extract``, ``features`` and ``fit`` use: the paper's loss
-    with the amplitude-dependent damping model (``"amplitude"``: λ is the
-    small-amplitude rate, the same whatever the push; on simulated trials through
-    video its λ is 3.1 % from the truth against 8.0 % for the paper's two-mode fit,
-    and varies 1.2 % against 5.6 % across 0.5-2x pushes). ``model="two-mode"`` is
-    the paper's model. Raises :class:`~liquidtouch.errors.SignalError` for a bad option.
+    defaults are what ``extract``, ``features``, ``fit`` and ``fit_oscillation``
+    use: the paper's loss and the model the data choose
+    (:data:`~liquidtouch.fit.choices.DEFAULT_MODEL`, ``"auto"``: single-mode,
+    the paper's two modes, amplitude-dependent damping or both together, by an
+    information criterion; :mod:`liquidtouch.fit.selection`). ``model="two-mode"``
+    is the paper's model. Raises :class:`~liquidtouch.errors.SignalError` for a bad
+    option.
     """
 
     loss: str = "paper"
-    model: str = "amplitude"
+    model: str = DEFAULT_MODEL
     band_hz: tuple[float, float] = (0.3, 5.0)
     noise: str = "white"
     start: float | str = AUTO
 
     def __post_init__(self) -> None:
         from liquidtouch.errors import SignalError
-        from liquidtouch.fit.oscillation import LOSSES, MODELS, NOISE_MODELS
+        from liquidtouch.fit.choices import LOSSES, MODELS, NOISE_MODELS
 
         for name, value, choices in (
             ("loss", self.loss, LOSSES),

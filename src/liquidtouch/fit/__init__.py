@@ -2,13 +2,27 @@
 
 ``model`` is the paper's damped-oscillation model (two damped cosines + quadratic
 drift) and its loss, ``amplitude`` the model whose damping grows with the amplitude
-(λ(A) = λ0 (1 + κ A²), the pipeline's default), ``start`` finds start values,
-``solve`` runs the optimisers, ``oscillation`` is the public fit and model selection,
+(λ(A) = λ0 (1 + κ A^p)), ``choices`` the models and the one default (``"auto"``:
+the data choose the model), ``selection`` the information criterion that chooses,
+``start`` finds start values, ``solve`` runs the optimisers, ``oscillation`` is the
+public fit,
 ``result`` its :class:`OscillationFit` (decay rate λ [1/s], angular frequency ω
 [rad/s], their std), ``example`` a built-in signal, ``synthetic`` non-linearly
 damped test signals with known λ0, and ``plot`` the figure of a fit.
 """
 
-from liquidtouch.fit.oscillation import OscillationFit, example_signal, fit_oscillation
+from __future__ import annotations
 
-__all__ = ["OscillationFit", "example_signal", "fit_oscillation"]
+import importlib
+from typing import Any
+
+from liquidtouch.fit.choices import DEFAULT_MODEL
+
+__all__ = ["DEFAULT_MODEL", "OscillationFit", "example_signal", "fit_oscillation"]
+
+
+def __getattr__(name: str) -> Any:
+    # lazy, so that the command line reads DEFAULT_MODEL without importing SciPy
+    if name in ("OscillationFit", "example_signal", "fit_oscillation"):
+        return getattr(importlib.import_module("liquidtouch.fit.oscillation"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

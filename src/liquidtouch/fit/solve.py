@@ -187,6 +187,34 @@ def _sqrt(v: float) -> float:
     return math.sqrt(v) if v >= 0 and math.isfinite(v) else math.nan
 
 
+def long_run_ratio(resid: np.ndarray) -> float:
+    """Long-run over plain variance of a residual, ``1 + 2 Σ_l (1 − l/(L+1)) ρ_l`` (≥ 1).
+
+    ``ρ_l`` is the residual's autocorrelation at lag ``l`` and ``L`` the Newey–West
+    truncation lag of the standard errors (:func:`_bartlett_lags`): the number of
+    samples per independent one, 1 for white noise, ~5 for noise low-passed at 3 Hz
+    and sampled at 30 Hz. Samples are taken as equally spaced.
+    """
+    r = resid - resid.mean()
+    n = r.size
+    energy = float(r @ r)
+    if n < 4 or energy <= 0:
+        return 1.0
+    lags = _bartlett_lags(r)
+    acf = _autocorrelation(r)[1 : lags + 1]
+    ratio = 1.0 + 2.0 * float(np.sum((1.0 - np.arange(1, lags + 1) / (lags + 1)) * acf))
+    return max(ratio, 1.0)
+
+
+def _autocorrelation(r: np.ndarray) -> np.ndarray:
+    """Autocorrelation of a centred series at lags 0..n−1 (by FFT for long series)."""
+    n = r.size
+    if n <= FFT_MIN_SAMPLES:
+        return np.correlate(r, r, mode="full")[n - 1 :] / float(r @ r)
+    spectrum = np.fft.rfft(r, 2 * n)  # O(n log n) instead of O(n²)
+    return np.fft.irfft(spectrum * np.conj(spectrum), 2 * n)[:n] / float(r @ r)
+
+
 def _bartlett_lags(resid: np.ndarray) -> int:
     """Newey–West truncation lag: 4× the lag where the residual autocorrelation dies, ≥ 10.
 
@@ -195,11 +223,7 @@ def _bartlett_lags(resid: np.ndarray) -> int:
     """
     r = resid - resid.mean()
     n = r.size
-    if n <= FFT_MIN_SAMPLES:
-        acf = np.correlate(r, r, mode="full")[n - 1 :] / float(r @ r)
-    else:  # O(n log n) instead of O(n²) for long signals
-        spectrum = np.fft.rfft(r, 2 * n)
-        acf = np.fft.irfft(spectrum * np.conj(spectrum), 2 * n)[:n] / float(r @ r)
+    acf = _autocorrelation(r)
     below = np.nonzero(acf[1:] < 0.1)[0]
     first = int(below[0]) + 1 if below.size else n // 4
     return int(min(max(4 * first, 10), n // 4))
