@@ -152,7 +152,9 @@ def main() -> None:
             rmse_w = math.sqrt(np.nanmean((e[:, 1] - omega) ** 2))
             ratios[n].append((rmse_l / bound[0], rmse_w / bound[1]))
             if fast is not None:
-                two_mode_ratios[n].extend(((e[:, 0] - lam) / bound[0], (e[:, 1] - omega) / bound[1]))
+                two_mode_ratios[n].extend(
+                    ((e[:, 0] - lam) / bound[0], (e[:, 1] - omega) / bound[1])
+                )
             cells.append(f"{rmse_l / bound[0]:.2f} / {rmse_w / bound[1]:.2f}")
         label = "—" if fast is None else f"λ'={fast[0]}, ω'={fast[1]}"
         print(f"| {lam} | {omega} | {label} | " + " | ".join(cells) + " |")
@@ -163,15 +165,13 @@ def main() -> None:
         )
         + " |"
     )
+    pooled = {
+        n: [math.sqrt(np.nanmean(np.concatenate(two_mode_ratios[n][i::2]) ** 2)) for i in (0, 1)]
+        for n in names
+    }
     print(
         "| **two-mode sets, pooled** | | | "
-        + " | ".join(
-            "**{:.2f} / {:.2f}**".format(
-                math.sqrt(np.nanmean(np.concatenate(two_mode_ratios[n][0::2]) ** 2)),
-                math.sqrt(np.nanmean(np.concatenate(two_mode_ratios[n][1::2]) ** 2)),
-            )
-            for n in names
-        )
+        + " | ".join(f"**{pooled[n][0]:.2f} / {pooled[n][1]:.2f}**" for n in names)
         + " |\n"
     )
     print(f"Models the default fits chose: {dict(sorted(CHOSEN.items()))}\n")
@@ -210,7 +210,7 @@ def main() -> None:
                 f"| {n} | {100 * q[0, 0]:.1f} % | {100 * q[1, 0]:.1f} % | "
                 f"{100 * q[0, 1]:.2f} % | {100 * q[1, 1]:.2f} % | {fails}/{len(e)} |"
             )
-        print()
+        print(f"\nModels the default fits chose: {dict(sorted(CHOSEN.items()))}\n")
 
     print("## All exact-model signals: relative errors, and time per fit\n")
     print("| method | median λ err | p90 λ err | median ω err | p90 ω err | ms / fit | vs naive |")

@@ -56,7 +56,8 @@ class Extraction:
     diagnostics: object = None
 
     def to_dict(self) -> dict[str, object]:
-        """The fit's keys plus ``explained_variance``, ``n_markers``, ``fps``, ``frames``
+        """The fit's keys plus ``explained_variance``, ``n_markers``, ``fps``, ``frames``,
+        ``signal_gap_share`` (share of the recording's clock not observed: camera stalls)
         and, with :attr:`diagnostics`, ``frozen_step_share`` and ``codec_lambda_bias``."""
         out = dict(self.fit.to_dict())
         out.update(
@@ -64,6 +65,7 @@ class Extraction:
             n_markers=int(self.signal.n_markers),
             fps=float(self.signal.fps),
             frames=len(self.signal.t),
+            signal_gap_share=float(self.signal.gap_share),
         )
         if self.diagnostics is not None:
             out.update(

@@ -97,10 +97,18 @@ class FitSettings:
         }
 
     def fit(self, t: np.ndarray, u: np.ndarray) -> object:
-        """:func:`~liquidtouch.fit.oscillation.fit_oscillation` of :meth:`window` of ``(t, u)``."""
+        """:func:`~liquidtouch.fit.oscillation.fit_oscillation` of :meth:`window` of ``(t, u)``.
+
+        The result's ``gap_before_start_s`` is the gap [s] in ``t`` that ends where
+        the window starts (0 when none): the ring-down may have started in it.
+        """
+        from dataclasses import replace
+
         from liquidtouch.fit.oscillation import fit_oscillation
 
-        return fit_oscillation(*self.window(t, u), **self.fit_options())
+        t_fit, u_fit = self.window(t, u)
+        fit = fit_oscillation(t_fit, u_fit, **self.fit_options())
+        return replace(fit, gap_before_start_s=gap_before(t, float(t_fit[0])))
 
 
 def fit_window(
@@ -132,3 +140,20 @@ def fit_window(
         )
     keep = t >= start
     return t[keep], u[keep]
+
+
+def gap_before(t: np.ndarray, start_s: float) -> float:
+    """The gap [s] in the sample times ``t`` [s] that ends at ``start_s`` (0 when none).
+
+    A step longer than ``GAP_STEPS`` × the median step is a gap (samples never
+    observed); measured as its length beyond one median step.
+    """
+    from liquidtouch.fit.oscillation import GAP_STEPS
+
+    t = np.asarray(t, dtype=float)
+    i = int(np.searchsorted(t, start_s))
+    if i == 0 or t.size < 2:
+        return 0.0
+    typical = float(np.median(np.diff(t)))
+    step = float(t[i] - t[i - 1])
+    return step - typical if step > GAP_STEPS * typical else 0.0

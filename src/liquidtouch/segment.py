@@ -32,6 +32,7 @@ import numpy as np
 
 from liquidtouch.clock import check_times, finite_array
 from liquidtouch.errors import SignalError
+from liquidtouch.fit.oscillation import GAP_STEPS
 from liquidtouch.tracking.detect import as_number
 
 MIN_FREE_DECAY_S = 2.0
@@ -71,10 +72,17 @@ def _excursion(
             f"drift_cutoff_hz must be a frequency > 0 in Hz, got {drift_cutoff_hz!r}; "
             f"the default is {DRIFT_CUTOFF_HZ}"
         )
-    rate_hz = 1.0 / float(np.median(np.diff(t)))
+    step = float(np.median(np.diff(t)))
+    rate_hz = 1.0 / step
     if len(u) > 30 and rate_hz > 4 * drift_cutoff_hz:
         sos = butter(2, drift_cutoff_hz, btype="highpass", fs=rate_hz, output="sos")
-        u = sosfiltfilt(sos, u)
+        if np.diff(t).max() > GAP_STEPS * step:
+            # a signal with gaps (samples never observed): the high-pass runs on a uniform
+            # grid through them and is read back at the observed samples only
+            grid = t[0] + step * np.arange(int(np.floor((t[-1] - t[0]) / step)) + 1)
+            u = np.interp(t, grid, sosfiltfilt(sos, np.interp(grid, t, u)))
+        else:
+            u = sosfiltfilt(sos, u)
     resting = float(np.median(u[t <= t[0] + baseline_s]))
     excursion = np.abs(u - resting)
     return int(np.argmax(excursion)), u - resting

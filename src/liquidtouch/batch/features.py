@@ -35,7 +35,7 @@ from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.progress import progress_bar
 
 #: Bump when extraction or fitting changes in a way that changes features.
-FEATURES_VERSION = 4
+FEATURES_VERSION = 5
 #: ``wrench-best-effort``: the wrist fit even where it shows no oscillation (the paper's baseline)
 SOURCES = ("gelsight", "wrench", "wrench-best-effort")
 #: The measured columns of a feature row (after the manifest's): the two model
@@ -51,6 +51,13 @@ FEATURE_ROW_COLUMNS = (
     "n_markers",
     "frames",
     "fps",
+    "model",
+    "delta_bic_single_mode",
+    "delta_bic_two_mode",
+    "delta_bic_amplitude",
+    "delta_bic_amplitude_two_mode",
+    "gap_share",
+    "signal_gap_share",
 )
 #: Columns after ``error``: the liquidtouch version that computed the row and the
 #: settings of the run (compact JSON, :func:`feature_settings`).

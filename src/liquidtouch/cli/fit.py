@@ -51,7 +51,7 @@ def fit(
     built-in example is fitted from its first sample unless --start is given; it is
     drawn from the paper's two-mode model (--model two-mode fits that model).
     """
-    from liquidtouch.fit.oscillation import example_signal, fit_oscillation
+    from liquidtouch.fit.oscillation import example_signal
 
     if example == (signal is not None):
         raise SignalError("give either a SIGNAL.csv or --example (exactly one)")
@@ -71,11 +71,16 @@ def fit(
         t, u = read_signal_csv(signal)
         source = str(signal)
     t_fit, u_fit = settings.window(t, u)
-    result = fit_oscillation(t_fit, u_fit, **settings.fit_options())
+    result = settings.fit(t, u)
     if plot is not None:
         from liquidtouch.fit.plot import plot_fit
 
         plot_fit(t_fit, u_fit, result, plot)
+    from liquidtouch.cli.format import gap_warning
+
+    gap = gap_warning(result)
+    if gap:
+        typer.echo(f"warning: {gap}", err=True)
     if as_json:
         typer.echo(json.dumps(result.to_dict()))
         return
@@ -88,4 +93,5 @@ def _print_table(result, source: str, plot: Path | None) -> None:
     from liquidtouch.cli.format import fit_quality, fit_table
 
     Console().print(fit_table(result, f"{result.model} fit of {source} (loss={result.loss})"))
+    typer.echo(f"model: {result.model} ({result.model_reason})")
     typer.echo(fit_quality(result) + (f"   plot: {plot}" if plot else ""))

@@ -72,8 +72,14 @@ from liquidtouch.fit.amplitude import (
     optimise_amplitude_two_mode,
     without_gain,
 )
-from liquidtouch.fit.choices import AUTO, AUTO_CANDIDATES, DEFAULT_MODEL, LOSSES, MODELS
-from liquidtouch.fit.choices import NOISE_MODELS
+from liquidtouch.fit.choices import (
+    AUTO,
+    AUTO_CANDIDATES,
+    DEFAULT_MODEL,
+    LOSSES,
+    MODELS,
+    NOISE_MODELS,
+)
 from liquidtouch.fit.example import EXAMPLE_PARAMETERS, example_signal
 from liquidtouch.fit.result import OscillationFit
 from liquidtouch.fit.selection import Selection, select_model

@@ -54,7 +54,7 @@ class Selection:
         return self.bic[name] - self.bic[self.chosen] if name in self.bic else math.nan
 
     def reason(self) -> str:
-        """One line: the candidates by criterion, e.g. ``"lowest BIC: amplitude; two-mode +3.1"``."""
+        """One line: the chosen model, then the others with their BIC over its."""
         others = sorted((self.delta(n), n) for n in self.bic if n != self.chosen)
         tail = "".join(f", {name} {delta:+.1f}" for delta, name in others)
         return (
