@@ -34,7 +34,8 @@ class OscillationFit:
     fitted, ``model_reason`` one line on why (asked for, or the candidates by their
     information criterion), ``delta_bic_single_mode``, ``delta_bic_two_mode``,
     ``delta_bic_amplitude`` and ``delta_bic_amplitude_two_mode`` each candidate's BIC
-    minus the chosen one's (0 for the chosen model, NaN when not fitted; > 6: strong evidence against it) and
+    minus the chosen one's (0 for the chosen model, NaN when not fitted; over 6:
+    strong evidence against it) and
     ``n_effective`` the effective number of independent noise samples the
     criterion used. Gaps: ``gap_share`` is the share of the fitted time span with
     no samples (0-1), ``gap_before_start_s`` [s] the gap that ends where the fitted
