@@ -112,6 +112,7 @@ GAP_STEPS = 1.5
 #: the amplitude-damped mode and a second mode together
 COMBINED = "amplitude-two-mode"
 
+
 def _validate(
     t: np.ndarray, u: np.ndarray, min_duration_s: float = MIN_DURATION_S
 ) -> tuple[np.ndarray, np.ndarray]:
