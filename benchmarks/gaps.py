@@ -75,19 +75,22 @@ def keep_frames(tracks: list[MarkerTracks], keep: list[np.ndarray]) -> list[Mark
     ]
 
 
-def fit(tracks: list[MarkerTracks]) -> tuple[float, float, float]:
-    """(λ, ω, decay start [s]) of the default fit; NaN when refused."""
+def fit(tracks: list[MarkerTracks]) -> tuple[float, float, float, float]:
+    """(λ, ω, decay start [s], ring-down above the noise [s]) of the default fit; NaN
+    when refused. The ring-down lasts until the fitted envelope falls to the noise:
+    ln(amplitude / noise std) / λ."""
     try:
         sig = tactile_signal(tracks)
         result = FitSettings().fit(sig.t, sig.u)
     except LiquidTouchError:
-        return math.nan, math.nan, math.nan
-    return result.decay_rate, result.angular_frequency, result.t0
+        return math.nan, math.nan, math.nan, math.nan
+    ring = math.log(max(abs(result.amplitude) / result.noise_std, 1.0)) / result.decay_rate
+    return result.decay_rate, result.angular_frequency, result.t0, ring
 
 
 def settings_of(tracks, ref, rng) -> dict[str, list[np.ndarray]]:
     """The frames kept by each setting (module docstring, 3)."""
-    lam, _, start = ref
+    lam, _, start, _ = ref
     t = tracks[0].t
     out = {}
     for stall in STALLS_S:
@@ -95,6 +98,7 @@ def settings_of(tracks, ref, rng) -> dict[str, list[np.ndarray]]:
         begin = rng.uniform(start, max(latest, start))
         gone = (t > begin) & (t < begin + stall)
         out[f"stall {stall:g} s"] = [~gone, ~gone]
+        out[f"stall {stall:g} s"].append(begin)  # type: ignore[arg-type]
     fps = rng.uniform(15, 18)
     p = fps / get_sensor_profile(PROFILE).fps
     out["15-18 fps"] = [rng.random(tr.t.size) < p for tr in tracks]
@@ -109,6 +113,8 @@ def main() -> None:
     args = parser.parse_args()
     start_time = time.perf_counter()
     rows: dict[tuple[str, str], list[tuple[float, float]]] = {}
+    by_liquid: dict[tuple[str, str], list[bool]] = {}
+    swallowed: dict[str, int] = {}
     for run in range(args.runs):
         tracks = truth_tracks(run)
         ref = fit(tracks)
@@ -116,17 +122,28 @@ def main() -> None:
             print(f"run {run}: the gap-free fit failed", file=sys.stderr)
             continue
         rng = np.random.default_rng(10_000 + run)
+        liquid = LIQUIDS[run % len(LIQUIDS)]
         for name, keep in settings_of(tracks, ref, rng).items():
+            if name.startswith("stall"):
+                begin = keep.pop()
+                stall = float(name.split()[1])
+                # the stall covers half or more of the ring-down above the noise
+                covered = min(begin + stall, ref[2] + ref[3]) - max(begin, ref[2])
+                if covered >= 0.5 * ref[3]:
+                    swallowed[name] = swallowed.get(name, 0) + 1
             cut = keep_frames(tracks, keep)
             for version in ("gaps as gaps", "interpolated"):
                 if version == "interpolated":
                     with mock.patch.object(signal_module, "max_bridged_gap_s", lambda *a: np.inf):
-                        lam, omega, _ = fit(cut)
+                        lam, omega, *_ = fit(cut)
                 else:
-                    lam, omega, _ = fit(cut)
-                rows.setdefault((name, version), []).append(
-                    (abs(lam / ref[0] - 1), abs(omega / ref[1] - 1))
-                )
+                    lam, omega, *_ = fit(cut)
+                err = (abs(lam / ref[0] - 1), abs(omega / ref[1] - 1))
+                rows.setdefault((name, version), []).append(err)
+                if version == "gaps as gaps":
+                    by_liquid.setdefault((name, liquid), []).append(
+                        err[0] <= LAMBDA_TOL and err[1] <= OMEGA_TOL
+                    )
         print(f"run {run} done", file=sys.stderr)
     print(f"# gaps — {args.runs} simulated trials per setting ({PROFILE} profile, 25 fps)\n")
     print(
@@ -144,6 +161,16 @@ def main() -> None:
             f"| {name} | {version} | {ok:.0%} ({len(e)}) | {100 * q[0, 0]:.1f} / "
             f"{100 * q[1, 0]:.1f} % | {100 * q[0, 1]:.2f} / {100 * q[1, 1]:.2f} % |"
         )
+    print(
+        "\nPer liquid (gaps as gaps): share within both. Stalls covering half or more of "
+        f"the ring-down above the noise (gap swallows the ring-down): {swallowed}\n"
+    )
+    settings = list(dict.fromkeys(name for name, _ in by_liquid))
+    print("| liquid | " + " | ".join(settings) + " |")
+    print("|---|" + "---|" * len(settings))
+    for liquid in LIQUIDS:
+        cells = [by_liquid.get((name, liquid), []) for name in settings]
+        print(f"| {liquid} | " + " | ".join(f"{np.mean(c):.0%} ({len(c)})" for c in cells) + " |")
     print(f"\n{time.perf_counter() - start_time:.0f} s; command: `{' '.join(sys.argv)}`")
 
 
