@@ -1,4 +1,9 @@
-"""Accuracy and speed of the oscillation fit against a naive curve_fit baseline (issue 2).
+"""Accuracy and speed of the oscillation fit against a naive curve_fit baseline (issues 2, 23).
+
+The first two methods are the defaults: ``default`` is ``fit_oscillation(t, u)``
+with no option (the paper's loss, ``model="auto"``: the model chosen by the data),
+what ``extract``, ``features`` and ``fit`` do; ``default ls`` the same with least
+squares. The others fix one model.
 
 Run: ``.venv/bin/python benchmarks/fit_accuracy.py [--quick]``; prints markdown tables.
 """
@@ -67,6 +72,8 @@ def model_signal(lam, omega, amp, phase, fast, sigma, rng) -> np.ndarray:
 
 
 METHODS = {
+    "default": lambda t, u: _default(t, u),
+    "default ls": lambda t, u: _default(t, u, loss="ls"),
     "ours ls two-mode": lambda t, u: _ours(t, u, "ls", "two-mode", 1.0),
     "ours paper two-mode (δ=1)": lambda t, u: _ours(t, u, "paper", "two-mode", 1.0),
     "ours paper two-mode (δ=0.05)": lambda t, u: _ours(t, u, "paper", "two-mode", 0.05),
@@ -75,6 +82,17 @@ METHODS = {
     "ours ls amplitude": lambda t, u: _ours(t, u, "ls", "amplitude", 1.0),
     "naive curve_fit": naive_fit,
 }
+
+
+def _default(t, u, **options):
+    fit = fit_oscillation(t, u, **options)
+    CHOSEN.setdefault(("ls " if options else "") + fit.model, 0)
+    CHOSEN[("ls " if options else "") + fit.model] += 1
+    return fit.decay_rate, fit.angular_frequency
+
+
+#: how often the default fit chose each model, per table (reset per table)
+CHOSEN: dict[str, int] = {}
 
 
 def _ours(t, u, loss, model, delta_rel):
@@ -115,6 +133,8 @@ def main() -> None:
     errors = {n: [] for n in names}
     times = {n: [] for n in names}
     ratios = {n: [] for n in names}
+    two_mode_ratios = {n: [] for n in names}
+    CHOSEN.clear()
     for lam, omega, amp, phase, fast in sets:
         bound = crb(lam, omega, amp, phase, fast, sigma)
         est = {n: [] for n in names}
@@ -131,6 +151,10 @@ def main() -> None:
             rmse_l = math.sqrt(np.nanmean((e[:, 0] - lam) ** 2))
             rmse_w = math.sqrt(np.nanmean((e[:, 1] - omega) ** 2))
             ratios[n].append((rmse_l / bound[0], rmse_w / bound[1]))
+            if fast is not None:
+                two_mode_ratios[n].extend(
+                    ((e[:, 0] - lam) / bound[0], (e[:, 1] - omega) / bound[1])
+                )
             cells.append(f"{rmse_l / bound[0]:.2f} / {rmse_w / bound[1]:.2f}")
         label = "—" if fast is None else f"λ'={fast[0]}, ω'={fast[1]}"
         print(f"| {lam} | {omega} | {label} | " + " | ".join(cells) + " |")
@@ -139,8 +163,18 @@ def main() -> None:
         + " | ".join(
             "**{:.2f} / {:.2f}**".format(*np.median(np.array(ratios[n]), axis=0)) for n in names
         )
+        + " |"
+    )
+    pooled = {
+        n: [math.sqrt(np.nanmean(np.concatenate(two_mode_ratios[n][i::2]) ** 2)) for i in (0, 1)]
+        for n in names
+    }
+    print(
+        "| **two-mode sets, pooled** | | | "
+        + " | ".join(f"**{pooled[n][0]:.2f} / {pooled[n][1]:.2f}**" for n in names)
         + " |\n"
     )
+    print(f"Models the default fits chose: {dict(sorted(CHOSEN.items()))}\n")
 
     n_nl = 12 if args.quick else 30
     oscillators = {
@@ -157,6 +191,7 @@ def main() -> None:
         print(f"## Non-linear oscillator: {title}, u = ε'' + drift + noise\n")
         print("Error of λ against the small-amplitude λ0 (and of ω against ω0).\n")
         nl_err = {n: [] for n in names}
+        CHOSEN.clear()
         for _ in range(n_nl):
             lam0 = float(np.exp(rng.uniform(np.log(0.1), np.log(1.0))))
             omega0 = float(rng.uniform(6, 18))
@@ -175,7 +210,7 @@ def main() -> None:
                 f"| {n} | {100 * q[0, 0]:.1f} % | {100 * q[1, 0]:.1f} % | "
                 f"{100 * q[0, 1]:.2f} % | {100 * q[1, 1]:.2f} % | {fails}/{len(e)} |"
             )
-        print()
+        print(f"\nModels the default fits chose: {dict(sorted(CHOSEN.items()))}\n")
 
     print("## All exact-model signals: relative errors, and time per fit\n")
     print("| method | median λ err | p90 λ err | median ω err | p90 ω err | ms / fit | vs naive |")

@@ -39,7 +39,12 @@ from liquidtouch.sim.trial import simulate_trial
 DEFAULT_PUSH_MM = 15.0
 PUSH_FACTORS = (0.5, 1.0, 2.0)
 LIQUIDS = {"water": (18.0, 30.0), "olive-oil": (18.0, 30.0), "detergent": (20.0, 30.0)}
-MODELS = {"paper": FitSettings(model="two-mode"), "amplitude": FitSettings(model="amplitude")}
+#: ``default`` is ``FitSettings()`` (``model="auto"``, issue 23): what ``extract`` fits
+MODELS = {
+    "default": FitSettings(),
+    "paper": FitSettings(model="two-mode"),
+    "amplitude": FitSettings(model="amplitude"),
+}
 ALL_LIQUIDS = ("water", "olive-oil", "corn-oil", "mirin", "detergent", "sugar-water")
 FIGURE = Path("benchmarks/results/push_invariance.png")
 
@@ -206,7 +211,7 @@ def figure(rows: list[dict], path: Path) -> None:
     from liquidtouch.io.figures import save_figure
 
     fig, axes = plt.subplots(1, len(LIQUIDS), figsize=(4 * len(LIQUIDS), 3.4), sharey=True)
-    colours = {"paper": "tab:red", "amplitude": "tab:blue"}
+    colours = {"default": "tab:green", "paper": "tab:red", "amplitude": "tab:blue"}
     for ax, liquid in zip(axes, LIQUIDS, strict=True):
         for model, colour in colours.items():
             sel = [r for r in rows if r["liquid"] == liquid and r["model"] == model]

@@ -201,7 +201,7 @@ def test_fit_and_signal_options_are_declared_once(command: str) -> None:
 
 def test_choices_are_the_librarys_and_listed_in_help(capsys) -> None:
     from liquidtouch.batch.features import SOURCES
-    from liquidtouch.fit.oscillation import LOSSES, MODELS, NOISE_MODELS
+    from liquidtouch.fit.choices import LOSSES, MODELS, NOISE_MODELS
     from liquidtouch.fit_settings import FitSettings
     from liquidtouch.models.property_model import MODEL_KINDS
 

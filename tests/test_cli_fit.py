@@ -164,3 +164,35 @@ def test_signal_csv_reader_and_writer_check_their_input(tmp_path) -> None:
     with pytest.raises(TableError, match="1-D of equal length"):
         write_signal_csv(tmp_path / "2d.csv", np.zeros((2, 2)), np.zeros((2, 2)))
     assert [p.name for p in tmp_path.iterdir()] == ["header.csv"]  # nothing written
+
+
+def test_cli_and_api_give_the_same_lambda_and_omega_by_default(tmp_path, capsys) -> None:
+    """``fit_oscillation(t, u)`` and ``liquidtouch fit`` share one default (issue 23).
+
+    A paper-model signal with two close modes (where the old command-line default,
+    the amplitude model, collapsed λ) after 1.5 s at rest: the command's
+    ``--start auto`` finds the release, the API is given the ring-down from there.
+    """
+    from liquidtouch.fit.oscillation import fit_oscillation
+
+    rng = np.random.default_rng(11)
+    t = np.arange(0.0, 14.5, 1 / 30)
+    tau = np.maximum(t - 1.5, 0.0)
+    u = np.exp(-0.055 * tau) * np.cos(9.0 * tau) + 1.2 * np.exp(-1.0 * tau) * np.cos(9.5 * tau)
+    u = np.where(t >= 1.5, u, 0.0) + rng.normal(0, 0.02, t.size)
+    path = tmp_path / "u.csv"
+    write_signal_csv(path, t, u)
+    t, u = read_signal_csv(path)
+    assert main(["fit", str(path), "--json"]) == 0
+    cli = json.loads(capsys.readouterr().out)
+    assert cli["t0"] == pytest.approx(1.5, abs=0.02)
+    free = t >= cli["t0"]
+    api = fit_oscillation(t[free], u[free])
+    assert cli["decay_rate"] == pytest.approx(api.decay_rate, rel=1e-9)
+    assert cli["angular_frequency"] == pytest.approx(api.angular_frequency, rel=1e-9)
+    assert cli["model"] == api.model == "two-mode"
+    assert api.decay_rate == pytest.approx(0.055, rel=0.08)  # the truth, not a collapse
+    assert cli["model_reason"].startswith("auto; lowest BIC")
+    assert cli["delta_bic_two_mode"] == 0.0 and cli["delta_bic_amplitude"] > 0
+    assert main(["fit", str(path)]) == 0
+    assert "model: two-mode (auto; lowest BIC" in capsys.readouterr().out

@@ -78,6 +78,31 @@ def videos(tmp_path_factory):
     return lossless, lossy
 
 
+@pytest.fixture(scope="module")
+def simulator_and_crf23(tmp_path_factory):
+    """The simulator's own H.264 (its default settings) and x264's defaults at CRF 23."""
+    root = tmp_path_factory.mktemp("codec23")
+    trial = simulate_trial("water", height_mm=32.0, seed=1, duration_s=5.0)
+    own = write_trial(trial, root / "own", sensor="mini")
+    crf23 = root / "crf23"
+    crf23.mkdir()
+    for name in ("left", "right"):
+        transcode(own / f"{name}.mp4", crf23 / f"{name}.mp4", crf=23, preset="medium")
+    return own, crf23
+
+
+def test_no_warning_on_the_simulators_video_one_on_x264_defaults_crf23(simulator_and_crf23):
+    own, crf23 = simulator_and_crf23
+    mine = extract(own).diagnostics
+    assert mine.codec == "h264" and mine.lossless is False  # lossy, but keeps the motion
+    assert mine.frozen_step_share <= 0.01
+    assert not mine.at_risk and mine.warning() is None and mine.expected_lambda_bias == 0.0
+    bad = extract([crf23 / "left.mp4", crf23 / "right.mp4"]).diagnostics
+    assert bad.encoder["crf"] == "23.0" and bad.frozen_step_share > 0.01
+    assert bad.at_risk and "CRF 23.0" in bad.warning()
+    assert bad.expected_lambda_bias == pytest.approx(dict(X264_CRF_BIAS)[23])
+
+
 def test_codec_and_x264_settings_are_read(videos, tmp_path):
     lossless, lossy = videos
     assert video_info(lossy / "left.mp4").codec == "h264"

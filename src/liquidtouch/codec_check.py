@@ -22,9 +22,15 @@ macroblock tree cut the λ bias more than turning off the dead zone
   noise makes that share 0 on lossless video; a codec that skips or copies
   blocks makes it positive.
 
+The warning follows the measurement: ``at_risk`` is set when lossy video
+freezes the motion (frozen-step share over :data:`FROZEN_SHARE_RISK`); only when
+the share cannot be measured (no moving markers counted) do the codec's settings
+decide alone (their expected bias over :data:`BIAS_RISK`). So video that keeps the
+sub-pixel motion (the simulator's H.264 without x264's dead zone: 0.0 % frozen, λ
+within 1 %) is not flagged, and x264 with its defaults at CRF 23 is.
 ``expected_lambda_bias`` is the median λ bias the benchmark measured for that
-codec and quality (NaN when unknown); ``at_risk`` is set when that bias or the
-frozen-step share says the fitted λ is likely biased by more than a few %.
+codec and quality (NaN when unknown) when the motion freezes or cannot be judged,
+and 0 when the measurement shows it kept.
 """
 
 from __future__ import annotations
@@ -227,8 +233,12 @@ def check_codec(
         bias = max(biases) if not all(math.isnan(b) for b in biases) else math.nan
     else:
         lossless, bias = None, math.nan
-    frozen = math.isfinite(share) and share > FROZEN_SHARE_RISK
-    at_risk = lossless is not True and (frozen or (math.isfinite(bias) and bias > BIAS_RISK))
+    if math.isfinite(share):  # the measurement decides
+        at_risk = lossless is not True and share > FROZEN_SHARE_RISK
+        if lossless is not True and not at_risk:
+            bias = 0.0  # the motion is kept: the benchmark's codec bias does not apply
+    else:  # nothing measured: the codec's settings alone
+        at_risk = lossless is not True and math.isfinite(bias) and bias > BIAS_RISK
     return CodecCheck(
         codec=",".join(dict.fromkeys(codecs)),
         lossless=lossless,

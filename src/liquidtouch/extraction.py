@@ -16,13 +16,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from liquidtouch._core.numbers import fixed, number, with_uncertainty
 from liquidtouch._core.progress import progress_bar
 from liquidtouch.clock import check_consistent
 from liquidtouch.codec_check import check_codec
-from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.fit_settings import FitSettings
 from liquidtouch.io.dataset import trial_sensor_starts
 from liquidtouch.io.frames import iter_frames, video_info
@@ -31,30 +28,19 @@ from liquidtouch.io.trial_tracks import stored_tracks
 from liquidtouch.signal import (
     TactileSignal,
     check_signal_options,
-    common_span,
     tactile_signal,
 )
 from liquidtouch.tracking.tracks import MarkerTracks, track_markers
 
 __all__ = [
-    "GAP_MARGIN_S",
-    "GAP_PERIODS",
     "Extraction",
     "extract",
     "extract_signal",
     "extract_trial",
-    "frame_gap_mask",
     "track_sources",
 ]
 
 PathLike = str | os.PathLike[str]
-
-GAP_PERIODS = 2.5
-"""A frame gap this many median frame intervals long (two or more frames lost in a row,
-or a stalled stream) is left out of the fit (:func:`frame_gap_mask`)."""
-GAP_MARGIN_S = 0.1
-"""Samples this close to such a gap [s] are left out too: the 3 Hz zero-phase low-pass
-spreads the straight line interpolated across the gap over about this much."""
 
 
 @dataclass(repr=False)
@@ -87,7 +73,8 @@ class Extraction:
         )
 
     def to_dict(self) -> dict[str, object]:
-        """The fit's keys plus ``explained_variance``, ``n_markers``, ``fps``, ``frames``
+        """The fit's keys plus ``explained_variance``, ``n_markers``, ``fps``, ``frames``,
+        ``signal_gap_share`` (share of the recording's clock not observed: camera stalls)
         and, with :attr:`diagnostics`, ``frozen_step_share`` and ``codec_lambda_bias``."""
         out = dict(self.fit.to_dict())
         out.update(
@@ -95,6 +82,7 @@ class Extraction:
             n_markers=int(self.signal.n_markers),
             fps=float(self.signal.fps),
             frames=len(self.signal.t),
+            signal_gap_share=float(self.signal.gap_share),
         )
         if self.diagnostics is not None:
             out.update(
@@ -160,53 +148,9 @@ def extract(
         sources = select_sensors(resolve_sources(paths, fps=fps), sensors)
         tracks = track_sources(sources, progress=progress, starts=trial_sensor_starts(paths))
     signal = tactile_signal(tracks, lowpass_hz=lowpass_hz, n_markers=n_markers)
-    result = _fit_without_gaps(settings, signal, tracks) if fit else None
+    result = settings.fit(signal.t, signal.u) if fit else None
     check = check_codec(tracks, [path for _, path, _ in sources], n_markers)
     return Extraction(tracks=tracks, signal=signal, fit=result, diagnostics=check)
-
-
-def frame_gap_mask(tracks: Sequence[MarkerTracks], t: np.ndarray) -> np.ndarray:
-    """True where a signal sample at ``t`` [s, the signal's clock] lies in a frame gap.
-
-    A gap is an interval between two frames of any sensor longer than
-    :data:`GAP_PERIODS` × that sensor's median frame interval (frames dropped in a
-    burst, a stalled stream); the samples inside it, and within
-    :data:`GAP_MARGIN_S` of it, were interpolated across it (a straight line over
-    a good part of a slosh period), not measured.
-    """
-    t = np.asarray(t, dtype=float)
-    masked = np.zeros(t.shape, dtype=bool)
-    if not tracks:
-        return masked
-    _, begin, _ = common_span(tracks)
-    for tr in tracks:
-        times = np.asarray(tr.t, dtype=float)
-        if len(times) < 3:
-            continue
-        gaps = np.diff(times)
-        long = np.flatnonzero(gaps > GAP_PERIODS * np.median(gaps))
-        offset = float(tr.start_s) - float(times[0]) - begin  # sensor time -> signal clock
-        for k in long:
-            lo = times[k] + offset - GAP_MARGIN_S
-            hi = times[k + 1] + offset + GAP_MARGIN_S
-            masked |= (t > lo) & (t < hi)
-    return masked
-
-
-def _fit_without_gaps(
-    settings: FitSettings, signal: TactileSignal, tracks: Sequence[MarkerTracks]
-) -> object:
-    """The fit of ``settings`` on the signal's window, without the samples in frame gaps.
-
-    The fit takes non-uniform times, so the interpolated samples are simply left
-    out (:func:`frame_gap_mask`); when that would leave less than half the window,
-    the whole window is fitted as before.
-    """
-    t, u = settings.window(signal.t, signal.u)
-    keep = ~frame_gap_mask(tracks, t)
-    if not keep.all() and keep.sum() >= 0.5 * len(t):
-        t, u = t[keep], u[keep]
-    return fit_oscillation(t, u, **settings.fit_options())
 
 
 def extract_signal(

@@ -9,20 +9,14 @@ free decay after the push, or a time [s] on the signal's clock).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from liquidtouch._core.checks import as_number
 from liquidtouch.errors import SignalError
-from liquidtouch.fit.oscillation import (
-    LOSSES,
-    MIN_DURATION_S,
-    MODELS,
-    NOISE_MODELS,
-    fit_oscillation,
-    validate_signal,
-)
+from liquidtouch.fit.choices import DEFAULT_MODEL, LOSSES, MODELS, NOISE_MODELS
+from liquidtouch.fit.oscillation import GAP_STEPS, MIN_DURATION_S, fit_oscillation, validate_signal
 from liquidtouch.segment import free_decay
 
 AUTO = "auto"
@@ -37,16 +31,17 @@ class FitSettings:
     :func:`~liquidtouch.fit.oscillation.fit_oscillation`. ``start`` is ``"auto"``
     (the free decay after the push: :func:`~liquidtouch.segment.free_decay`) or a
     time [s] on the signal's clock: the samples from then on are fitted. The
-    defaults are what ``extract``, ``features`` and ``fit`` use: the paper's loss
-    with the amplitude-dependent damping model (``"amplitude"``: λ is the
-    small-amplitude rate, the same whatever the push; on simulated trials through
-    video its λ is 3.1 % from the truth against 8.0 % for the paper's two-mode fit,
-    and varies 1.2 % against 5.6 % across 0.5-2x pushes). ``model="two-mode"`` is
-    the paper's model. Raises :class:`~liquidtouch.errors.SignalError` for a bad option.
+    defaults are what ``extract``, ``features``, ``fit`` and ``fit_oscillation``
+    use: the paper's loss and the model the data choose
+    (:data:`~liquidtouch.fit.choices.DEFAULT_MODEL`, ``"auto"``: single-mode,
+    the paper's two modes, amplitude-dependent damping or both together, by an
+    information criterion; :mod:`liquidtouch.fit.selection`). ``model="two-mode"``
+    is the paper's model. Raises :class:`~liquidtouch.errors.SignalError` for a bad
+    option.
     """
 
     loss: str = "paper"
-    model: str = "amplitude"
+    model: str = DEFAULT_MODEL
     band_hz: tuple[float, float] = (0.3, 5.0)
     noise: str = "white"
     start: float | str = AUTO
@@ -103,9 +98,15 @@ class FitSettings:
         }
 
     def fit(self, t: np.ndarray, u: np.ndarray) -> object:
-        """:func:`~liquidtouch.fit.oscillation.fit_oscillation` of :meth:`window` of ``(t, u)``."""
+        """:func:`~liquidtouch.fit.oscillation.fit_oscillation` of :meth:`window` of ``(t, u)``.
 
-        return fit_oscillation(*self.window(t, u), **self.fit_options())
+        The result's ``gap_before_start_s`` is the gap [s] in ``t`` that ends where
+        the window starts (0 when none): the ring-down may have started in it.
+        """
+
+        t_fit, u_fit = self.window(t, u)
+        fit = fit_oscillation(t_fit, u_fit, **self.fit_options())
+        return replace(fit, gap_before_start_s=gap_before(t, float(t_fit[0])))
 
 
 def fit_window(
@@ -134,3 +135,18 @@ def fit_window(
         )
     keep = t >= start
     return t[keep], u[keep]
+
+
+def gap_before(t: np.ndarray, start_s: float) -> float:
+    """The gap [s] in the sample times ``t`` [s] that ends at ``start_s`` (0 when none).
+
+    A step longer than ``GAP_STEPS`` × the median step is a gap (samples never
+    observed); measured as its length beyond one median step.
+    """
+    t = np.asarray(t, dtype=float)
+    i = int(np.searchsorted(t, start_s))
+    if i == 0 or t.size < 2:
+        return 0.0
+    typical = float(np.median(np.diff(t)))
+    step = float(t[i] - t[i - 1])
+    return step - typical if step > GAP_STEPS * typical else 0.0

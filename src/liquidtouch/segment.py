@@ -71,7 +71,7 @@ from scipy.signal import butter, sosfiltfilt
 from liquidtouch._core.checks import as_number
 from liquidtouch.clock import check_times, finite_array
 from liquidtouch.errors import LiquidTouchError, NoOscillationError, SignalError
-from liquidtouch.fit.oscillation import fit_oscillation
+from liquidtouch.fit.oscillation import GAP_STEPS, fit_oscillation
 
 __all__ = [
     "DRIFT_CUTOFF_HZ",
@@ -88,6 +88,7 @@ __all__ = [
     "find_transients",
     "free_decay",
     "free_decay_start",
+    "highpass",
     "push_snr",
     "ring_down_reason",
     "trial_segments",
@@ -114,6 +115,24 @@ def free_decay_start(
     return _excursion(t, u, baseline_s, drift_cutoff_hz)[0]
 
 
+def highpass(t: np.ndarray, x: np.ndarray, cutoff_hz: float) -> np.ndarray:
+    """Zero-phase 2nd-order high-pass of ``x`` [(T,) or (T, C)] at ``cutoff_hz`` [Hz].
+
+    ``t`` [s] may have gaps (samples never observed, longer than ``GAP_STEPS`` median
+    steps): the filter then runs on a uniform grid through them and is read back at the
+    observed samples only.
+    """
+    step = float(np.median(np.diff(t)))
+    sos = butter(2, cutoff_hz, btype="highpass", fs=1.0 / step, output="sos")
+    if np.diff(t).max() <= GAP_STEPS * step:
+        return sosfiltfilt(sos, x, axis=0)
+    grid = t[0] + step * np.arange(int(np.floor((t[-1] - t[0]) / step)) + 1)
+    columns = x[:, None] if x.ndim == 1 else x
+    filled = np.column_stack([np.interp(grid, t, c) for c in columns.T])
+    back = np.column_stack([np.interp(t, grid, c) for c in sosfiltfilt(sos, filled, axis=0).T])
+    return back[:, 0] if x.ndim == 1 else back
+
+
 def _excursion(
     t: np.ndarray,
     u: np.ndarray,
@@ -129,10 +148,8 @@ def _excursion(
             f"drift_cutoff_hz must be a frequency > 0 in Hz, got {drift_cutoff_hz!r}; "
             f"the default is {DRIFT_CUTOFF_HZ}"
         )
-    rate_hz = 1.0 / float(np.median(np.diff(t)))
-    if len(u) > 30 and rate_hz > 4 * drift_cutoff_hz:
-        sos = butter(2, drift_cutoff_hz, btype="highpass", fs=rate_hz, output="sos")
-        u = sosfiltfilt(sos, u)
+    if len(u) > 30 and 1.0 / float(np.median(np.diff(t))) > 4 * drift_cutoff_hz:
+        u = highpass(t, u, drift_cutoff_hz)
     resting = float(np.median(u[t <= t[0] + baseline_s]))
     excursion = np.abs(u - resting)
     return int(np.argmax(excursion)), u - resting
@@ -297,8 +314,7 @@ def activity(t: np.ndarray, x: np.ndarray, cutoff_hz: float = RISE_CUTOFF_HZ) ->
     columns = x[:, None] if x.ndim == 1 else x.reshape(len(x), -1)
     rate_hz = 1.0 / float(np.median(np.diff(t)))
     if len(t) > 30 and rate_hz > 4 * cutoff_hz:
-        sos = butter(2, cutoff_hz, btype="highpass", fs=rate_hz, output="sos")
-        columns = sosfiltfilt(sos, columns, axis=0)
+        columns = highpass(t, columns, cutoff_hz)
     else:
         columns = columns - np.median(columns, axis=0)
     return np.sqrt(np.sum(columns**2, axis=1))

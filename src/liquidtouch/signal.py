@@ -11,12 +11,22 @@
 2. **Gaps**: a marker lost in more than ``max_lost_fraction`` of the frames, or
    for longer than ``max_gap_s`` at a stretch, is not used; shorter gaps are
    interpolated. Markers cut by the image border in the first frame are not
-   used either (their centroid sees only part of the blob).
-3. **Low-pass**: zero-phase Butterworth (``sosfiltfilt``), 3 Hz by default.
+   used either (their centroid sees only part of the blob). **Frames that never
+   came** (a camera stall, dropped frames) are not invented: a clock sample
+   inside a stretch without frames longer than half the low-pass cut-off's
+   period (:func:`max_bridged_gap_s`: the low-passed motion is then sampled
+   below its Nyquist rate; 0.17 s at 3 Hz) is *not observed*; shorter stretches
+   (a dropped frame or a few) are interpolated.
+3. **Low-pass**: zero-phase Butterworth (``sosfiltfilt``), 3 Hz by default, run
+   on each contiguous stretch of observed samples on its own (a stretch too short
+   to filter is dropped too), so no filter output mixes in a gap.
 4. **Selection**: the ``n_markers`` markers (across all sensors) with the
    largest motion, ``sqrt(var x + var y)`` of the filtered displacement.
 5. **PCA**: their x, y displacements form a ``2·n``-D vector per frame; the
    first principal component (of the time-centred data) gives ``u(t)`` [px].
+
+The signal holds the observed samples only (``t`` is then uniform except for
+its gaps) and reports ``gap_share``, the share of the clock's samples not observed.
 
 **Sign convention**: the component's weight with the largest magnitude is
 positive (as scikit-learn's ``svd_flip``), so the same motion always gives the
@@ -48,6 +58,49 @@ __all__ = [
 
 #: fewest usable markers (over all sensors) a signal is built from
 MIN_SELECTED = 2
+#: without a low-pass, a stretch without frames longer than this many frame periods is a gap
+GAP_PERIODS = 2.0
+
+
+def max_bridged_gap_s(lowpass_hz: float | None, fps: float) -> float:
+    """Longest stretch without frames [s] that is interpolated rather than left out.
+
+    Half the period of the low-pass cut-off, ``1 / (2 f_c)``: the filtered motion
+    holds nothing faster than ``f_c``, so samples that far apart still catch it
+    (Nyquist); a longer stretch lost motion that no interpolation can recover.
+    At least :data:`GAP_PERIODS` frame periods; that alone without a low-pass.
+    """
+    least = GAP_PERIODS / fps
+    return least if lowpass_hz is None else max(least, 0.5 / float(lowpass_hz))
+
+
+def observed_samples(t_frames: np.ndarray, t_clock: np.ndarray, max_gap_s: float) -> np.ndarray:
+    """Which clock times ``t_clock`` [s] are observed: not inside a stretch without frames
+    longer than ``max_gap_s`` [s]. ``t_frames`` [s], on the same clock, increasing."""
+    gaps = np.diff(t_frames)
+    k = np.clip(np.searchsorted(t_frames, t_clock, side="right"), 1, t_frames.size - 1)
+    inside = (t_clock > t_frames[k - 1]) & (t_clock < t_frames[k])
+    return ~(inside & (gaps[k - 1] > max_gap_s))
+
+
+def lowpass_observed(
+    x: np.ndarray, observed: np.ndarray, fps: float, cutoff_hz: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`lowpass` of each contiguous stretch of ``observed`` rows of ``x`` on its own.
+
+    Returns ``(filtered, observed)``: a stretch too short to filter is marked not
+    observed (its rows are left as they were). Without gaps this is :func:`lowpass`.
+    """
+    if observed.all():
+        return lowpass(x, fps, cutoff_hz), observed
+    out, observed = x.copy(), observed.copy()
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], observed.astype(int), [0]])))
+    for begin, end in zip(edges[0::2], edges[1::2], strict=True):
+        if end - begin <= LOWPASS_PADLEN:
+            observed[begin:end] = False
+        else:
+            out[begin:end] = lowpass(x[begin:end], fps, cutoff_hz)
+    return out, observed
 
 
 @dataclass(repr=False)
@@ -64,6 +117,8 @@ class TactileSignal:
     fps : sample rate of ``t`` [Hz].
     motion : (T, n, 2) filtered displacement of the chosen markers [px].
     lowpass_hz : cut-off of the low-pass filter [Hz] (``None``: no filter).
+    gap_share : share (0-1) of the uniform clock's samples that fell in gaps (not
+        observed, not in ``t``; module docstring).
 
     Its repr is one short line: samples, rate, duration, markers, explained variance.
     """
@@ -76,6 +131,7 @@ class TactileSignal:
     fps: float
     motion: np.ndarray
     lowpass_hz: float | None = 3.0
+    gap_share: float = 0.0
 
     def __repr__(self) -> str:
         n = len(self.t)
@@ -175,12 +231,16 @@ def lowpass(x: np.ndarray, fps: float, cutoff_hz: float = 3.0, order: int = 4) -
             f"frequency {nyquist:.3g} Hz of a {fps:.3g} fps recording"
         )
     sos = butter(order, cutoff_hz, fs=fps, output="sos")
-    padlen = 3 * (2 * len(sos) + 1)
+    padlen = 3 * (2 * len(sos) + 1)  # LOWPASS_PADLEN for the default order
     if x.shape[0] <= padlen:
         raise SignalError(
             f"only {x.shape[0]} frames; at least {padlen + 1} are needed to filter the motion"
         )
     return sosfiltfilt(sos, x, axis=0)
+
+
+#: samples ``sosfiltfilt`` pads with for the default 4th-order low-pass (2 sections)
+LOWPASS_PADLEN = 3 * (2 * 2 + 1)
 
 
 def first_component(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
@@ -233,10 +293,13 @@ def tactile_signal(
     reference, begin_s, end_s = common_span(tracks)
     t_ref = tracks[reference].t
     t_uniform, fps = uniform_clock(t_ref, end_s=float(t_ref[0]) + (end_s - begin_s))
+    bridged_s = max_bridged_gap_s(lowpass_hz, fps)
+    observed = np.ones(t_uniform.size, bool)
     blocks, names = [], []
     for tr in tracks:
         local = t_uniform + (begin_s - float(tr.start_s))  # on this sensor's own clock
         disp, usable = resample_displacement(tr, local, max_lost_fraction, max_gap_s)
+        observed &= observed_samples(tr.t - tr.t[0], local, bridged_s)
         blocks.append(disp[:, usable])
         names.extend((tr.sensor, int(i)) for i in np.flatnonzero(usable))
     motion = np.concatenate(blocks, axis=1)
@@ -246,13 +309,19 @@ def tactile_signal(
             f"{max_lost_fraction:.0%} of frames); at least {MIN_SELECTED} are needed"
         )
     if lowpass_hz is not None:
-        motion = lowpass(motion, fps, lowpass_hz)
+        motion, observed = lowpass_observed(motion, observed, fps, lowpass_hz)
+    if observed.sum() < 2:
+        raise SignalError(
+            "no stretch of the recording is long enough to filter: the frames come with "
+            f"gaps over {bridged_s:.2g} s; check the camera's frame rate"
+        )
+    motion = motion[observed]
     score = np.sqrt(motion.var(axis=0).sum(axis=1))
     chosen = np.argsort(-score, kind="stable")[:n_markers]
     chosen_motion = motion[:, chosen]
-    u, weights, explained = first_component(chosen_motion.reshape(len(t_uniform), -1))
+    u, weights, explained = first_component(chosen_motion.reshape(len(motion), -1))
     return TactileSignal(
-        t=t_uniform,
+        t=t_uniform[observed],
         u=u,
         explained_variance=explained,
         markers=[names[i] for i in chosen],
@@ -260,6 +329,7 @@ def tactile_signal(
         fps=fps,
         motion=chosen_motion,
         lowpass_hz=lowpass_hz,
+        gap_share=float(1.0 - observed.mean()),
     )
 
 

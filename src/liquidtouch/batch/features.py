@@ -53,7 +53,7 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 #: Bump when extraction or fitting changes in a way that changes features.
-FEATURES_VERSION = 5
+FEATURES_VERSION = 6
 #: ``wrench-best-effort``: the wrist fit even where it shows no oscillation (the paper's baseline)
 SOURCES = ("gelsight", "wrench", "wrench-best-effort")
 #: The measured columns of a feature row (after the manifest's): the two model
@@ -71,6 +71,13 @@ FEATURE_ROW_COLUMNS = (
     "n_markers",
     "frames",
     "fps",
+    "model",
+    "delta_bic_single_mode",
+    "delta_bic_two_mode",
+    "delta_bic_amplitude",
+    "delta_bic_amplitude_two_mode",
+    "gap_share",
+    "signal_gap_share",
 )
 #: Columns after ``error``: the liquidtouch version that computed the row and the
 #: settings of the run (compact JSON, :func:`feature_settings`).

@@ -99,6 +99,12 @@ def extract(
     warning = check.warning() if check is not None else None
     if warning:
         typer.echo(f"warning: {warning}", err=True)
+    if result.fit is not None:
+        from liquidtouch.cli.format import gap_warning
+
+        gap = gap_warning(result.fit)
+        if gap:
+            typer.echo(f"warning: {gap}", err=True)
     if as_json:
         out = result.to_dict()
         if check is not None:
@@ -122,6 +128,7 @@ def _print_extraction(result, written: list[Path]) -> None:
     )
     fit = result.fit
     Console().print(fit_table(fit, f"{fit.model} fit of the free decay (loss={fit.loss})"))
+    typer.echo(f"model: {fit.model} ({fit.model_reason})")
     typer.echo(fit_quality(fit))
     check = result.diagnostics
     if check is not None and check.codec:

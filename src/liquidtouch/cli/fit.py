@@ -52,7 +52,6 @@ def fit(
     drawn from the paper's two-mode model (--model two-mode fits that model).
     """
     from liquidtouch.fit.example import example_signal
-    from liquidtouch.fit.oscillation import fit_oscillation
 
     if example == (signal is not None):
         raise SignalError("give either a SIGNAL.csv or --example (exactly one)")
@@ -72,11 +71,16 @@ def fit(
         t, u = read_signal_csv(signal)
         source = str(signal)
     t_fit, u_fit = settings.window(t, u)
-    result = fit_oscillation(t_fit, u_fit, **settings.fit_options())
+    result = settings.fit(t, u)
     if plot is not None:
         from liquidtouch.fit.plot import plot_fit
 
         plot_fit(t_fit, u_fit, result, plot)
+    from liquidtouch.cli.format import gap_warning
+
+    gap = gap_warning(result)
+    if gap:
+        typer.echo(f"warning: {gap}", err=True)
     if as_json:
         typer.echo(json.dumps(result.to_dict()))
         return
@@ -89,4 +93,5 @@ def _print_table(result, source: str, plot: Path | None) -> None:
     from liquidtouch.cli.format import fit_quality, fit_table
 
     Console().print(fit_table(result, f"{result.model} fit of {source} (loss={result.loss})"))
+    typer.echo(f"model: {result.model} ({result.model_reason})")
     typer.echo(fit_quality(result) + (f"   plot: {plot}" if plot else ""))

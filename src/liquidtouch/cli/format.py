@@ -76,9 +76,23 @@ def fit_quality(result: object) -> str:
     """One line: R² (4 decimals), noise level, samples and the fitted window [s]."""
     start = float(result.t0)
     end = start + float(result.duration_s)
+    gaps = getattr(result, "gap_share", 0.0)
     return (
         f"R² = {fixed(result.r2)}   noise σ = {number(result.noise_std, 3)}   "
         f"{result.n_samples} samples from {number(start, 3)} s to {number(end, 3)} s"
+        + (f" ({gaps:.1%} of it in gaps, not fitted)" if gaps > 0 else "")
+    )
+
+
+def gap_warning(result: object) -> str | None:
+    """A line when a gap in the samples ends where the fitted free decay starts, else None."""
+    gap = getattr(result, "gap_before_start_s", 0.0)
+    if not gap > 0:
+        return None
+    return (
+        f"a gap of {gap:.2f} s without samples ends where the fitted free decay starts "
+        f"({float(result.t0):.2f} s): the ring-down may have started inside it, so λ and ω "
+        "come from its later part"
     )
 
 

@@ -20,6 +20,8 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from liquidtouch.fit.choices import DEFAULT_MODEL
+
 if TYPE_CHECKING:
     from liquidtouch.fit_settings import FitSettings
 
@@ -35,11 +37,13 @@ class LossChoice(StrEnum):
 
 
 class FitModelChoice(StrEnum):
-    """``fit_oscillation``'s ``model`` (``fit.oscillation.MODELS``)."""
+    """``fit_oscillation``'s ``model`` (``fit.choices.MODELS``)."""
 
+    auto = "auto"
     two_mode = "two-mode"
     single_mode = "single-mode"
     amplitude = "amplitude"
+    amplitude_two_mode = "amplitude-two-mode"
 
 
 class NoiseChoice(StrEnum):
@@ -169,7 +173,7 @@ Sensor = Annotated[
 # -- oscillation fit ---------------------------------------------------------------------------
 
 DEFAULT_LOSS = LossChoice.paper
-DEFAULT_FIT_MODEL = FitModelChoice.amplitude
+DEFAULT_FIT_MODEL = FitModelChoice(DEFAULT_MODEL)
 DEFAULT_BAND_LOW_HZ = 0.3
 DEFAULT_BAND_HIGH_HZ = 5.0
 DEFAULT_NOISE = NoiseChoice.white
@@ -210,9 +214,11 @@ FitModel = Annotated[
     FitModelChoice,
     typer.Option(
         "--model",
-        help="amplitude (one mode whose damping grows with its amplitude; λ is the "
-        "small-amplitude rate λ0, the same whatever the push), two-mode (the paper's: falls "
-        "back to one mode when the data do not support a fast mode) or single-mode.",
+        help="auto: the model the data support best (lowest information criterion; the "
+        "output names it and says why); amplitude: one mode whose damping grows with its "
+        "amplitude (λ is the small-amplitude rate λ0, the same whatever the push); two-mode: "
+        "the paper's two damped cosines (one when the data do not support a second); "
+        "amplitude-two-mode: both together; single-mode: one damped cosine.",
     ),
 ]
 BandLow = Annotated[

@@ -2,15 +2,35 @@
 
 ``model`` is the paper's damped-oscillation model (two damped cosines + quadratic
 drift) and its loss, ``amplitude`` the model whose damping grows with the amplitude
-(λ(A) = λ0 (1 + κ A²), the pipeline's default), ``start`` finds start values,
-``solve`` runs the optimisers, ``oscillation`` is the public fit and model selection,
+(λ(A) = λ0 (1 + κ A^p)), ``choices`` the models and the one default (``"auto"``:
+the data choose the model), ``selection`` the information criterion that chooses,
+``start`` finds start values, ``solve`` runs the optimisers, ``oscillation`` is the
+public fit,
 ``result`` its :class:`OscillationFit` (decay rate λ [1/s], angular frequency ω
 [rad/s], their std), ``example`` a built-in signal, ``synthetic`` non-linearly
 damped test signals with known λ0, and ``plot`` the figure of a fit.
 """
 
-from liquidtouch.fit.example import example_signal
-from liquidtouch.fit.oscillation import fit_oscillation
-from liquidtouch.fit.result import OscillationFit
+from __future__ import annotations
 
-__all__ = ["OscillationFit", "example_signal", "fit_oscillation"]
+import importlib
+from typing import Any
+
+from liquidtouch.fit.choices import DEFAULT_MODEL
+
+__all__ = ["DEFAULT_MODEL", "OscillationFit", "example_signal", "fit_oscillation"]
+
+
+#: public name -> the module that defines it
+_LAZY = {
+    "OscillationFit": "liquidtouch.fit.result",
+    "example_signal": "liquidtouch.fit.example",
+    "fit_oscillation": "liquidtouch.fit.oscillation",
+}
+
+
+def __getattr__(name: str) -> Any:
+    # lazy (PEP 562), so that the command line reads DEFAULT_MODEL without importing SciPy
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -38,20 +38,14 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from liquidtouch.fit import model as om
-from liquidtouch.fit.solve import RATE_MAX, FitState
-from liquidtouch.fit.start import amplitude_starts
+from liquidtouch.fit.solve import RATE_MAX, FitState, std_from_variance
+from liquidtouch.fit.start import amplitude_starts, spectral_peaks
 
-#: exponents p of λ(A) = λ0 (1 + κ A^p) tried, the preferred one (slosh physics) first.
-#: Only p = 2 by default: on the quick-demo classification and sugar signals p = 1 won
-#: the BIC test on 9 of 114 trials and moved λ0 10-50 % low (noise-free marker tracks:
-#: −15 %), while the slosh's damping grows with the steepness squared. ``(2, 1)`` also
-#: tries a velocity-squared damper (p = 1), e.g. flow past a baffle.
+#: exponents p of λ(A) = λ0 (1 + κ A^p) tried: the slosh's steepness-squared damping (and a
+#: cubic damper), p = 2, and a velocity-squared damper (flow past a baffle), p = 1. Both have
+#: as many parameters, so the information criterion keeps the one that fits better
+#: (:func:`optimise_amplitude`).
 EXPONENTS: tuple[int, ...] = (2,)
-#: BIC margin by which another exponent must beat the first to be chosen ("strong
-#: evidence"): with a modest gain the two exponents fit almost equally well (ΔBIC within
-#: ±2 on simulated slosh and on cubic-damper signals) but extrapolate to different λ0
-#: (p = 1 on a p = 2 slosh: −10 to −50 %); velocity-squared dampers with g ≳ 1 give 9-20
-EXPONENT_EVIDENCE = 6.0
 #: largest excess damping g = λ(A0)/λ0 − 1 at the window start
 GAIN_MAX = 100.0
 N_NONLINEAR = 3
@@ -86,29 +80,48 @@ def amplitude_damped_cosine(
     return amplitude * envelope(tau, rate, gain, exponent) * np.cos(angular_frequency * tau + phase)
 
 
-def basis(tau: np.ndarray, x: np.ndarray, theta_nl: np.ndarray, exponent: float) -> np.ndarray:
-    """Design matrix ``(n, 5)``: ``E cos ωτ``, ``E sin ωτ``, ``1``, ``x``, ``x²``."""
+def n_nonlinear(second: bool) -> int:
+    """Nonlinear parameters: ``λ0, ω, g`` and, with a second mode, its ``λ', ω'``."""
+    return N_NONLINEAR + 2 * int(second)
+
+
+def basis(
+    tau: np.ndarray, x: np.ndarray, theta_nl: np.ndarray, exponent: float, second: bool = False
+) -> np.ndarray:
+    """Design matrix: ``E cos ωτ``, ``E sin ωτ`` (with ``second``: ``e^{−λ'τ} cos ω'τ``,
+    ``e^{−λ'τ} sin ω'τ``), ``1``, ``x``, ``x²``."""
     rate, omega, gain = theta_nl[:N_NONLINEAR]
     env = envelope(tau, rate, gain, exponent)
-    cols = np.empty((tau.size, 2 + om.N_DRIFT))
+    n_modes = 1 + int(second)
+    cols = np.empty((tau.size, 2 * n_modes + om.N_DRIFT))
     cols[:, 0] = env * np.cos(omega * tau)
     cols[:, 1] = env * np.sin(omega * tau)
-    cols[:, 2] = 1.0
-    cols[:, 3] = x
-    cols[:, 4] = x * x
+    if second:
+        rate_2, omega_2 = theta_nl[N_NONLINEAR : N_NONLINEAR + 2]
+        env_2 = np.exp(-rate_2 * tau)
+        cols[:, 2] = env_2 * np.cos(omega_2 * tau)
+        cols[:, 3] = env_2 * np.sin(omega_2 * tau)
+    cols[:, -3] = 1.0
+    cols[:, -2] = x
+    cols[:, -1] = x * x
     return cols
 
 
-def curve(theta: np.ndarray, tau: np.ndarray, x: np.ndarray, exponent: float) -> np.ndarray:
+def curve(
+    theta: np.ndarray, tau: np.ndarray, x: np.ndarray, exponent: float, second: bool = False
+) -> np.ndarray:
     """The model's value at each sample."""
-    return basis(tau, x, theta, exponent) @ theta[N_NONLINEAR:]
+    return basis(tau, x, theta, exponent, second) @ theta[n_nonlinear(second) :]
 
 
-def jacobian(theta: np.ndarray, tau: np.ndarray, x: np.ndarray, exponent: float) -> np.ndarray:
-    """Analytic Jacobian ``d curve / d theta``, shape ``(n, 8)``."""
+def jacobian(
+    theta: np.ndarray, tau: np.ndarray, x: np.ndarray, exponent: float, second: bool = False
+) -> np.ndarray:
+    """Analytic Jacobian ``d curve / d theta``, shape ``(n, theta.size)``."""
+    k = n_nonlinear(second)
     rate, _, gain = theta[:N_NONLINEAR]
-    a, b = theta[N_NONLINEAR : N_NONLINEAR + 2]
-    design = basis(tau, x, theta, exponent)
+    a, b = theta[k : k + 2]
+    design = basis(tau, x, theta, exponent, second)
     ec, es = design[:, 0], design[:, 1]
     mode = a * ec + b * es
     q = np.exp(-exponent * rate * tau)
@@ -118,7 +131,12 @@ def jacobian(theta: np.ndarray, tau: np.ndarray, x: np.ndarray, exponent: float)
     jac[:, 0] = mode * (-tau - gain * tau * q / grown)
     jac[:, 1] = tau * (b * ec - a * es)
     jac[:, 2] = mode * (-(1.0 - q) / (exponent * grown))
-    jac[:, N_NONLINEAR:] = design
+    if second:
+        a2, b2 = theta[k + 2 : k + 4]
+        ec2, es2 = design[:, 2], design[:, 3]
+        jac[:, 3] = -tau * (a2 * ec2 + b2 * es2)
+        jac[:, 4] = tau * (b2 * ec2 - a2 * es2)
+    jac[:, k:] = design
     return jac
 
 
@@ -132,6 +150,8 @@ class AmplitudeState(FitState):
 
     exponent: int = 2
     gain_fixed: bool = False
+    #: a second, exponentially damped mode (λ', ω') besides the amplitude-damped one
+    second: bool = False
 
     @property
     def n_params(self) -> int:
@@ -142,16 +162,42 @@ class AmplitudeState(FitState):
         """Excess damping g = λ(A0)/λ0 − 1 at the window start."""
         return float(self.theta[2])
 
+    @property
+    def rates(self) -> np.ndarray:
+        return self.theta[[0, 3]] if self.second else self.theta[:1]
+
+    @property
+    def freqs(self) -> np.ndarray:
+        return self.theta[[1, 4]] if self.second else self.theta[1:2]
+
     def model_curve(self) -> np.ndarray:
-        return curve(self.theta, self.tau, self.x, self.exponent)
+        return curve(self.theta, self.tau, self.x, self.exponent, self.second)
 
     def model_jacobian(self) -> np.ndarray:
-        jac = jacobian(self.theta, self.tau, self.x, self.exponent)
+        jac = jacobian(self.theta, self.tau, self.x, self.exponent, self.second)
         return np.delete(jac, 2, axis=1) if self.gain_fixed else jac
 
     def amplitudes_phases(self) -> tuple[np.ndarray, np.ndarray]:
-        a, b = self.theta[N_NONLINEAR : N_NONLINEAR + 2]
-        return np.array([math.hypot(a, b)]), np.array([math.atan2(-b, a)])
+        k = n_nonlinear(self.second)
+        lin = self.theta[k : k + 2 * self.n_modes]
+        a, b = lin[0::2], lin[1::2]
+        return np.hypot(a, b), np.arctan2(-b, a)
+
+    def standard_errors(self, weights: np.ndarray, *, correlated: bool) -> list[float]:
+        """Standard errors of [λ0, ω, λ', ω'] (NaN without a second mode)."""
+        cov = self.covariance(weights, correlated=correlated)
+        if cov is None:
+            return [math.nan] * 4
+        var = np.diag(cov)
+        if not self.second:
+            return [std_from_variance(var[0]), std_from_variance(var[1]), math.nan, math.nan]
+        i = 3 - int(self.gain_fixed)
+        return [
+            std_from_variance(var[0]),
+            std_from_variance(var[1]),
+            std_from_variance(var[i]),
+            std_from_variance(var[i + 1]),
+        ]
 
     def damping_gain(self, scale: float) -> float:
         """κ = g / A0^p [1/u^p] for a signal normalised by ``scale`` (unit of u)."""
@@ -165,16 +211,17 @@ class AmplitudeState(FitState):
         gain the data cannot tell from none.
         """
         free = AmplitudeState(**{**self.__dict__, "gain_fixed": False})
+        k = n_nonlinear(self.second)
         cov = free.covariance(weights, correlated=correlated)
         if cov is None:
             return math.nan
-        a, b = self.theta[N_NONLINEAR : N_NONLINEAR + 2]
+        a, b = self.theta[k : k + 2]
         r2 = a * a + b * b
         p = self.exponent
         grad = np.zeros(self.theta.size)
         grad[2] = r2 ** (-p / 2)
-        grad[N_NONLINEAR] = -p * self.gain * a * r2 ** (-p / 2 - 1)
-        grad[N_NONLINEAR + 1] = -p * self.gain * b * r2 ** (-p / 2 - 1)
+        grad[k] = -p * self.gain * a * r2 ** (-p / 2 - 1)
+        grad[k + 1] = -p * self.gain * b * r2 ** (-p / 2 - 1)
         var = float(grad @ cov @ grad)
         return math.sqrt(var) / scale**p if var >= 0 else math.nan
 
@@ -188,26 +235,30 @@ def _solve(
     sqrt_w: np.ndarray,
     band: tuple[float, float],
 ) -> AmplitudeState:
-    lo_nl = np.array([0.0, band[0], 0.0])
-    hi_nl = np.array([RATE_MAX, band[1], GAIN_MAX])
+    second = theta_nl.size == n_nonlinear(True)
+    lo_nl = np.array([0.0, band[0], 0.0, 0.0, band[0]][: theta_nl.size])
+    hi_nl = np.array([RATE_MAX, band[1], GAIN_MAX, RATE_MAX, band[1]][: theta_nl.size])
     span = hi_nl - lo_nl
     theta_nl = np.clip(theta_nl, lo_nl + 1e-6 * span, hi_nl - 1e-6 * span)
-    lin, _ = om.solve_linear(basis(tau, x, theta_nl, exponent), u, sqrt_w)
+    lin, _ = om.solve_linear(basis(tau, x, theta_nl, exponent, second), u, sqrt_w)
     theta0 = np.concatenate([theta_nl, lin])
     n_lin = lin.size
     lo = np.concatenate([lo_nl, np.full(n_lin, -np.inf)])
     hi = np.concatenate([hi_nl, np.full(n_lin, np.inf)])
 
     def fun(theta: np.ndarray) -> np.ndarray:
-        return sqrt_w * (curve(theta, tau, x, exponent) - u)
+        return sqrt_w * (curve(theta, tau, x, exponent, second) - u)
 
     def jac(theta: np.ndarray) -> np.ndarray:
-        return sqrt_w[:, None] * jacobian(theta, tau, x, exponent)
+        return sqrt_w[:, None] * jacobian(theta, tau, x, exponent, second)
 
     res = least_squares(
         fun, theta0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=200
     )
-    return AmplitudeState(1, res.x, tau, x, u, sqrt_w, float(2 * res.cost), exponent=exponent)
+    cost = float(2 * res.cost)
+    return AmplitudeState(
+        1 + int(second), res.x, tau, x, u, sqrt_w, cost, exponent=exponent, second=second
+    )
 
 
 def optimise_amplitude(
@@ -220,12 +271,11 @@ def optimise_amplitude(
 ) -> AmplitudeState:
     """Amplitude-damping fit started from the single-mode optimum ``single``.
 
-    Both exponents (:data:`EXPONENTS`) are fitted from the starts of
-    :func:`~liquidtouch.fit.start.amplitude_starts`; p = 2 is kept unless p = 1
-    has a BIC lower by :data:`EXPONENT_EVIDENCE`. When the gain does not lower the BIC below the
-    single-mode fit's — a constant-rate signal, or too short a decay to tell
-    λ0 from κ — the single-mode optimum is returned as the state with g = 0
-    held fixed, so λ0 is the single-mode λ with its std.
+    Each exponent of :data:`EXPONENTS` is fitted from the starts of
+    :func:`~liquidtouch.fit.start.amplitude_starts`, and the one with the lower
+    residual is kept (equal parameter counts: the lower information criterion).
+    Whether the gain is supported at all (against ``single``) is decided by the
+    caller (:mod:`liquidtouch.fit.selection`; :func:`without_gain`).
     """
     lam, omega = float(single.rates[0]), float(single.freqs[0])
     per_exponent = [
@@ -235,13 +285,54 @@ def optimise_amplitude(
         )
         for p in EXPONENTS
     ]
-    best = per_exponent[0]
-    for other in per_exponent[1:]:
-        if other.bic() < per_exponent[0].bic() - EXPONENT_EVIDENCE and other.cost < best.cost:
-            best = other
-    if math.isfinite(best.cost) and best.bic() < single.bic():
-        return best
+    finite = [f for f in per_exponent if math.isfinite(f.cost)] or per_exponent
+    return min(finite, key=lambda f: float(np.sum(f.residual() ** 2)))
+
+
+def without_gain(single: FitState, exponent: int) -> AmplitudeState:
+    """The single-mode optimum as an amplitude-damping state with g = 0 held fixed.
+
+    λ0 is then the single-mode λ with its std (a constant-rate signal, or too short
+    a decay to tell λ0 from κ).
+    """
     theta = np.concatenate([single.theta[:2], [0.0], single.theta[2:]])
     return AmplitudeState(
-        1, theta, tau, x, u, sqrt_w, single.cost, exponent=best.exponent, gain_fixed=True
+        1,
+        theta,
+        single.tau,
+        single.x,
+        single.u,
+        single.sqrt_w,
+        single.cost,
+        exponent=exponent,
+        gain_fixed=True,
     )
+
+
+def optimise_amplitude_two_mode(
+    tau: np.ndarray,
+    x: np.ndarray,
+    u: np.ndarray,
+    sqrt_w: np.ndarray,
+    band: tuple[float, float],
+    amplitude: AmplitudeState,
+    two: FitState | None,
+) -> AmplitudeState:
+    """Both together: the amplitude-damped mode plus a second, exponentially damped mode.
+
+    Started from the amplitude fit ``amplitude`` (λ0, ω, g, its exponent) with the
+    second mode at the two-mode fit's other mode (``two``) and at the strongest
+    peak of the amplitude fit's residual; the exponent is the amplitude fit's.
+    """
+    lam0, omega, gain = amplitude.theta[:N_NONLINEAR]
+    gain = max(float(gain), 0.3)
+    peak = spectral_peaks(tau, amplitude.residual(), band, n_peaks=1)[0]
+    seconds = [(2.0 * lam0 + 0.5, peak)]
+    if two is not None:  # its mode farther from ω
+        i = int(np.argmax(np.abs(two.freqs - omega)))
+        seconds.append((float(two.rates[i]), float(two.freqs[i])))
+    fits = [
+        _solve(np.array([lam0, omega, gain, r, w]), amplitude.exponent, tau, x, u, sqrt_w, band)
+        for r, w in seconds
+    ]
+    return min(fits, key=lambda f: f.cost)

@@ -37,18 +37,25 @@ noise was low-pass filtered; white-noise errors are then too small.
 
 Model selection
 ---------------
-``model="amplitude"`` fits one mode whose decay rate grows with its amplitude
-(:mod:`liquidtouch.fit.amplitude`) instead of a fast second mode; it reports
-the small-amplitude λ0, which does not depend on how hard the container was
-pushed, with the same losses and standard errors.
-With ``model="two-mode"`` both models are fitted. The two-mode result is kept
-only when the data support the fast mode: lower BIC than the single-mode fit
-and each mode's energy well above the noise, and a slow-mode λ not much less
-certain (relative std) than the single-mode λ (:data:`MAX_SLOW_STD_RATIO`: with about one
-second of ring-down the two modes trade off and the slow λ is ill-determined).
-Otherwise the single-mode fit is
-reported (``model == "single-mode"``, fast-mode fields NaN), so an unsupported
-fast mode never degrades the slow-mode estimate.
+``model="auto"`` (the default, :data:`~liquidtouch.fit.choices.DEFAULT_MODEL`)
+fits the single-mode model, the paper's two-mode model and the amplitude-dependent
+damping (:mod:`liquidtouch.fit.amplitude`: one mode whose decay rate grows with
+its amplitude; it reports the small-amplitude λ0, which does not depend on how hard
+the container was pushed) and keeps the one with the lowest information criterion
+under the correlated noise the fit estimates (:mod:`liquidtouch.fit.selection`).
+``model`` of the result says which was fitted, ``model_reason`` why, and
+``delta_bic_*`` the criterion of each candidate over the chosen one. Asking for
+``"two-mode"`` chooses between one and two modes the same way (fast-mode fields NaN
+when one mode is kept: ``model == "single-mode"``); ``"amplitude"`` keeps a gain
+of 0 (λ0 the single-mode λ) unless the gain lowers the criterion; ``"single-mode"``
+fits one mode only.
+
+Gaps
+----
+The samples need not be uniform: a signal with gaps (samples never observed, e.g.
+a camera stall) is fitted on the samples it has, and ``gap_share`` reports the
+share of the fitted time span that lies in gaps (steps over :data:`GAP_STEPS` ×
+the median step).
 """
 
 from __future__ import annotations
@@ -59,15 +66,26 @@ from dataclasses import replace
 import numpy as np
 
 from liquidtouch.errors import NoOscillationError, SignalError
-from liquidtouch.fit.amplitude import optimise_amplitude
+from liquidtouch.fit.amplitude import (
+    AmplitudeState,
+    optimise_amplitude,
+    optimise_amplitude_two_mode,
+    without_gain,
+)
+from liquidtouch.fit.choices import (
+    AUTO,
+    AUTO_CANDIDATES,
+    DEFAULT_MODEL,
+    LOSSES,
+    MODELS,
+    NOISE_MODELS,
+)
 from liquidtouch.fit.result import OscillationFit
+from liquidtouch.fit.selection import Selection, select_model
 from liquidtouch.fit.solve import FitState, optimise_single_mode, optimise_two_mode
 
-__all__ = ["fit_oscillation"]
+__all__ = ["fit_oscillation", "validate_signal"]
 
-LOSSES = ("paper", "ls")
-MODELS = ("two-mode", "single-mode", "amplitude")
-NOISE_MODELS = ("white", "correlated")
 DEFAULT_DELTA_REL = 1.0
 MIN_SAMPLES = 20
 #: most samples a fit takes: time and memory grow linearly (200 000 samples: 23 s CPU,
@@ -79,11 +97,10 @@ FLAT_RELATIVE = 1e-12
 #: energy of the fitted oscillation over the local noise level below which it is noise
 #: (pure white or low-passed noise reaches ~18 at most)
 MIN_OSCILLATION_SNR = 30.0
-#: a two-mode fit is kept only if the relative std of its slow-mode λ is at most this
-#: many times the single-mode λ's: a short, heavily damped ring-down (detergent, ~1 s)
-#: leaves the two modes poorly determined (quick-demo classification and sugar trials:
-#: two-mode fits that improve λ 0.5-2.9x, the ill-determined detergent fit 7.6x)
-MAX_SLOW_STD_RATIO = 4.0
+#: a step between samples longer than this many median steps is a gap (samples missing)
+GAP_STEPS = 1.5
+#: the amplitude-damped mode and a second mode together
+COMBINED = "amplitude-two-mode"
 
 
 def validate_signal(
@@ -173,7 +190,7 @@ def fit_oscillation(
     u: np.ndarray,
     *,
     loss: str = "paper",
-    model: str = "two-mode",
+    model: str = DEFAULT_MODEL,
     band_hz: tuple[float, float] = (0.3, 5.0),
     delta_rel: float = DEFAULT_DELTA_REL,
     noise: str = "white",
@@ -189,10 +206,12 @@ def fit_oscillation(
         Time stamps [s] (strictly increasing, need not be uniform) and signal (any unit).
     loss : ``"paper"`` | ``"ls"``
         The paper's relative loss ``Σ (u − û)² / (u² + δ)`` or plain least squares.
-    model : ``"two-mode"`` | ``"single-mode"`` | ``"amplitude"``
-        Model to fit; ``"two-mode"`` falls back to one mode when the data do not
-        support a fast mode (see the module docstring). ``"amplitude"``: one mode
-        whose decay rate grows with its amplitude, ``λ(A) = λ0 (1 + κ A^p)``
+    model : ``"auto"`` | ``"two-mode"`` | ``"single-mode"`` | ``"amplitude"``
+        Model to fit (default :data:`~liquidtouch.fit.choices.DEFAULT_MODEL`,
+        ``"auto"``: the one of the three the data support best, by an information
+        criterion; see the module docstring). ``"two-mode"`` falls back to one mode
+        when the data do not support a fast mode. ``"amplitude"``: one mode whose
+        decay rate grows with its amplitude, ``λ(A) = λ0 (1 + κ A^p)``
         (:mod:`liquidtouch.fit.amplitude`); ``decay_rate`` is then λ0 and
         ``damping_gain`` κ.
     band_hz : (low, high)
@@ -256,31 +275,63 @@ def fit_oscillation(
     single = optimise_single_mode(tau, x, u_n, u_detrended, sqrt_w, band, warm_start)
     if check_oscillation:
         _check_is_oscillation(single, band)
-    if model == "amplitude":
+    candidates: dict[str, FitState] = {"single-mode": single}
+    wanted = AUTO_CANDIDATES if model == AUTO else (model,)
+    amp = two = None
+    if "amplitude" in wanted or COMBINED in wanted:
         amp = optimise_amplitude(tau, x, u_n, sqrt_w, band, single)
-        fit = _build_result(amp, weights, noise, loss, delta_n * scale**2, t, mean, scale)
-        gain_std = amp.damping_gain_std(weights, correlated=noise == "correlated", scale=scale)
-        return replace(
-            fit,
-            model="amplitude",
-            damping_gain=amp.damping_gain(scale),
-            damping_gain_std=gain_std,
-            damping_exponent=float(amp.exponent),
-        )
-    chosen, chosen_std = single, None
-    if model == "two-mode":
+        if "amplitude" in wanted:
+            candidates["amplitude"] = amp
+    if "two-mode" in wanted or COMBINED in wanted:
         two = optimise_two_mode(tau, x, u_n, sqrt_w, band, single)
-        if two is not None and two.supported_over(single):
-            correlated = noise == "correlated"
-            two_std = two.standard_errors(weights, correlated=correlated)
-            single_std = single.standard_errors(weights, correlated=correlated)
-            if two_std[0] / two.rates[0] <= MAX_SLOW_STD_RATIO * single_std[0] / single.rates[0]:
-                chosen, chosen_std = two, two_std
-            else:
-                chosen_std = single_std
-    return _build_result(
-        chosen, weights, noise, loss, delta_n * scale**2, t, mean, scale, chosen_std
-    )
+        if two is not None and "two-mode" in wanted:
+            candidates["two-mode"] = two
+    if COMBINED in wanted:
+        both = optimise_amplitude_two_mode(tau, x, u_n, sqrt_w, band, amp, two)
+        candidates[COMBINED] = both
+    selection = select_model(candidates)
+    chosen = candidates[selection.chosen]
+    if model == "amplitude" and selection.chosen == "single-mode":
+        chosen = without_gain(single, candidates["amplitude"].exponent)
+    fit = _build_result(chosen, weights, noise, loss, delta_n * scale**2, t, mean, scale)
+    fit = replace(fit, **_selection_fields(selection, model), gap_share=gap_share(t))
+    if isinstance(chosen, AmplitudeState):
+        gain_std = chosen.damping_gain_std(weights, correlated=noise == "correlated", scale=scale)
+        fit = replace(
+            fit,
+            model=COMBINED if chosen.second else "amplitude",
+            damping_gain=chosen.damping_gain(scale),
+            damping_gain_std=gain_std,
+            damping_exponent=float(chosen.exponent),
+        )
+    return fit
+
+
+def _selection_fields(selection: Selection, model: str) -> dict[str, object]:
+    """``model_reason`` and ``delta_bic_*`` of the result (module docstring)."""
+    if len(selection.bic) == 1:
+        reason = f"{model} asked for"
+    else:
+        asked = "auto" if model == AUTO else f"{model} asked for"
+        reason = f"{asked}; {selection.reason()}"
+    return {
+        "model_reason": reason,
+        "delta_bic_single_mode": selection.delta("single-mode"),
+        "delta_bic_two_mode": selection.delta("two-mode"),
+        "delta_bic_amplitude": selection.delta("amplitude"),
+        "delta_bic_amplitude_two_mode": selection.delta(COMBINED),
+        "n_effective": selection.n_effective,
+    }
+
+
+def gap_share(t: np.ndarray) -> float:
+    """Share of the time span of ``t`` [s] that lies in gaps (steps > ``GAP_STEPS`` × median)."""
+    steps = np.diff(np.asarray(t, dtype=float))
+    if steps.size == 0:
+        return 0.0
+    typical = float(np.median(steps))
+    missing = np.where(steps > GAP_STEPS * typical, steps - typical, 0.0)
+    return float(missing.sum() / (t[-1] - t[0]))
 
 
 def _build_result(
@@ -292,22 +343,26 @@ def _build_result(
     t: np.ndarray,
     mean: float,
     scale: float,
-    std: list[float] | None = None,
 ) -> OscillationFit:
-    if std is None:  # not computed yet by the model selection
-        std = state.standard_errors(weights, correlated=noise == "correlated")
+    std = state.standard_errors(weights, correlated=noise == "correlated")
     amps, phases = state.amplitudes_phases()
+    rates, freqs = state.rates, state.freqs
     d0, d1, d2 = state.drift()
     length = t[-1] - t[0]
     two = state.n_modes == 2
     nan = math.nan
+    if two and not isinstance(state, AmplitudeState) and state.slow_mode_energy_share() < 1.0:
+        # the slosh is the mode that carries the motion; the less damped one is a sliver
+        # (a short, heavily damped ring-down): report the dominant mode, the other second
+        amps, phases, rates, freqs = amps[::-1], phases[::-1], rates[::-1], freqs[::-1]
+        std = [std[2], std[3], std[0], std[1]]
     return OscillationFit(
-        decay_rate=float(state.rates[0]),
-        angular_frequency=float(state.freqs[0]),
+        decay_rate=float(rates[0]),
+        angular_frequency=float(freqs[0]),
         amplitude=float(amps[0] * scale),
         phase=float(phases[0]),
-        fast_decay_rate=float(state.rates[1]) if two else nan,
-        fast_angular_frequency=float(state.freqs[1]) if two else nan,
+        fast_decay_rate=float(rates[1]) if two else nan,
+        fast_angular_frequency=float(freqs[1]) if two else nan,
         fast_amplitude=float(amps[1] * scale) if two else nan,
         fast_phase=float(phases[1]) if two else nan,
         drift_c0=float(d0 * scale + mean),

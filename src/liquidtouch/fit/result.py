@@ -28,7 +28,21 @@ class OscillationFit:
     small-amplitude λ0, ``amplitude`` A at ``t0``, ``damping_gain`` κ [1/u^p]
     (0 when the data do not support a gain: then λ0 is the single-mode λ),
     ``damping_gain_std`` its standard error and ``damping_exponent`` p (2 or 1).
-    All three are NaN for the other models.
+    All three are NaN for the other models. ``model == "amplitude-two-mode"``: that
+    mode plus a second, exponentially damped one (``fast_*``).
+
+    Which model and why (:mod:`liquidtouch.fit.selection`): ``model`` is the model
+    fitted, ``model_reason`` one line on why (asked for, or the candidates by their
+    information criterion), ``delta_bic_single_mode``, ``delta_bic_two_mode``,
+    ``delta_bic_amplitude`` and ``delta_bic_amplitude_two_mode`` each candidate's BIC
+    minus the chosen one's (0 for the chosen model, NaN when not fitted; over 6:
+    strong evidence against it) and
+    ``n_effective`` the effective number of independent noise samples the
+    criterion used. Gaps: ``gap_share`` is the share of the fitted time span with
+    no samples (0-1), ``gap_before_start_s`` [s] the gap that ends where the fitted
+    window starts (0 when there is none; set by
+    :meth:`~liquidtouch.fit_settings.FitSettings.fit`: the ring-down may have
+    started inside it).
 
     Its repr is one short line: λ and ω rounded to their std, the model and R².
     """
@@ -59,6 +73,14 @@ class OscillationFit:
     damping_gain: float = math.nan
     damping_gain_std: float = math.nan
     damping_exponent: float = math.nan
+    model_reason: str = ""
+    delta_bic_single_mode: float = math.nan
+    delta_bic_two_mode: float = math.nan
+    delta_bic_amplitude: float = math.nan
+    delta_bic_amplitude_two_mode: float = math.nan
+    n_effective: float = math.nan
+    gap_share: float = 0.0
+    gap_before_start_s: float = 0.0
 
     def __repr__(self) -> str:
         return (
@@ -76,7 +98,7 @@ class OscillationFit:
     def modes(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The slow mode, the fast mode (zeros if unused) and the drift at times ``t`` [s]."""
         tau = np.asarray(t, dtype=float) - self.t0
-        if self.model == "amplitude":
+        if self.model in ("amplitude", "amplitude-two-mode"):
             slow = amplitude_damped_cosine(
                 tau,
                 self.amplitude,
@@ -90,7 +112,7 @@ class OscillationFit:
             slow = damped_cosine(
                 tau, self.amplitude, self.decay_rate, self.angular_frequency, self.phase
             )
-        if self.model == "two-mode":
+        if self.model in ("two-mode", "amplitude-two-mode"):
             fast = damped_cosine(
                 tau,
                 self.fast_amplitude,

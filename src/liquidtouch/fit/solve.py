@@ -156,9 +156,14 @@ class FitState:
             return [math.nan] * 4
         var = np.diag(cov)
         if self.n_modes == 1:
-            return [_sqrt(var[0]), _sqrt(var[1]), math.nan, math.nan]
+            return [std_from_variance(var[0]), std_from_variance(var[1]), math.nan, math.nan]
         var_fast_rate = var[0] + var[2] + 2 * cov[0, 2]
-        return [_sqrt(var[0]), _sqrt(var[1]), _sqrt(var_fast_rate), _sqrt(var[3])]
+        return [
+            std_from_variance(var[0]),
+            std_from_variance(var[1]),
+            std_from_variance(var_fast_rate),
+            std_from_variance(var[3]),
+        ]
 
     def covariance(self, weights: np.ndarray, *, correlated: bool) -> np.ndarray | None:
         """Sandwich covariance of ``theta`` (see ``oscillation``'s docstring); None if singular."""
@@ -183,8 +188,37 @@ class FitState:
         return inv @ meat @ inv
 
 
-def _sqrt(v: float) -> float:
+def std_from_variance(v: float) -> float:
+    """The std of a variance ``v`` (NaN when it is negative or not finite)."""
     return math.sqrt(v) if v >= 0 and math.isfinite(v) else math.nan
+
+
+def long_run_ratio(resid: np.ndarray) -> float:
+    """Long-run over plain variance of a residual, ``1 + 2 Σ_l (1 − l/(L+1)) ρ_l`` (≥ 1).
+
+    ``ρ_l`` is the residual's autocorrelation at lag ``l`` and ``L`` the Newey–West
+    truncation lag of the standard errors (:func:`_bartlett_lags`): the number of
+    samples per independent one, 1 for white noise, ~5 for noise low-passed at 3 Hz
+    and sampled at 30 Hz. Samples are taken as equally spaced.
+    """
+    r = resid - resid.mean()
+    n = r.size
+    energy = float(r @ r)
+    if n < 4 or energy <= 0:
+        return 1.0
+    lags = _bartlett_lags(r)
+    acf = _autocorrelation(r)[1 : lags + 1]
+    ratio = 1.0 + 2.0 * float(np.sum((1.0 - np.arange(1, lags + 1) / (lags + 1)) * acf))
+    return max(ratio, 1.0)
+
+
+def _autocorrelation(r: np.ndarray) -> np.ndarray:
+    """Autocorrelation of a centred series at lags 0..n−1 (by FFT for long series)."""
+    n = r.size
+    if n <= FFT_MIN_SAMPLES:
+        return np.correlate(r, r, mode="full")[n - 1 :] / float(r @ r)
+    spectrum = np.fft.rfft(r, 2 * n)  # O(n log n) instead of O(n²)
+    return np.fft.irfft(spectrum * np.conj(spectrum), 2 * n)[:n] / float(r @ r)
 
 
 def _bartlett_lags(resid: np.ndarray) -> int:
@@ -195,11 +229,7 @@ def _bartlett_lags(resid: np.ndarray) -> int:
     """
     r = resid - resid.mean()
     n = r.size
-    if n <= FFT_MIN_SAMPLES:
-        acf = np.correlate(r, r, mode="full")[n - 1 :] / float(r @ r)
-    else:  # O(n log n) instead of O(n²) for long signals
-        spectrum = np.fft.rfft(r, 2 * n)
-        acf = np.fft.irfft(spectrum * np.conj(spectrum), 2 * n)[:n] / float(r @ r)
+    acf = _autocorrelation(r)
     below = np.nonzero(acf[1:] < 0.1)[0]
     first = int(below[0]) + 1 if below.size else n // 4
     return int(min(max(4 * first, 10), n // 4))

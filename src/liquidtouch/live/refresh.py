@@ -19,7 +19,8 @@ estimator every ~0.25 s of stream:
    amplitude model's λ0 and the single-mode λ of the same window differ by
    10-30 % on simulated slosh), except ``two-mode``, fitted single-mode while
    streaming (:data:`REFRESH_MODEL`: the slow mode is the feature, and the
-   two-mode multi-start is ~90 % of a fit's time); standard errors for
+   two-mode multi-start is ~90 % of a fit's time) and ``auto`` fitted with the
+   amplitude model (:data:`REFRESH_AUTO_MODEL`); standard errors for
    low-passed, correlated noise (:data:`REFRESH_NOISE`). The final refresh fits
    the whole signal exactly as :func:`~liquidtouch.extraction.extract` does.
    Each streaming fit is warm-started from the previous refresh's (λ, ω).
@@ -34,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from liquidtouch.errors import LiquidTouchError, NoOscillationError
+from liquidtouch.fit.choices import AUTO as AUTO_MODEL
 from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.fit_settings import AUTO, FitSettings
 from liquidtouch.segment import MIN_PUSH_SNR, free_decay_start, push_snr
@@ -54,6 +56,10 @@ MIN_NOISE_S = 0.5
 REDETECT_AFTER_S = 1.0
 #: the fit's model while streaming when the settings ask for two modes (the final fit uses them)
 REFRESH_MODEL = "single-mode"
+#: the fit's model while streaming when the settings let the data choose (``"auto"``, the
+#: default): the amplitude model, which ``auto`` keeps or refines with a second mode on most
+#: simulated slosh; fitting every candidate at every refresh would take 3-4× as long
+REFRESH_AUTO_MODEL = "amplitude"
 #: noise model of the streaming fits' std: the signal is low-passed, its noise correlated
 #: (white-noise errors were 1.5-2× too small on simulated trials)
 REFRESH_NOISE = "correlated"
@@ -83,6 +89,19 @@ class Refreshed:
             inside = (self.t >= self.fit.t0) & (self.t <= self.fit.t0 + self.fit.duration_s)
             out[inside] = self.fit.curve(self.t[inside])
         return out
+
+
+def fit_options(settings: FitSettings, final: bool) -> dict[str, object]:
+    """``fit_oscillation``'s options for a refresh: as offline when ``final``, else the
+    streaming model and noise (module docstring, 3)."""
+    options = settings.fit_options()
+    if not final:
+        options["noise"] = REFRESH_NOISE
+        if options["model"] == "two-mode":
+            options["model"] = REFRESH_MODEL
+        elif options["model"] == AUTO_MODEL:
+            options["model"] = REFRESH_AUTO_MODEL
+    return options
 
 
 def refresh(
@@ -142,11 +161,7 @@ def refresh(
     if t_in[-1] - decay_start < MIN_WINDOW_S:
         return Refreshed(t, u, "push", decay_start, message="the push is under way")
     keep = (t >= decay_start) & trusted
-    options = settings.fit_options()
-    if not final:
-        options["noise"] = REFRESH_NOISE
-        if options["model"] == "two-mode":
-            options["model"] = REFRESH_MODEL
+    options = fit_options(settings, final)
     try:
         fit = fit_oscillation(
             t[keep],
@@ -226,11 +241,7 @@ def fit_ring_down(
     noise (module docstring, 3).
     """
     keep = (t >= start_s) & (t <= end_s)
-    options = settings.fit_options()
-    if not final:
-        options["noise"] = REFRESH_NOISE
-        if options["model"] == "two-mode":
-            options["model"] = REFRESH_MODEL
+    options = fit_options(settings, final)
     try:
         fit = fit_oscillation(
             t[keep],

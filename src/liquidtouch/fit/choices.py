@@ -1,0 +1,24 @@
+"""The oscillation fit's choices and its one default model (no heavy imports: the CLI reads it).
+
+``DEFAULT_MODEL`` is the model of :func:`~liquidtouch.fit.oscillation.fit_oscillation`,
+of :class:`~liquidtouch.fit_settings.FitSettings` (``extract``, ``features``, ``live``)
+and of the command line's ``--model``: defined here only.
+"""
+
+from __future__ import annotations
+
+#: losses of ``fit_oscillation``: the paper's relative loss, or plain least squares
+LOSSES = ("paper", "ls")
+#: ``"auto"``: every model of :data:`AUTO_CANDIDATES` is fitted and the data choose one
+#: by an information criterion (:mod:`liquidtouch.fit.selection`)
+AUTO = "auto"
+#: the models a fit can be asked for
+MODELS = (AUTO, "two-mode", "single-mode", "amplitude", "amplitude-two-mode")
+#: the models ``"auto"`` chooses among, simplest first (ties go to the simpler model):
+#: one mode; one mode whose damping grows with its amplitude; the paper's two modes; both
+#: together (the amplitude-damped mode and a second, exponentially damped mode)
+AUTO_CANDIDATES = ("single-mode", "amplitude", "two-mode", "amplitude-two-mode")
+#: the model fitted unless one is asked for, by the API and the command line alike
+DEFAULT_MODEL = AUTO
+#: noise assumptions of the standard errors
+NOISE_MODELS = ("white", "correlated")
