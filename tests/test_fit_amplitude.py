@@ -75,7 +75,9 @@ def test_cubic_damper_lambda0_and_gain(seed: int) -> None:
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_velocity_squared_damper_lambda0_and_gain(seed: int, monkeypatch) -> None:
-    # ε'' + 2λ0ε' + c|ε'|ε' + ω0²ε = 0: p = 1, κ = 4cω0/(3πλ0)
+    # ε'' + 2λ0ε' + c|ε'|ε' + ω0²ε = 0: p = 1, κ = 4cω0/(3πλ0). The default tries p = 2
+    # only (amplitude.EXPONENTS); p = 1 is there for a damper known to be velocity-squared
+    monkeypatch.setattr(am, "EXPONENTS", (2, 1))
     rng = np.random.default_rng(seed)
     lam0, omega, drag = 0.3, 10.0, 0.12
     u = quadratic_damper_signal(T, lam0, omega, drag, 0.01, rng)

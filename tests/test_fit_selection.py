@@ -80,27 +80,28 @@ def test_exact_two_mode_signal_is_fitted_with_two_modes() -> None:
 
 
 @pytest.mark.parametrize(
-    ("make", "exponent"),
+    ("make", "tolerance"),
     [
-        (lambda rng: cubic_damper_signal(T, 0.3, 11.0, 4.0, 0.01, rng), 2.0),
-        (lambda rng: quadratic_damper_signal(T, 0.3, 11.0, 1.5 * 0.3 / 11.0, 0.01, rng), 1.0),
+        (lambda rng: cubic_damper_signal(T, 0.3, 11.0, 4.0, 0.01, rng), 0.05),
+        (lambda rng: quadratic_damper_signal(T, 0.3, 11.0, 1.5 * 0.3 / 11.0, 0.01, rng), 0.10),
     ],
 )
-def test_non_linear_damping_small_amplitude_rate(make, exponent) -> None:
-    """λ0 of numerically integrated dampers (p = 2 cubic, p = 1 velocity-squared) within 5 %.
+def test_non_linear_damping_small_amplitude_rate(make, tolerance) -> None:
+    """λ0 of numerically integrated dampers: cubic (p = 2) within 5 %, velocity-squared
+    (p = 1) within 10 % (``benchmarks/fit_accuracy.py``: medians 1.3 % and 6.1 %).
 
-    Mostly by the amplitude model with the damper's exponent (two modes can mimic a
-    cubic damper's early decay as well, and then also find λ0).
+    Mostly by the amplitude model (p = 2: the default tries only the slosh's exponent;
+    two modes can mimic a damper's early decay as well, and then also find λ0).
     """
     errors, amplitude = [], 0
     for seed in range(4):
         fit = fit_oscillation(T, make(np.random.default_rng(seed)))
         if fit.model in ("amplitude", "amplitude-two-mode"):
             amplitude += 1
-            assert fit.damping_exponent == exponent
+            assert fit.damping_exponent == 2.0
         errors.append(abs(fit.decay_rate / 0.3 - 1))
     assert amplitude >= 1
-    assert np.median(errors) < 0.05
+    assert np.median(errors) < tolerance
 
 
 def test_criterion_values_are_reported() -> None:
