@@ -48,8 +48,20 @@ CLI = [sys.executable, "-c", "from liquidtouch.cli import run; run()"]
 def rig_serving(**liquid):
     """``rig serve --json`` in a subprocess; yields its endpoints (and truth)."""
     spec = {**LIQUID, **liquid}
-    argv = [*CLI, "rig", "serve", "--liquid", spec["liquid"], "--height-mm",
-            str(spec["height_mm"]), "--seed", str(spec["seed"]), "--sensor", "mini", "--json"]  # fmt: skip
+    argv = [
+        *CLI,
+        "rig",
+        "serve",
+        "--liquid",
+        spec["liquid"],
+        "--height-mm",
+        str(spec["height_mm"]),
+        "--seed",
+        str(spec["seed"]),
+        "--sensor",
+        "mini",
+        "--json",
+    ]
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 90
@@ -164,7 +176,8 @@ def run_once(endpoints: dict, start: str, out: Path, *, hold_s: float = 9.0,
         "message": final["message"],
         "longest_gap_s": watcher.longest_gap_s(),
         "live_started_after_push_s": watcher.started_at - events["push"]
-        if "push" in events else None,  # fmt: skip
+        if "push" in events
+        else None,
         "events": events,
     }
 
