@@ -46,7 +46,7 @@ def test_mirin_is_unknown_and_held_out_trials_of_trained_classes_are_named(synth
     # the rule is in the model file and survives a round trip (format version 3)
     path = save_model(model, tmp_path / "clf.json")
     doc = json.loads(path.read_text())
-    assert doc["format_version"] == 3
+    assert doc["format_version"] == 4
     rule = doc["classifier"]["unknown"]
     assert rule["rule"] == "hotelling-t2" and rule["alpha"] == 0.001
     assert sorted(rule["classes"]) == sorted(TRAINED) and rule["classes"]["water"]["n"] == 8
@@ -84,7 +84,7 @@ def test_an_older_model_file_gets_the_rule_from_its_training_rows(synthetic, tmp
     model, test = synthetic
     doc = model_to_dict(model)
     del doc["classifier"]["unknown"]
-    doc["format_version"] = 2
+    doc["format_version"] = 3
     from liquidtouch.models.modelfile_checks import document_sha256
 
     del doc["sha256"]
