@@ -182,6 +182,92 @@ def run_once(endpoints: dict, start: str, out: Path, *, hold_s: float = 9.0,
     }
 
 
+SERVING = re.compile(r"serving the live view at (http://\S+)")
+
+
+def served_run_trial(endpoints: dict, out: Path, png: Path, *, browser: str | None = None,
+                     hold_s: float = 9.0, model: Path | None = None) -> dict:  # fmt: skip
+    """``run-trial --live --serve 127.0.0.1:0`` watched in headless Chromium from the moment
+    it serves; the page's DOM (dumped once the stream ended), a screenshot and the trial."""
+    from benchmarks.live_browser import _attribute, _estimate, watch
+
+    argv = [*CLI, "-v", "run-trial", "--gripper", endpoints["gripper"], "--arm",
+            endpoints["arm"], "--out", str(out), "--seconds", str(hold_s), "--live",
+            "--serve", "127.0.0.1:0"]  # fmt: skip
+    for url in endpoints["cameras"].values():
+        argv += ["--camera", url]
+    if model is not None:
+        argv += ["--model", str(model)]
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    page: dict = {}
+    watcher = None
+    log = []
+    try:
+        for line in proc.stderr:
+            log.append(line)
+            if watcher is None and (match := SERVING.search(line)):
+
+                def look(url=match[1]) -> None:
+                    try:
+                        page["dom"] = watch(url, png, browser=browser, timeout_s=180)
+                    except Exception as exc:  # reported by the caller
+                        page["error"] = exc
+
+                watcher = threading.Thread(target=look)
+                watcher.start()
+        proc.wait(timeout=180)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        if watcher is not None:
+            watcher.join(200)
+    if proc.returncode != 0:
+        raise RuntimeError(f"run-trial failed ({proc.returncode}): {''.join(log[-5:])}")
+    if "error" in page or "dom" not in page:
+        raise RuntimeError(f"the page could not be watched: {page.get('error')}")
+    dom = page["dom"]
+    live = json.loads((out / "live.json").read_text())
+    body = re.search(r"<body[^>]*>", dom).group(0)
+    shown = {key: _estimate(dom, key) for key in ("decay_rate", "angular_frequency")}
+    return {
+        "dom": dom,
+        "live": live,
+        "ended": 'data-ended="1"' in body,
+        "updates_shown": int(re.search(r'data-updates="(\d+)"', body).group(1)),
+        "signal_points": int(_attribute(dom, "signal", "data-points") or 0),
+        "events_drawn": int(_attribute(dom, "signal", "data-events") or 0),
+        "shown": shown,
+        "phase": _attribute(dom, "phase", "class"),
+        "liquid": _estimate(dom, "predicted_liquid"),
+        "domain": re.search(r'<span id="domain">([^<]*)</span>', dom).group(1),
+        "out_of_domain": ood[1]
+        if (ood := re.search(r'data-out-of-domain="([01]?)"', body))
+        else None,
+    }
+
+
+def simulated_classifier(path: Path, liquids=("water", "olive-oil", "detergent")) -> Path:
+    """A classifier file trained on the simulator's truth (4 trials at each of 8 heights
+    20-40 mm per liquid, with the fit's typical noise: λ 4 %, ω 0.3 %)."""
+    from liquidtouch.models.modelfile import save_model
+    from liquidtouch.models.property_model import train_classifier
+    from liquidtouch.sim.trial import simulate_trial
+
+    rng = np.random.default_rng(3)
+    X, labels = [], []
+    for liquid in liquids:
+        for h in np.linspace(20, 40, 8):
+            for rep in range(4):
+                trial = simulate_trial(liquid, height_mm=float(h), seed=int(h) + 100 * rep,
+                                       duration_s=3.0)  # fmt: skip
+                lam = trial.true_decay_rate * np.exp(0.04 * rng.standard_normal())
+                omega = trial.true_angular_frequency * (1 + 0.003 * rng.standard_normal())
+                X.append((lam, omega))
+                labels.append(liquid)
+    return save_model(train_classifier(np.array(X), labels), path)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=10)

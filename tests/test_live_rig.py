@@ -18,8 +18,15 @@ from __future__ import annotations
 import sys
 
 import pytest
+from helpers import chromium_or_skip
 
-from benchmarks.rig_live import STALL_S, rig_serving, run_once
+from benchmarks.rig_live import (
+    STALL_S,
+    rig_serving,
+    run_once,
+    served_run_trial,
+    simulated_classifier,
+)
 
 
 @pytest.mark.slow
@@ -35,3 +42,30 @@ def test_live_first_then_run_trial_and_live_started_in_the_push(tmp_path) -> Non
         assert run["outcome"] == "right", run
         # the hold ended (lowering, release): the ring-down's estimate is final
         assert run["segment_final"] and run["segments"] >= 1, run
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(400)
+def test_run_trial_serve_end_to_end_in_chromium(tmp_path) -> None:
+    """``run-trial --live --serve`` on the rig (mirin) with a classifier trained on water,
+    olive oil and detergent, the page watched in headless Chromium from the moment it
+    serves: the stream's end, the protocol's events on u(t), λ and ω near the rig's truth,
+    the liquid "unknown" and the out-of-domain badge."""
+    browser = chromium_or_skip()
+    model = simulated_classifier(tmp_path / "classifier.json")
+    with rig_serving() as endpoints:
+        page = served_run_trial(
+            endpoints, tmp_path / "trial", tmp_path / "live.png", browser=browser, model=model
+        )
+    truth = endpoints["truth"]
+    summary = {k: v for k, v in page.items() if k not in ("dom", "live")}
+    print(f"served run-trial: {summary}", file=sys.stderr)
+    assert page["ended"] and page["phase"] == "done" and page["updates_shown"] > 3, summary
+    assert page["signal_points"] > 100 and page["events_drawn"] >= 1, summary
+    live = page["live"]
+    assert live["segment_final"] and live["final"]
+    assert live["angular_frequency"] == pytest.approx(truth["true_angular_frequency"], rel=0.01)
+    assert live["decay_rate"] == pytest.approx(truth["true_decay_rate"], rel=0.05)
+    assert live["predicted_liquid"] == "unknown" and live["out_of_domain"] is True
+    assert page["liquid"] == "unknown" and page["out_of_domain"] == "1"
+    assert page["domain"].startswith("unknown liquid")
