@@ -286,3 +286,16 @@ def test_a_sender_clock_that_steps_back_or_freezes_is_reanchored_on_arrival():
     assert [frame_number(image) for _, image in got] == list(range(len(stamps)))
     assert (np.diff(times) > 0).all(), np.diff(times)
     assert cam.reanchors == 4
+
+
+def test_a_client_leaving_does_not_starve_another():
+    """The README-order rig bug: run-trial closing its camera connection left `live`'s
+    connection to the same stream without frames. Every client's queue holds the same
+    frames, and deques compare by content, so removing "the equal one" removed the other
+    client's queue (deterministic here: both queues empty, as when the handlers keep up)."""
+    server = MjpegServer(CodedFrames(), fps=FPS)
+    stays, leaves = server._subscribe(), server._subscribe()
+    server._unsubscribe(leaves)
+    assert len(server._clients) == 1 and server._clients[0] is stays
+    server._unsubscribe(leaves)  # twice: nothing else goes
+    assert server._clients[0] is stays

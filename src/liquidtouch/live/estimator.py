@@ -44,6 +44,7 @@ from liquidtouch.fit_settings import FitSettings
 from liquidtouch.live.properties import (
     check_live_model,
     classify_with_fit_std,
+    out_of_domain,
     predict_with_fit_std,
 )
 from liquidtouch.live.refresh import (
@@ -286,6 +287,7 @@ class LiveEstimator:
                 update.decay_rate = update.angular_frequency = math.nan
                 update.decay_rate_std = update.angular_frequency_std = math.nan
                 update.predicted, update.classified = {}, {}
+                update.out_of_domain = None
                 why = f": {update.message}" if update.message else ""
                 update.message = f"no ring-down found{why}"
         update.final = True
@@ -534,6 +536,8 @@ class LiveEstimator:
                 }
             elif self.model is not None and show_omega and show_lam:
                 update.classified = classify_with_fit_std(self.model, *features)
+            if update.predicted or update.classified:  # an answer: is it one the model knows?
+                update.out_of_domain = out_of_domain(self.model, lam, omega, update.classified)
         if math.isfinite(due_s):
             update.lag_s = time.monotonic() - due_s
         return update

@@ -17,6 +17,12 @@ A liquid classifier gives class probabilities instead
 (λ, ω), λ ± σλ, ω ± σω — the centre weighted 1/3, each ±1σ point 1/6 (the sigma
 points of a Gaussian in two dimensions) — so an uncertain λ spreads the
 probability over the classes it could belong to.
+Far from every trained class (Hotelling's T² per class in (log λ, ω),
+with the fit's λ and ω std added to each class's spread:
+:mod:`liquidtouch.models.classifier`) it answers ``"unknown"``, its probabilities kept.
+
+:func:`out_of_domain` says when an answer lies outside what the model knows: (λ, ω)
+outside its training domain (the box ``predict`` flags), or, for a classifier, unknown.
 """
 
 from __future__ import annotations
@@ -26,6 +32,7 @@ import math
 import numpy as np
 
 from liquidtouch.errors import ModelFileError
+from liquidtouch.models.classifier import UNKNOWN
 from liquidtouch.models.propagation import MIN_DECAY_RATE
 
 #: weights of the five points (centre, λ ± σλ, ω ± σω) in a classifier's mean probabilities
@@ -102,4 +109,21 @@ def classify_with_fit_std(
     mean = SIGMA_POINT_WEIGHTS @ np.asarray(proba, dtype=float)
     classes = [str(c) for c in model.classifier.classes_]
     best = classes[int(np.argmax(mean))]
+    std = [[_std_or_zero(decay_rate_std), _std_or_zero(angular_frequency_std)]]
+    if model.unknown(rows[:1], std)[0]:
+        best = UNKNOWN
     return {model.targets[0]: (best, dict(zip(classes, mean.tolist(), strict=True)))}
+
+
+def out_of_domain(
+    model: object,
+    decay_rate: float,
+    angular_frequency: float,
+    classified: dict[str, tuple[str, dict[str, float]]] | None = None,
+) -> bool:
+    """(λ, ω) is outside what ``model`` knows: outside its training domain (range plus
+    margin, as ``predict``'s ``out_of_domain`` column), or a classifier's answer in
+    ``classified`` is ``"unknown"``."""
+    outside = not bool(model.in_domain([[float(decay_rate), float(angular_frequency)]])[0])
+    unknown = any(name == UNKNOWN for name, _ in (classified or {}).values())
+    return outside or unknown

@@ -69,7 +69,8 @@ class LiveUpdate:
         (a later push starts segment ``segment + 1``).
     segments : final update only: every ring-down's final estimate (``RingDown.summary``).
     events : the protocol's events on the decay clock [s] (``run-trial``), for the plot.
-    out_of_domain : with a model: (λ, ω) lies outside what the model was trained on
+    out_of_domain : with a model, once λ and ω are reported: (λ, ω) lies outside what the
+        model knows — outside its training domain, or a classifier's answer is "unknown"
         (``liquidtouch.live.properties.out_of_domain``); None without a model or estimate.
     signal_t_s, signal_u, signal_fit : the tactile signal [s, px] on the decay clock
         (0 at the free-decay start, negative before) and the fitted curve (NaN
@@ -117,6 +118,8 @@ class LiveUpdate:
         ]
         parts += [f"{t}={with_uncertainty(m, s)}" for t, (m, s) in self.predicted.items()]
         parts += [f"{label}={name!r}" for label, (name, _) in self.classified.items()]
+        if self.out_of_domain:
+            parts.append("out_of_domain=True")
         if self.final:
             parts.append("final=True")
         return f"LiveUpdate({', '.join(parts)})"

@@ -6,6 +6,25 @@ sigmoid (Platt) calibration on cross-validated decision values
 (``CalibratedClassifierCV(SVC(), ensemble=False)``, scikit-learn's replacement
 for ``SVC(probability=True)``). Everything is deterministic, so a model file
 storing the training data and the chosen ``C``/``gamma`` rebuilds it exactly.
+
+**"unknown": far from every trained class.** An SVM names one of its classes wherever
+it is asked, with confidence (mirin, between water and olive oil, comes out "water" or
+"olive oil" at p ≈ 0.7-0.8). So each class also keeps the mean and covariance of its
+training rows in ``z = (log λ, ω)`` (log: λ's spread is relative and spans decades), and
+a row is *unknown* when it lies outside every class's **prediction region**: for a class
+of ``n`` rows in ``p = 2`` features, a new row drawn from the same (Gaussian)
+distribution has Hotelling's
+
+    T² = (z − z̄)ᵀ [S (1 + 1/n) + Σ]⁻¹ (z − z̄) ~ p (n − 1) / (n − p) · F(p, n − p)
+
+(``S`` the class's sample covariance; ``Σ`` the row's own measurement covariance when
+it is known, e.g. a streaming fit's λ and ω std, else 0), so the row is unknown when
+``T²`` exceeds the ``1 − alpha`` quantile of that distribution for every class. The one
+setting, ``alpha`` (:data:`UNKNOWN_ALPHA`, 0.001), is a false-alarm rate: if a class's
+rows are Gaussian, one trial of that class in a thousand is called unknown. A class of
+few rows has a wide region (n = 3: the quantile is ~4000), a class of many a tight one
+(→ the χ²₂ quantile, 13.8). The rule extrapolates nothing: fill heights outside the
+trained range count as unknown too (they are outside what the model knows).
 """
 
 from __future__ import annotations
@@ -13,6 +32,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from scipy import stats
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.utils.validation import check_is_fitted
 
@@ -25,6 +45,14 @@ MIN_ROWS_PER_CLASS = 3
 # Moderate values first: on a tie of cross-validated accuracy (small, well-separated
 # training sets score 100 % everywhere) the first is taken, and the most regularised
 # corner (C = 0.1, γ = 0.1) underfits so much that it misclassifies its own training data.
+#: false-alarm rate of the "unknown" rule (module docstring): the prediction-region level
+UNKNOWN_ALPHA = 0.001
+#: the name given to a row far from every trained class
+UNKNOWN = "unknown"
+#: the features of the "unknown" rule: (log λ, ω)
+NOVELTY_FEATURES = ("log_decay_rate", "angular_frequency")
+#: λ below this [1/s] is clipped before its log (a mapped λ can be ≤ 0: far from any class)
+MIN_LOG_DECAY_RATE = 1e-9
 C_GRID = (10.0, 1.0, 100.0, 0.1, 1000.0)
 GAMMA_GRID = (1.0, 0.3, 3.0, 0.1, 10.0)
 
@@ -39,16 +67,25 @@ class LiquidClassifier(ClassifierMixin, BaseEstimator):
     :data:`~liquidtouch.models.kernel_limits.MAX_KERNEL_ROWS` rows. Class labels keep their type
     (model files store them as strings; ``train_classifier`` converts them).
 
+    ``alpha`` is the false-alarm rate of the "unknown" rule (module docstring):
+    :meth:`unknown` tells which rows are far from every class, :meth:`class_t2` their
+    statistics; :meth:`predict` still names a trained class (scikit-learn's contract).
+
     Fitted attributes: ``classes_``, ``C_``, ``gamma_`` (the values used),
     ``model_`` (the calibrated SVM), ``X_train_``, ``labels_train_``, ``x_mean_``,
-    ``x_scale_``, ``n_features_in_``.
+    ``x_scale_``, ``n_features_in_``; for the "unknown" rule ``class_n_`` (k,),
+    ``class_mean_`` (k, 2) and ``class_cov_`` (k, 2, 2) of the training rows in
+    ``(log λ, ω)``, in the order of ``classes_``.
     """
 
     model_name = "svm"
 
-    def __init__(self, C: float | None = None, gamma: float | None = None) -> None:
+    def __init__(
+        self, C: float | None = None, gamma: float | None = None, alpha: float = UNKNOWN_ALPHA
+    ) -> None:
         self.C = C
         self.gamma = gamma
+        self.alpha = alpha
 
     def _folds(self, labels: np.ndarray) -> int:
         _, counts = np.unique(labels, return_counts=True)
@@ -81,6 +118,8 @@ class LiquidClassifier(ClassifierMixin, BaseEstimator):
         for name in ("C", "gamma"):
             if getattr(self, name) is not None:
                 check_positive(getattr(self, name), name)
+        if not 0 < float(self.alpha) < 1:
+            raise TableError(f"alpha must be a probability in (0, 1); got {self.alpha!r}")
         X, labels = validate_X_y(self, X, y, classification=True)
         check_kernel_rows(self, X.shape[0])
         classes, counts = np.unique(labels, return_counts=True)
@@ -108,7 +147,55 @@ class LiquidClassifier(ClassifierMixin, BaseEstimator):
                 ensemble=False,
             ).fit(Z, labels)
         self.classes_ = self.model_.classes_
+        self._class_statistics()
         return self
+
+    def _class_statistics(self) -> None:
+        """Each class's rows in (log λ, ω): count, mean and sample covariance."""
+        z = novelty_features(self.X_train_)
+        groups = [z[self.labels_train_ == c] for c in self.classes_]
+        self.class_n_ = np.array([g.shape[0] for g in groups])
+        self.class_mean_ = np.array([g.mean(axis=0) for g in groups])
+        d = z.shape[1]
+        self.class_cov_ = np.array([np.cov(g, rowvar=False).reshape(d, d) for g in groups])
+
+    def class_t2(self, X: Any, X_std: Any = None) -> np.ndarray:
+        """Hotelling's T² (n, k) of each row to each class (module docstring).
+
+        ``X_std`` (n, 2): the rows' λ and ω std (their measurement uncertainty, added to
+        each class's predictive covariance); ``None`` or NaN: 0.
+        """
+        check_is_fitted(self, "model_")
+        Xv = validate_X(self, X)
+        z = novelty_features(Xv)
+        var = np.zeros_like(z)
+        if X_std is not None:
+            std = np.nan_to_num(np.abs(np.asarray(X_std, dtype=float).reshape(z.shape)))
+            lam = np.maximum(Xv[:, 0], MIN_LOG_DECAY_RATE)
+            var = std**2
+            var[:, 0] = (std[:, 0] / lam) ** 2
+        out = np.empty((z.shape[0], len(self.classes_)))
+        for j, (n, mean, cov) in enumerate(
+            zip(self.class_n_, self.class_mean_, self.class_cov_, strict=True)
+        ):
+            d = z - mean
+            base = cov * (1 + 1 / n)
+            base = base + 1e-12 * np.trace(base) * np.eye(len(mean))  # invertible, no more
+            for i in range(z.shape[0]):
+                out[i, j] = d[i] @ np.linalg.solve(base + np.diag(var[i]), d[i])
+        return out
+
+    def t2_limits(self) -> np.ndarray:
+        """Each class's T² limit (k,): the ``1 − alpha`` quantile of p(n−1)/(n−p)·F(p, n−p)."""
+        check_is_fitted(self, "model_")
+        p, n = self.class_mean_.shape[1], self.class_n_.astype(float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            limit = p * (n - 1) / (n - p) * stats.f.ppf(1 - float(self.alpha), p, n - p)
+        return np.where(n > p, limit, np.inf)  # n ≤ p rows: no region can be estimated
+
+    def unknown(self, X: Any, X_std: Any = None) -> np.ndarray:
+        """Boolean (n,): the rows outside every class's prediction region (module docstring)."""
+        return (self.class_t2(X, X_std) > self.t2_limits()).all(axis=1)
 
     def _z(self, X: Any) -> np.ndarray:
         check_is_fitted(self, "model_")
@@ -146,10 +233,56 @@ class LiquidClassifier(ClassifierMixin, BaseEstimator):
             "gamma": self.gamma_,
             "X_train": self.X_train_.tolist(),
             "labels_train": self.labels_train_.tolist(),
+            "unknown": {
+                "rule": "hotelling-t2",
+                "features": list(NOVELTY_FEATURES),
+                "alpha": float(self.alpha),
+                "classes": {
+                    str(c): {"n": int(n), "mean": m.tolist(), "cov": v.tolist()}
+                    for c, n, m, v in zip(
+                        self.classes_,
+                        self.class_n_,
+                        self.class_mean_,
+                        self.class_cov_,
+                        strict=True,
+                    )
+                },
+            },
         }
 
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> LiquidClassifier:
-        """Rebuild exactly by the deterministic refit with the stored C and gamma."""
+        """Rebuild exactly by the deterministic refit with the stored C and gamma.
+
+        The "unknown" rule's ``alpha`` and class statistics are the stored ones (they
+        must match the training rows: a file whose statistics do not is refused); a
+        file without them (format version ≤ 2) gets the rule at :data:`UNKNOWN_ALPHA`
+        from its training rows.
+        """
         labels = np.asarray(state["labels_train"], dtype=str)
-        return cls(C=state["C"], gamma=state["gamma"]).fit(state["X_train"], labels)
+        rule = state.get("unknown")
+        alpha = UNKNOWN_ALPHA if rule is None else rule["alpha"]
+        clf = cls(C=state["C"], gamma=state["gamma"], alpha=alpha).fit(state["X_train"], labels)
+        if rule is not None:
+            stored = rule["classes"]
+            if sorted(stored) != sorted(map(str, clf.classes_)):
+                raise ModelFileError("unknown.classes must name the classes of labels_train")
+            for j, c in enumerate(clf.classes_):
+                entry = stored[str(c)]
+                same = (
+                    entry["n"] == clf.class_n_[j]
+                    and np.allclose(entry["mean"], clf.class_mean_[j], rtol=1e-9, atol=1e-12)
+                    and np.allclose(entry["cov"], clf.class_cov_[j], rtol=1e-9, atol=1e-12)
+                )
+                if not same:
+                    raise ModelFileError(
+                        f"unknown.classes[{c!r}] does not match the training rows of that class"
+                    )
+        return clf
+
+
+def novelty_features(X: np.ndarray) -> np.ndarray:
+    """(n, 2) (λ, ω) → (log λ, ω), the features of the "unknown" rule (λ clipped > 0)."""
+    z = np.array(X, dtype=float)
+    z[:, 0] = np.log(np.maximum(z[:, 0], MIN_LOG_DECAY_RATE))
+    return z

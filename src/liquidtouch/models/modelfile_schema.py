@@ -3,7 +3,7 @@
 A model file is one JSON document (small arrays — training data, scaling —
 are embedded as lists; JSON floats round-trip exactly)::
 
-    {"format": "liquidtouch-model", "format_version": 2,
+    {"format": "liquidtouch-model", "format_version": 4,
      "kind": "regression" | "classification", "created_by": "liquidtouch 0.1.0",
      "provenance": {"liquidtouch": ..., "scikit_learn": ..., "numpy": ..., "python": ...,
                     "training_sha256": ...},
@@ -11,7 +11,7 @@ are embedded as lists; JSON floats round-trip exactly)::
      "feature_map": {"alpha": [α1, α2], "beta": [β1, β2]},
      "domain": {"decay_rate": [min, max], "angular_frequency": [min, max], "margin": 0.1},
      "regressors": {target: {"model": "gpr" | "physics-gpr" | "quadratic", ...}},
-     "classifier": {"model": "svm", "C": ..., "gamma": ..., ...} | null,
+     "classifier": {"model": "svm", "C": ..., "gamma": ..., ..., "unknown": {...}} | null,
      "calibration": {target: {"method": "cross-conformal", "n_folds": K,
                               "random_state": 0, "scores": [...]}},
      "sha256": ...}
@@ -32,8 +32,10 @@ from liquidtouch.io.tables import FEATURE_COLUMNS
 
 FORMAT_NAME = "liquidtouch-model"
 #: Version 2 adds ``sha256``, ``provenance`` and ``domain``; version 3 ``calibration``
-#: (cross-conformal scores per target). Versions 1 and 2 still load (uncalibrated).
-FORMAT_VERSION = 3
+#: (cross-conformal scores per target); version 4 the classifier's ``unknown`` rule.
+#: Versions 1-3 still load (uncalibrated; a classifier without ``unknown`` gets the
+#: rule at its default false-alarm rate from its training rows).
+FORMAT_VERSION = 4
 
 PositiveFloat = Annotated[float, Field(gt=0)]
 Sha256 = Annotated[str, Field(pattern=r"^[0-9a-f]{64}$")]
@@ -105,11 +107,29 @@ class QuadraticState(_TrainingData):
         return self
 
 
+class ClassStatistics(_Strict):
+    n: int = Field(ge=3)
+    mean: list[float] = Field(min_length=2, max_length=2)
+    cov: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(
+        min_length=2, max_length=2
+    )
+
+
+class UnknownRuleState(_Strict):
+    """The classifier's "unknown" rule (``models/classifier.py``): Hotelling's T² per class."""
+
+    rule: Literal["hotelling-t2"]
+    features: tuple[Literal["log_decay_rate"], Literal["angular_frequency"]]
+    alpha: float = Field(gt=0, lt=1)
+    classes: dict[str, ClassStatistics] = Field(min_length=2)
+
+
 class SVMState(_TrainingData):
     model: Literal["svm"]
     C: PositiveFloat
     gamma: PositiveFloat
     labels_train: list[str]
+    unknown: UnknownRuleState | None = None
 
     @model_validator(mode="after")
     def _consistent(self) -> SVMState:
@@ -194,6 +214,9 @@ class ModelFile(_Strict):
                 )
         if self.calibration and self.format_version < 3:
             raise ValueError("calibration needs format version 3")
+        if self.format_version >= 4 and self.classifier is not None:
+            if self.classifier.unknown is None:
+                raise ValueError(f"format version {self.format_version} needs classifier.unknown")
         if self.format_version >= 2:
             missing = [n for n in ("provenance", "sha256") if getattr(self, n) is None]
             if missing:

@@ -20,7 +20,7 @@ import pandas as pd
 
 from liquidtouch.errors import TableError
 from liquidtouch.io.tables import FEATURE_COLUMNS, feature_matrix
-from liquidtouch.models.classifier import LiquidClassifier
+from liquidtouch.models.classifier import UNKNOWN, LiquidClassifier
 from liquidtouch.models.conformal import (
     DEFAULT_FOLDS,
     TargetCalibration,
@@ -297,24 +297,43 @@ class PropertyModel:
         proba = self.classifier.predict_proba(self._mapped(X))
         return self.classifier.classes_[np.argmax(proba, axis=1)], proba
 
+    def unknown(self, X: Any, X_std: Any = None) -> np.ndarray:
+        """Classification: boolean (n,), the rows far from every trained class ("unknown").
+
+        ``X`` (n, 2) is mapped by the feature map first; ``X_std`` (n, 2), the rows' λ
+        and ω std (or ``None``), is scaled with it. The rule:
+        :mod:`liquidtouch.models.classifier` (Hotelling's T² per class).
+        """
+        if self.classifier is None:
+            raise TableError("this is a regression model; 'unknown' is a classifier's answer")
+        Xm = self._mapped(X)
+        if X_std is not None:
+            scale = np.abs([self.feature_map.alpha[0], self.feature_map.beta[0]])
+            X_std = np.asarray(X_std, dtype=float).reshape(Xm.shape) * scale
+        return self.classifier.unknown(Xm, X_std)
+
     def predict_table(self, table: pd.DataFrame, level: float | None = None) -> pd.DataFrame:
         """``table`` plus predicted columns (and their std, or class probabilities).
 
         The table's :data:`STD_COLUMNS` (the fit's std), when present, are propagated
         into ``predicted_<target>_std``. ``level``: add ``predicted_<target>_lower`` and
         ``_upper``, the calibrated interval (:meth:`predict_interval`).
+        A classifier names :data:`~liquidtouch.models.classifier.UNKNOWN` for a row far from
+        every trained class (:meth:`unknown`, with the fit's std when present); its
+        probabilities are still given.
         """
         X = feature_matrix(table)
         out = table.copy()
+        X_std = None
+        if all(c in table.columns for c in STD_COLUMNS):
+            X_std = table[list(STD_COLUMNS)].apply(pd.to_numeric, errors="coerce").to_numpy(float)
         if self.classifier is not None:
             predicted, proba = self.predict_proba(X)
+            predicted = np.where(self.unknown(X, X_std), UNKNOWN, predicted.astype(object))
             out[f"predicted_{self.targets[0]}"] = predicted
             for j, name in enumerate(self.classifier.classes_):
                 out[f"probability_{name}"] = proba[:, j]
             return out
-        X_std = None
-        if all(c in table.columns for c in STD_COLUMNS):
-            X_std = table[list(STD_COLUMNS)].apply(pd.to_numeric, errors="coerce").to_numpy(float)
         bounds = {} if level is None else self.predict_interval(X, level, X_std)
         for target, (mean, std) in self.predict(X, X_std).items():
             out[f"predicted_{target}"] = mean

@@ -283,9 +283,11 @@ class MjpegServer:
         return pending
 
     def _unsubscribe(self, pending: deque) -> None:
+        # by identity: deques compare by content, and every client's queue holds the same
+        # frames, so `list.remove` would drop another client's queue (that client would
+        # get no frame again: the README-order bug, `live` starved once `run-trial` left)
         with self._cond:
-            if pending in self._clients:
-                self._clients.remove(pending)
+            self._clients[:] = [q for q in self._clients if q is not pending]
 
     def _next_part(self, pending: deque) -> tuple[int, float, bytes] | None:
         """The client's next frame, or ``None`` after a short wait without one."""
