@@ -28,6 +28,10 @@ Mitigation probe (last column): the same λ fitted to the reference frames
 (I and P) only, the B-frames left out (:func:`fit_at_frames`), against the
 lossless tracks at the same frames.
 
+``--simulator``: the simulator's encoder (``sim.encode``: ``ultrafast``) at CRF
+20/23/26 without the dead zone, CRF 20 with it, against FFV1: which setting is
+fastest with no effect on λ.
+
 ``--mechanism``: x264 ``fast`` CRF 18 with one option changed at a time
 (trellis, psy-rd, fast P-skip, AQ, macroblock tree, B-frames, sub-pel motion
 estimation, dead zone) to find what freezes the motion.
@@ -118,6 +122,11 @@ FULL_GRID = [
     Codec("MPEG-4 mp4v (OpenCV)", "opencv", fourcc="mp4v"),
     Codec("MPEG-4 XVID (OpenCV)", "opencv", fourcc="XVID"),
     Codec("MJPEG (OpenCV)", "opencv", fourcc="MJPG"),
+]
+SIMULATOR_GRID = [  # the simulator's own encoder (sim.encode): ultrafast, no dead zone
+    Codec("FFV1", "ffv1"),
+    *[x264(crf, "ultrafast", DEAD_ZONE_OFF) for crf in (20, 23, 26)],
+    x264(20, "ultrafast"),
 ]
 MECHANISM_GRID = [
     x264(18),
@@ -343,6 +352,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--full", action="store_true", help="the whole grid and all cases")
     parser.add_argument("--mechanism", action="store_true", help="x264 options one at a time")
+    parser.add_argument(
+        "--simulator", action="store_true", help="the simulator's encoder settings (ultrafast)"
+    )
     parser.add_argument("--jobs", type=int, default=1, help="cases in parallel (processes)")
     parser.add_argument("--figure", type=Path, help="write λ bias vs CRF (PNG)")
     parser.add_argument("--cases", type=int, help="only the first N cases")
@@ -350,6 +362,7 @@ def main() -> None:
     args = parser.parse_args()
     cv2.setNumThreads(1)
     grid = MECHANISM_GRID if args.mechanism else FULL_GRID if args.full else DEFAULT_GRID
+    grid = SIMULATOR_GRID if args.simulator else grid
     cases = (FULL_CASES if args.full else CASES)[: args.cases]
     grid = [codec for codec in grid if args.only is None or args.only in codec.name]
     start = time.perf_counter()

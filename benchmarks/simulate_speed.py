@@ -6,12 +6,28 @@ through the generic vectorised ``accelerations`` at rtol 1e-7, max step 5 ms)
 and reports the force error of both against an rtol 1e-9 DOP853 reference.
 Also times the whole ``simulate_trial`` (parameters, physics, loads, wrench).
 
-    .venv/bin/python benchmarks/simulate_speed.py
+Videos (issue 27): one ``simulate trial`` with videos (default sensor, 640 × 480,
+13 s; ``simulate_trial`` + ``write_trial`` in this process) against decoding its
+own two videos (decode-only: the grey frames ``extract`` reads, ``io.frames.iter_video``,
+and the RGB frames, PyAV ``rgb24``), and the same trial with the renderer before
+issue 27 (``benchmarks/render_v0.py``, sensors one after the other), alternating
+old and new; then the renderer alone, frames per second per core (process CPU
+time) before and after, and the ``liquidtouch simulate trial`` command's wall time
+(a fresh process: imports included).
+
+    .venv/bin/python benchmarks/simulate_speed.py [--videos-only] [--repeats N]
 """
 
 from __future__ import annotations
 
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -20,6 +36,12 @@ from liquidtouch._core.containers import get_container
 from liquidtouch._core.liquids import get_liquid
 from liquidtouch.sim.slosh import accelerations, integrate, slosh_system
 from liquidtouch.sim.trial import simulate_trial
+from liquidtouch.sim.trial_io import write_trial
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import render_v0  # the renderer before issue 27
+
+import liquidtouch.sim.gelsight as gelsight
 
 CASES = [
     ("water", None, 28.0, "grooved-cuboid"),
@@ -29,6 +51,7 @@ CASES = [
     ("olive-oil", None, 20.0, "cylinder"),
 ]
 REPEATS = 5
+CLI = "import sys; from liquidtouch.cli import run; sys.argv[0] = 'liquidtouch'; run()"
 
 
 def push(t: float) -> float:
@@ -89,8 +112,143 @@ def run_case(liquid: str, conc: float | None, h: float, container: str) -> str:
     )
 
 
+def clocks() -> tuple[float, float]:
+    return time.perf_counter(), time.process_time()
+
+
+def since(start: tuple[float, float]) -> tuple[float, float]:
+    wall, cpu = clocks()
+    return wall - start[0], cpu - start[1]
+
+
+def decode_grey(paths: list[Path]) -> None:
+    from liquidtouch.io.frames import iter_video
+
+    for path in paths:
+        for _ in iter_video(path):
+            pass
+
+
+def decode_rgb(paths: list[Path]) -> None:
+    import av
+
+    for path in paths:
+        with av.open(str(path)) as container:
+            for frame in container.decode(video=0):
+                frame.to_ndarray(format="rgb24")
+
+
+class _Sequential(ThreadPoolExecutor):
+    def __init__(self, max_workers=None):
+        super().__init__(max_workers=1)
+
+
+def write_old(trial, out: Path) -> None:
+    """``write_trial`` with the renderer before issue 27 and the sensors in sequence."""
+    saved = gelsight.iter_frames, gelsight.ThreadPoolExecutor
+    gelsight.iter_frames, gelsight.ThreadPoolExecutor = render_v0.iter_frames, _Sequential
+    try:
+        write_trial(trial, out)
+    finally:
+        gelsight.iter_frames, gelsight.ThreadPoolExecutor = saved
+
+
+def video_section(repeats: int) -> None:
+    import cv2
+
+    from liquidtouch.sim.sensors import get_sensor_profile
+
+    print("## `simulate trial` with videos vs decoding its videos (default sensor, 13 s)\n")
+    print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}; "
+          f"best of {repeats}, old and new alternating\n")  # fmt: skip
+    work = Path(tempfile.mkdtemp(prefix="simspeed-"))
+    kwargs = dict(height_mm=25.0, container="grooved-cuboid", seed=1)
+    best: dict[str, list[float]] = {}
+
+    def keep(label: str, wall_cpu: tuple[float, float]) -> None:
+        old = best.get(label, [np.inf, np.inf])
+        best[label] = [min(old[0], wall_cpu[0]), min(old[1], wall_cpu[1])]
+
+    for i in range(repeats):
+        start = clocks()
+        trial = simulate_trial("water", **kwargs)
+        write_trial(trial, work / f"new{i}")
+        keep("simulate trial (new)", since(start))
+        start = clocks()
+        trial = simulate_trial("water", **kwargs)
+        write_old(trial, work / f"old{i}")
+        keep("simulate trial (before issue 27)", since(start))
+        videos = [work / f"new{i}" / f"{s}.mp4" for s in ("left", "right")]
+        start = clocks()
+        decode_grey(videos)
+        keep("decode-only, grey (what extract reads)", since(start))
+        start = clocks()
+        decode_rgb(videos)
+        keep("decode-only, RGB (PyAV rgb24)", since(start))
+        start = clocks()
+        subprocess.run(
+            [sys.executable, "-c", CLI, "simulate", "trial", "--liquid", "water",
+             "--height-mm", "25", "--seed", "1", "--out", str(work / f"cli{i}")],
+            check=True, capture_output=True,
+        )  # fmt: skip
+        wall, _ = since(start)
+        keep("`liquidtouch simulate trial` command (fresh process)", (wall, np.nan))
+    n_frames = sum(sum(1 for _ in __import__("av").open(str(v)).decode(video=0)) for v in videos)
+    grey, rgb = (
+        best["decode-only, grey (what extract reads)"],
+        best["decode-only, RGB (PyAV rgb24)"],
+    )
+    print("| step | wall s | CPU s | wall / grey decode | wall / RGB decode |")
+    print("|---|---:|---:|---:|---:|")
+    for label, (wall, cpu) in best.items():
+        print(
+            f"| {label} | {wall:.2f} | {cpu:.2f} | {wall / grey[0]:.2f}x | {wall / rgb[0]:.2f}x |"
+        )
+    print(f"\n({n_frames} frames in the two videos)\n")
+
+    print("## Renderer alone: frames per second per core (process CPU time, cv2 on one thread)\n")
+    cv2.setNumThreads(1)
+    print("| sensor | before issue 27 | now | speed-up | max abs pixel difference |")
+    print("|---|---:|---:|---:|---:|")
+    for name in ("default", "mini"):
+        profile = get_sensor_profile(name)
+        trial = simulate_trial("water", **kwargs)
+        scene = gelsight.sensor_scene(trial.loads, profile, np.random.default_rng(1))
+        args = dict(
+            background=gelsight.make_background(profile, np.random.default_rng(2)),
+            contact_center_px=scene.geometry.center_px[0],
+            contact_radius_px=float(scene.geometry.radius_px[0]),
+            contact_offsets_px=scene.offsets_px[0],
+        )
+        times: dict[str, float] = {}
+        for _ in range(repeats):
+            for label, fn in (("old", render_v0.iter_frames), ("new", gelsight.iter_frames)):
+                start = clocks()
+                for _frame in fn(scene.positions_px[0], profile, np.random.default_rng(3), **args):
+                    pass
+                times[label] = min(times.get(label, np.inf), since(start)[1])
+        pos, rng = scene.positions_px[0], np.random.default_rng
+        pairs = zip(
+            render_v0.iter_frames(pos, profile, rng(3), **args),
+            gelsight.iter_frames(pos, profile, rng(3), **args),
+            strict=True,
+        )
+        diff = max(int(np.abs(a.astype(int) - b.astype(int)).max()) for a, b in pairs)
+        n = len(scene.timestamps_s)
+        print(f"| {name} | {n / times['old']:.0f} | {n / times['new']:.0f} | "
+              f"{times['old'] / times['new']:.2f}x | {diff} |")  # fmt: skip
+    cv2.setNumThreads(-1)
+
+
 def main() -> None:
-    import os
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--videos-only", action="store_true", help="only the video sections")
+    parser.add_argument("--repeats", type=int, default=3, help="repeats of the video sections")
+    args = parser.parse_args()
+    video_section(args.repeats)
+    if args.videos_only:
+        return
+    print()
 
     print(
         f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} "

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from liquidtouch.batch.features import CACHE_DIR, extract_features
+from liquidtouch.batch.features import CACHE_DIR, cache_trial_features, extract_features
 from liquidtouch.cli import main
 from liquidtouch.io.dataset import write_manifest
 
@@ -94,6 +94,27 @@ def test_rerun_and_resume_redo_nothing_that_was_finished(dataset: Path, tmp_path
     extract_features(root, jobs=1, progress=False, on_trial=lambda t, r: changed.append(t))
     assert changed == [TRIALS[1][0]]
     assert (root / CACHE_DIR / "gelsight").is_dir()
+
+
+def test_trial_cached_by_a_simulation_worker_is_what_extract_would_compute(
+    dataset: Path, tmp_path: Path
+) -> None:
+    # reproduce's workers extract each trial right after simulating it (issue 27)
+    fresh = extract_features(_fresh_copy(dataset, tmp_path / "fresh"), progress=False)
+    root = _fresh_copy(dataset, tmp_path / "hook")
+    for name, *_ in TRIALS:
+        cache_trial_features(root, name, sources=("gelsight", "wrench"))
+    cache_trial_features(root, "b/corrupt")  # a bad trial: its error is cached too, no raise
+    computed: list[str] = []
+    table = extract_features(root, progress=False, on_trial=lambda t, r: computed.append(t))
+    assert computed == [] and table.attrs["n_cached"] == len(TRIALS) + 1
+    differ = ["extraction_settings", "error"]  # the error names the (other) trial path
+    assert table.drop(columns=differ).equals(fresh.drop(columns=differ))
+    assert (table["error"] != "").tolist() == (fresh["error"] != "").tolist() == [0, 0, 0, 1]
+    wrench: list[str] = []
+    extract_features(root, source="wrench", out=root / "w.csv", progress=False,
+                     on_trial=lambda t, r: wrench.append(t))  # fmt: skip
+    assert wrench == ["b/corrupt"]
 
 
 def test_process_pool_and_dask_give_the_serial_features(dataset: Path, tmp_path: Path) -> None:

@@ -45,6 +45,7 @@ __all__ = [
     "FEATURE_ROW_COLUMNS",
     "PROVENANCE_COLUMNS",
     "SOURCES",
+    "cache_trial_features",
     "extract_features",
     "feature_settings",
     "trial_features",
@@ -218,6 +219,32 @@ def _read_cache(path: Path, fingerprint: str) -> dict[str, object] | None:
     if not isinstance(entry, dict) or entry.get("fingerprint") != fingerprint:
         return None
     return entry
+
+
+def cache_trial_features(
+    dataset: str | Path, trial: str, sources: tuple[str, ...] = ("gelsight",)
+) -> None:
+    """Compute one trial's features (default settings) into the dataset's cache; never raises.
+
+    The very entries :func:`extract_features` would compute for ``trial`` (same
+    fingerprint, same cache file), so that it reads them afterwards instead: a
+    simulation worker extracts each trial right after writing it
+    (``simulate_dataset(after_trial=...)``), while its videos are in the page
+    cache and with no separate extraction pass to wait for.
+    """
+    root = Path(dataset)
+    tdir = trial_path(root, trial)
+    for source in sources:
+        settings = feature_settings(source)
+        try:
+            fingerprint = _fingerprint(tdir, source, settings)
+        except LiquidTouchError:  # extract_features reports it
+            return
+        result = _safe_run(str(tdir), source, settings)
+        if result.pop("cacheable"):
+            atomic.write_json(
+                _cache_file(root, trial, source), {"fingerprint": fingerprint, **result}
+            )
 
 
 def extract_features(

@@ -14,12 +14,13 @@ import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from liquidtouch.batch.features import extract_features
+from liquidtouch.batch.features import cache_trial_features, extract_features
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.experiments import (
     calibration,
@@ -125,6 +126,7 @@ def prepare_dataset(
 
     if not (root / MANIFEST_NAME).is_file():
         specs = seeded_specs(preset, quick=quick, seed=seed)
+        sources = ("gelsight", *WRENCH_TABLES) if preset == "classification" else ("gelsight",)
         simulate_dataset(
             specs,
             root,
@@ -132,6 +134,9 @@ def prepare_dataset(
             progress=progress,
             sensor=sensor_for(quick),
             realism=realism,
+            # each worker extracts a trial as soon as it has written it: no separate
+            # extraction pass (extract_features below reads the cache; without Dask)
+            after_trial=None if dask_address else partial(cache_trial_features, sources=sources),
         )
     tables = {
         "gelsight": extract_features(root, jobs=jobs, dask_address=dask_address, progress=progress)

@@ -23,6 +23,7 @@ from behind.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -362,7 +363,8 @@ def write_sensor_videos(
     timestamps, frame_index, geom = scene.timestamps_s, scene.frame_index, scene.geometry
     offsets, rests, positions = scene.offsets_px, scene.rest_px, scene.positions_px
     files = [f"{name}.mp4" for name in SENSOR_NAMES]
-    for s, name in enumerate(files):
+
+    def render_and_encode(s: int) -> None:
         sensor_rng = np.random.default_rng([seed, s + 1])
         background = make_background(profile, sensor_rng)
         frames = iter_frames(
@@ -377,12 +379,18 @@ def write_sensor_videos(
             **image_kwargs[s],
         )
         encode_video(
-            out_dir / name,
+            out_dir / files[s],
             frames,
             timestamps,
             profile.fps,
             x264_params=x264_params,
         )
+
+    # the two sensors are independent (own random streams, own files): render and encode
+    # them on two threads (OpenCV, NumPy's large operations and x264 release the GIL)
+    with ThreadPoolExecutor(max_workers=len(files)) as pool:
+        for done in [pool.submit(render_and_encode, s) for s in range(len(files))]:
+            done.result()
     more = {} if scene.exposure_s is None else {"exposure_times_s": scene.exposure_s}
     with atomic_path(out_dir / TRUTH_TRACKS_NAME) as tmp, open(tmp, "wb") as fh:
         np.savez(

@@ -151,11 +151,13 @@ def unequal_grip(loads: FingerLoads, ratio: float) -> FingerLoads:
 
 def _relaxation(x: np.ndarray, dt_s: float, time_constant_s: float) -> np.ndarray:
     """First-order low-pass of the columns of ``x`` starting at rest at ``x[0]`` (exact)."""
-    from scipy.signal import lfilter
-
     a = math.exp(-dt_s / time_constant_s)
-    zi = (a * x[0])[None, :]  # steady state at the first sample
-    y, _ = lfilter([1.0 - a], [1.0, -a], x, axis=0, zi=zi)
+    b = 1.0 - a
+    y = np.empty_like(x, dtype=float)
+    state = a * x[0]  # steady state at the first sample
+    for i, row in enumerate(x):  # y[i] = b·x[i] + a·y[i−1], as scipy's lfilter (no SciPy import)
+        y[i] = b * row + state
+        state = a * y[i]
     return y
 
 

@@ -27,6 +27,7 @@ from __future__ import annotations
 import logging
 import os
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -196,10 +197,12 @@ def run_spec(
     video: bool,
     sensor: str = "default",
     realism: Realism | str | None = None,
+    after: Callable[[str, str], object] | None = None,
 ) -> dict[str, Any]:
     """Simulate and write one trial; return its manifest row (used by worker processes).
 
     ``realism`` is the world (:mod:`liquidtouch.sim.realism`; default clean).
+    ``after(root, trial name)`` runs once the trial is written (see :func:`simulate_dataset`).
 
     The trial directory is checked before the simulation and replaced as a
     whole at the end (:func:`~liquidtouch.sim.trial_io.write_trial`).
@@ -208,6 +211,8 @@ def run_spec(
     check_trial_dir(Path(root) / spec.name)
     trial = simulate_trial(seed=spec.seed, realism=realism, **spec.kwargs)
     write_trial(trial, Path(root) / spec.name, video=video, sensor=sensor)
+    if after is not None:
+        after(root, spec.name)
     return {"trial": spec.name, "split": spec.split, **trial.labels()}
 
 
@@ -232,6 +237,7 @@ def simulate_dataset(
     progress: bool = True,
     sensor: str = "default",
     realism: Realism | str | None = None,
+    after_trial: Callable[[str, str], object] | None = None,
 ) -> DatasetResult:
     """Simulate every trial of ``preset`` into ``out_dir`` and write ``manifest.csv``.
 
@@ -245,7 +251,10 @@ def simulate_dataset(
     no trial is half-written, and the manifest is not (re)written.
     ``realism`` adds a real bench's nuisances to every trial (``"lab"`` or a
     :class:`~liquidtouch.sim.realism.Realism`; default clean), recorded in each
-    trial's ``meta.json``.
+    trial's ``meta.json``. ``after_trial(out_dir, trial name)`` (picklable) runs in
+    the worker right after each trial is written, as part of its task: e.g.
+    ``liquidtouch.batch.features.cache_trial_features`` extracts the trial while
+    its videos are in the page cache, overlapping simulation and extraction.
     """
 
     specs = get_preset(preset, quick=quick) if isinstance(preset, str) else list(preset)
@@ -275,7 +284,9 @@ def simulate_dataset(
             open_executor(jobs, n_tasks=len(specs)) as pool,
             progress_bar("simulating trials", len(specs), enabled=progress) as advance,
         ):
-            tasks = {spec.name: (spec, str(root), video, sensor, world) for spec in specs}
+            tasks = {
+                spec.name: (spec, str(root), video, sensor, world, after_trial) for spec in specs
+            }
             for name, future in run_each(pool, run_spec, tasks):
                 try:
                     rows[name] = future.result()

@@ -4,9 +4,14 @@ A frame is: a static background (uneven coloured LED lighting, vignetting, faint
 dust), times the container's contact imprint (a soft tinted patch with a shaded
 rim, shifted sub-pixel with the gel), times the markers' ink transmittance, times
 a per-frame LED flicker gain, plus sensor noise. The background and imprint are
-computed once per video; per frame only the imprint's bounding box is warped and
-the markers are drawn as small patches evaluated from a radial look-up table at
-their exact sub-pixel offsets, all markers at once with fancy indexing.
+computed once per video, the imprint's shifted copies at 1/8 px steps once per
+shift. Per frame: the lit gel with the imprint (float32) is rewritten only where
+the imprint moved; one full-image pass turns it into uint8 times the flicker
+gain; the markers' patches, evaluated from a radial look-up table at their exact
+sub-pixel offsets, are written over that from their windows only (all markers at
+once with one gather and one scatter); one pass adds the noise. The pixels are
+bit-identical to the renderer before issue 27 (``benchmarks/render_v0.py``),
+which re-darkened and restored a float32 copy of the frame every frame.
 
 A marker's darkening is radially symmetric about its intended position and its
 edge is a Gaussian-blurred step (``marker_edge_px``), so the pixel-sampled blob
@@ -16,6 +21,7 @@ position to ~1e-4 px (before uint8 rounding and codec).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 
 import numpy as np
@@ -84,8 +90,6 @@ def make_imprint(
     little brighter, with a rim lit on one side and shaded on the other (the LEDs
     shine at a grazing angle) and, with ``grooves``, faint parallel grooves.
     """
-    from scipy.special import erfc
-
     profile = get_sensor_profile(profile)
     edge_px = max(2.0, 0.06 * radius_px)
     half = int(np.ceil(1.15 * radius_px + 4 * edge_px))
@@ -94,7 +98,7 @@ def make_imprint(
     rho_px = (np.sqrt((xx / a) ** 2 + (yy / b) ** 2) - 1.0) * radius_px
     # mask and rim depend on rho only: tabulate them instead of evaluating erfc/exp per pixel
     table_rho = np.linspace(-radius_px, 2 * half, 4096)
-    mask = np.interp(rho_px, table_rho, 0.5 * erfc(table_rho / (np.sqrt(2.0) * edge_px)))
+    mask = np.interp(rho_px, table_rho, 0.5 * _erfc(table_rho / (np.sqrt(2.0) * edge_px)))
     rim = np.interp(rho_px, table_rho, np.exp(-(table_rho**2) / (2 * edge_px**2)))
     # light from upper-left: rim facing it is lit, the opposite side shaded
     direction = (-(xx + yy) / np.float32(np.sqrt(2.0))) / np.maximum(np.hypot(xx, yy), 1.0)
@@ -107,17 +111,23 @@ def make_imprint(
     return gain.astype(np.float32)
 
 
+def _erfc(x: np.ndarray) -> np.ndarray:
+    """The complementary error function, elementwise (float64; without importing SciPy).
+
+    ``math.erfc`` agrees with ``scipy.special.erfc`` to 1 ulp, and exactly once in float32.
+    """
+    return np.frompyfunc(math.erfc, 1, 1)(np.asarray(x, dtype=float)).astype(float)
+
+
 def _marker_lut(profile: SensorProfile) -> tuple[np.ndarray, int]:
     """Ink coverage against squared distance [px²] (×_LUT_PER_PX2), and the patch half-size.
 
     The patch is large enough for markers up to 10 % larger than nominal.
     """
-    from scipy.special import erfc
-
     half = int(np.ceil(1.1 * profile.marker_radius_px + 3.5 * profile.marker_edge_px))
     d2 = np.arange(0, int(1.3 * 2 * (half + 1) ** 2 * _LUT_PER_PX2) + 2) / _LUT_PER_PX2
     edge = np.sqrt(2.0) * profile.marker_edge_px
-    coverage = 0.5 * erfc((np.sqrt(d2) - profile.marker_radius_px) / edge)
+    coverage = 0.5 * _erfc((np.sqrt(d2) - profile.marker_radius_px) / edge)
     return coverage.astype(np.float32), half
 
 
@@ -194,29 +204,32 @@ def iter_frames(
         opacity = (opacity * np.asarray(marker_ink, dtype=np.float32)).astype(np.float32)
     pad = half + 2
     hp, wp = h + 2 * pad, w + 2 * pad
-    bg = cv2.copyMakeBorder(
+    # base: the lit gel with the imprint where it is this frame (float32, padded); it is
+    # only rewritten where the imprint moved. The frame is base × flicker gain as uint8
+    # (one full-image pass) with the markers' patches written over it from their
+    # windows of base (base × ink, then the same rounding), then the noise.
+    base = cv2.copyMakeBorder(
         np.ascontiguousarray(background, dtype=np.float32), pad, pad, pad, pad, cv2.BORDER_REFLECT
     )
-    # buf holds the frame being drawn; only the regions touched by the imprint and
-    # the markers are restored from bg after each frame, never the whole image
-    buf = bg.copy()
-    visible = buf[pad : pad + h, pad : pad + w]
+    base_visible = base[pad : pad + h, pad : pad + w]
+    drawn = np.empty((hp, wp, 3), dtype=np.uint8)  # the frame before noise, padded
+    drawn_visible = drawn[pad : pad + h, pad : pad + w]
     out = np.empty((h, w, 3), dtype=np.uint8)
     k = np.arange(2 * half + 1)
-    # every marker's (K, K, 3) patch as a writeable window into buf, indexed by its
-    # top-left corner: one gather and one scatter draw all markers (when patches
-    # overlap, which the marker pitch normally prevents, markers are drawn one by one)
     size = 2 * half + 1
-    windows = as_strided(
-        buf,
-        shape=(hp - size + 1, wp - size + 1, size, size, 3),
-        strides=buf.strides[:2] * 2 + buf.strides[2:],
-        writeable=True,
+    # every marker's (K, K, 3) patch as a window into base / drawn, indexed by its
+    # top-left corner: one gather and one scatter draw all markers
+    shape = (hp - size + 1, wp - size + 1, size, size, 3)
+    base_windows = as_strided(
+        base, shape=shape, strides=base.strides[:2] * 2 + base.strides[2:], writeable=False
     )
-    bg_windows = as_strided(bg, shape=windows.shape, strides=windows.strides, writeable=False)
+    drawn_windows = as_strided(
+        drawn, shape=shape, strides=drawn.strides[:2] * 2 + drawn.strides[2:], writeable=True
+    )
     bounds = np.array([wp - half - 1, hp - half - 1])
 
     imprint = _ImprintLayer.build(profile, contact_center_px, contact_radius_px, pad, (hp, wp))
+    background_box = None if imprint is None else base[imprint.slices].copy()
     if contact_offsets_px is None:
         contact_offsets_px = np.zeros((n_frames, 2))
     contact_offsets_px = np.asarray(contact_offsets_px, dtype=float)
@@ -244,35 +257,94 @@ def iter_frames(
         gains_flicker = gains_flicker * drift
     gains = gains_flicker
 
+    imprint_key = None
+    spacing = _Spacing(size)
     for i in range(n_frames):
         if imprint is not None:
-            imprint.apply(buf, bg, contact_offsets_px[i])
-        pos = positions_px[i] + pad
-        inside = np.all((pos >= half) & (pos < bounds), axis=1)
-        pos = pos[inside]
-        corner = np.floor(pos).astype(np.intp) - half  # (N, 2) top-left (x, y)
-        dx2 = ((corner[:, 0:1] + k - pos[:, 0:1]) ** 2).astype(np.float32)  # (N, K)
-        dy2 = ((corner[:, 1:2] + k - pos[:, 1:2]) ** 2).astype(np.float32)
-        d2 = (dy2[:, :, None] + dx2[:, None, :]) * d2_scale[inside, None, None]
-        d2 += np.float32(0.5)
-        coverage = lut[d2.astype(np.intp)]
-        coverage *= opacity[inside, None, None]
-        factor = np.subtract(np.float32(1.0), coverage, out=coverage)
-        if _patches_overlap(corner, size):
-            for (cx, cy), f in zip(corner, factor, strict=True):  # rare: markers touching
-                windows[cy, cx] *= f[..., None]
-        else:
-            patches = windows[corner[:, 1], corner[:, 0]]
-            patches *= factor[..., None]
-            windows[corner[:, 1], corner[:, 0]] = patches
+            key = imprint.key(contact_offsets_px[i])
+            if key != imprint_key:
+                cv2.multiply(background_box, imprint.shifted(key), dst=base[imprint.slices])
+                imprint_key = key
+        alpha = float(gains[i])
         # rounds to nearest and saturates to 0..255 (values are never negative here)
-        cv2.convertScaleAbs(visible, dst=out, alpha=float(gains[i]))
+        cv2.convertScaleAbs(base_visible, dst=drawn_visible, alpha=alpha)
+        pos = positions_px[i] + pad
+        corner_all = np.floor(pos).astype(np.intp) - half  # (N, 2) top-left (x, y)
+        inside = np.all((pos >= half) & (pos < bounds), axis=1)
+        pos, corner = pos[inside], corner_all[inside]
+        if len(pos):
+            dx2 = ((corner[:, 0:1] + k - pos[:, 0:1]) ** 2).astype(np.float32)  # (N, K)
+            dy2 = ((corner[:, 1:2] + k - pos[:, 1:2]) ** 2).astype(np.float32)
+            d2 = (dy2[:, :, None] + dx2[:, None, :]) * d2_scale[inside, None, None]
+            d2 += np.float32(0.5)
+            coverage = lut[d2.astype(np.intp)]
+            coverage *= opacity[inside, None, None]
+            factor = np.subtract(np.float32(1.0), coverage, out=coverage)
+            cy, cx = corner[:, 1], corner[:, 0]
+            if spacing.may_overlap(corner_all):  # rare: markers touching
+                _draw_overlapping(base, drawn, corner, factor, alpha)
+            else:
+                # (N·K, K, 3) rows of the markers' windows of base, times their ink factor
+                # (cv2 rather than numpy's slow broadcast over a last axis of 3)
+                patches = base_windows[cy, cx].reshape(-1, size, 3)
+                factor = factor.reshape(-1, size)
+                patches = cv2.multiply(patches, cv2.merge((factor, factor, factor)))
+                drawn_windows[cy, cx] = cv2.convertScaleAbs(patches, alpha=alpha).reshape(
+                    -1, size, size, 3
+                )
         if use_noise:
             oy, ox = offsets[i]
-            cv2.add(out, noise_up[oy : oy + h, ox : ox + w], dst=out)
+            cv2.add(drawn_visible, noise_up[oy : oy + h, ox : ox + w], dst=out)
             cv2.subtract(out, noise_down[oy : oy + h, ox : ox + w], dst=out)
+        else:
+            np.copyto(out, drawn_visible)
         yield out
-        windows[corner[:, 1], corner[:, 0]] = bg_windows[corner[:, 1], corner[:, 0]]
+
+
+def _draw_overlapping(
+    base: np.ndarray, drawn: np.ndarray, corner: np.ndarray, factor: np.ndarray, alpha: float
+) -> None:
+    """Draw markers whose patches overlap: one after the other, on a copy of their box."""
+    import cv2
+
+    size = factor.shape[1]
+    x0, y0 = corner.min(axis=0)
+    x1, y1 = corner.max(axis=0) + size
+    box = base[y0:y1, x0:x1].copy()
+    for (cx, cy), f in zip(corner - (x0, y0), factor, strict=True):
+        box[cy : cy + size, cx : cx + size] *= f[..., None]
+    cv2.convertScaleAbs(box, dst=drawn[y0:y1, x0:x1], alpha=alpha)
+
+
+class _Spacing:
+    """Whether marker patches (size × size, top-left ``corner``) may overlap, cheaply per frame.
+
+    Keeps a reference layout and its smallest gap between patches; while no corner
+    has moved more than half the spare gap from it, no two patches can touch, and
+    otherwise the pairs are checked (and the layout becomes the new reference).
+    """
+
+    def __init__(self, size: int):
+        self.size = size
+        self.ref: np.ndarray | None = None
+        self.gap = 0
+
+    def may_overlap(self, corner: np.ndarray) -> bool:
+        if self.ref is not None and self.ref.shape == corner.shape and len(corner):
+            drift = int(np.abs(corner - self.ref).max())
+            if self.gap - 2 * drift >= self.size:
+                return False
+        self.ref, self.gap = corner.copy(), _smallest_gap(corner)
+        return self.gap < self.size
+
+
+def _smallest_gap(corner: np.ndarray) -> int:
+    """Smallest Chebyshev distance between two of the ``corner`` (N, 2) (large if N < 2)."""
+    if len(corner) < 2:
+        return 1 << 30
+    gap = np.abs(corner[:, None, :] - corner[None, :, :]).max(axis=2)
+    np.fill_diagonal(gap, 1 << 30)
+    return int(gap.min())
 
 
 def _coloured_noise(
@@ -288,23 +360,18 @@ def _coloured_noise(
     return out * np.asarray(std_rgb, dtype=np.float32)
 
 
-def _patches_overlap(corner: np.ndarray, size: int) -> bool:
-    """Whether any two (size × size) patches with top-left corners ``corner`` (N, 2) overlap."""
-    gap = np.abs(corner[:, None, :] - corner[None, :, :]).max(axis=2)
-    np.fill_diagonal(gap, size)
-    return bool((gap < size).any())
-
-
 def _flicker_gains(flicker_std: float, n_frames: int, rng: np.random.Generator) -> np.ndarray:
     """Per-frame LED brightness gain: an AR(1) wander around 1 with std ``flicker_std``."""
     if flicker_std <= 0:
         return np.ones(n_frames)
-    from scipy.signal import lfilter
-
     rho = 0.8
     innov = rng.normal(0.0, flicker_std * np.sqrt(1 - rho**2), n_frames)
     innov[0] = rng.normal(0.0, flicker_std)
-    return 1.0 + lfilter([1.0], [1.0, -rho], innov)
+    out, level = np.empty(n_frames), 0.0
+    for i, x in enumerate(innov.tolist()):  # y[i] = x[i] + rho·y[i−1], as scipy's lfilter
+        level = x + rho * level
+        out[i] = level
+    return 1.0 + out
 
 
 class _ImprintLayer:
@@ -334,10 +401,24 @@ class _ImprintLayer:
         )
         return cls(gain, (y0, y1, x0, x1), np.array([cx - cxi, cy - cyi]))
 
-    def shifted(self, offset_px: np.ndarray) -> np.ndarray:
+    @property
+    def slices(self) -> tuple[slice, slice]:
+        """The imprint's box in the padded image."""
+        y0, y1, x0, x1 = self.box
+        return slice(y0, y1), slice(x0, x1)
+
+    def key(self, offset_px: np.ndarray) -> tuple[int, int]:
+        """The shift of the imprint for a gel offset, in 1/8 px steps (x, y)."""
+        steps = self._STEPS_PER_PX
+        return (
+            round((float(offset_px[0]) + self.sub[0]) * steps),
+            round((float(offset_px[1]) + self.sub[1]) * steps),
+        )
+
+    def shifted(self, key: tuple[int, int]) -> np.ndarray:
+        """The imprint's gain shifted by ``key`` (from :meth:`key`)."""
         import cv2
 
-        key = tuple(np.round((offset_px + self.sub) * self._STEPS_PER_PX).astype(int))
         moved = self._cache.get(key)
         if moved is None:
             dx, dy = np.asarray(key, dtype=float) / self._STEPS_PER_PX
@@ -353,16 +434,6 @@ class _ImprintLayer:
             if len(self._cache) < 256:
                 self._cache[key] = moved
         return moved
-
-    def apply(self, buf: np.ndarray, bg: np.ndarray, offset_px: np.ndarray) -> None:
-        """Set the imprint's box of ``buf`` to ``bg`` times the shifted imprint.
-
-        Writing from ``bg`` also wipes whatever the previous frame drew there.
-        """
-        import cv2
-
-        y0, y1, x0, x1 = self.box
-        cv2.multiply(bg[y0:y1, x0:x1], self.shifted(offset_px), dst=buf[y0:y1, x0:x1])
 
 
 def render_frames(
