@@ -34,6 +34,7 @@ import logging
 import math
 import threading
 import time
+from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -69,6 +70,8 @@ REFRESH_S = 0.25
 MAX_FREQ_REL_STD = 0.01
 #: λ is reported once its std (fit and window length) is below this fraction of λ
 MAX_DECAY_REL_STD = 0.10
+#: frames whose add_frame latency is kept for the final update's timing (~1 h at 2 × 30 fps)
+MAX_TIMED_FRAMES = 216_000
 #: a candidate's verdict is reused for one starting within this much of it [s]
 VERDICT_MATCH_S = 0.3
 #: what the final update keeps of the last streamed one when the final refit fails
@@ -202,8 +205,9 @@ class LiveEstimator:
         self.open_start_s = math.nan  # the open ring-down's start, kept once found
         self.warm_start: tuple[float, float] | None = None  # (λ, ω) of the last refresh's fit
         self.last: LiveUpdate | None = None
-        #: seconds spent in each add_frame call (tracking plus any synchronous refresh)
-        self.latencies_s: list[float] = []
+        #: seconds spent in each add_frame call (tracking plus any synchronous refresh): the
+        #: last MAX_TIMED_FRAMES (bounded memory)
+        self.latencies_s: deque[float] = deque(maxlen=MAX_TIMED_FRAMES)
         self._worker: threading.Thread | None = None
         self._result: LiveUpdate | None = None
         self._lock = threading.Lock()
@@ -365,9 +369,13 @@ class LiveEstimator:
             return self._publish(self._update(result, frames, elapsed_s, due_s, final=final))
         segments = self._segments(tracks, t[trusted], x[trusted], u[trusted], final)
         last_end = self.finals[-1].end_s if self.finals else -math.inf
+        # a stream longer than the tracks' window: a segment at the window's start began
+        # before it (its push is gone), never a new ring-down
+        cut = any(grown.cut for grown in self.tracks.values())
+        cut_s = max(float(tr.start_s) for tr in tracks) + EDGE_S if cut else -math.inf
         current = None
         for i, seg in enumerate(segments):
-            if seg.kind != "ring-down" or seg.start_s <= last_end:
+            if seg.kind != "ring-down" or seg.start_s <= max(last_end, cut_s):
                 continue
             window_from = _window_from(segments, i)
             if seg.closed or final:

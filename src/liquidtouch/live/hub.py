@@ -7,10 +7,16 @@ the web server (:mod:`liquidtouch.live.web`) reads them for any number of
 browsers. A browser that connects late gets the history of updates first (so
 its plots are complete), then the new ones, then the end (:meth:`LiveHub.close`).
 
+Each update carries only what is new of the signal u(t) (:class:`SignalDeltas`): the
+samples since the previous update (with a short overlap: the zero-phase low-pass moves
+the newest ones) and the current fit, decimated; a snapshot of the kept signal when the
+decay clock or the signal's basis changed, and for a browser that connects late or
+missed updates. So an update's size does not grow with the stream.
+
 Memory is bounded: past ``max_updates`` the history is thinned (every other
 update dropped, the first and the newest kept, so the plots still span the
-whole trial), only the newest update with a ``signal`` keeps it (the plot of
-u(t) needs only the current one), and each sensor keeps only its newest frame. A
+whole trial), the signal is kept over the last :data:`SIGNAL_KEEP_S` with the last
+:data:`KEPT_DELTAS` deltas, and each sensor keeps only its newest frame. A
 frame is encoded to JPEG, with its marker displacement arrows drawn, only
 when a browser asks, and at most every :data:`FRAME_INTERVAL_S` per sensor.
 """
@@ -22,6 +28,7 @@ import math
 import threading
 import time
 from bisect import bisect_right
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import cv2
@@ -60,6 +67,129 @@ def jsonable(value: object) -> object:
     if value is None or isinstance(value, str):
         return value
     return str(value)
+
+
+#: seconds of the signal u(t) the page keeps and a late browser's snapshot carries [s]
+SIGNAL_KEEP_S = 60.0
+#: a delta resends the page's newest samples of this span [s]: the zero-phase low-pass
+#: changes the last ~0.3 s of the signal as frames come (``liquidtouch.live.refresh.EDGE_S``)
+OVERLAP_S = 0.5
+#: before the overlap, the page's samples over this span [s] must agree with the new signal
+#: (else its basis changed: a new window's PCA, another decay clock) or a snapshot is sent
+CHECK_S = 2.0
+#: agreement: the rms difference under this fraction of the page's signal's std
+AGREE_REL = 0.02
+#: a change of the decay clock's zero larger than this is a new clock [s]
+ORIGIN_TOL_S = 0.1
+#: the fitted curve is sent at most this many points
+MAX_FIT_POINTS = 400
+#: the signal's deltas kept for browsers that are a few updates behind (others get a snapshot)
+KEPT_DELTAS = 64
+
+
+def _floats(values: object) -> np.ndarray:
+    """``values`` (a list with None, an array) as a float array; None → NaN."""
+    if values is None:
+        return np.zeros(0)
+    out = np.array([math.nan if v is None else v for v in values] if isinstance(values, list)
+                   else values, dtype=float).reshape(-1)  # fmt: skip
+    return out
+
+
+def _rounded(values: np.ndarray, decimals: int) -> list[float | None]:
+    """JSON-ready list: rounded to ``decimals`` (the plot needs no more), NaN → None."""
+    return jsonable(np.round(values, decimals))  # type: ignore[return-value]
+
+
+class SignalDeltas:
+    """What browsers have of the signal u(t), and the delta that brings them to a new one.
+
+    :meth:`delta` takes an update's whole signal (``t_s`` on the decay clock [s], ``u``
+    [px], ``fit`` [px] on the same ``t_s``, NaN where not fitted) and returns the JSON-ready
+    ``signal`` of the update: only the newest samples (``from_t_s``: the page replaces its
+    samples from there on), or a snapshot (``from_t_s`` null) when the decay clock or the
+    signal's basis changed; the fitted curve decimated to :data:`MAX_FIT_POINTS`, left out
+    when unchanged. :meth:`snapshot` is the whole kept signal, for a browser that missed
+    updates. Everything kept is bounded by :data:`SIGNAL_KEEP_S`.
+    """
+
+    def __init__(self, keep_s: float = SIGNAL_KEEP_S) -> None:
+        self.keep_s = float(keep_s)
+        self.origin_s = math.nan
+        self.t = np.zeros(0)
+        self.u = np.zeros(0)
+        self.fit: dict[str, object] | None = None
+
+    def delta(self, signal: dict, origin_s: float) -> dict[str, object]:
+        """The ``signal`` payload of an update whose decay clock starts at ``origin_s`` [s]."""
+        t, u = _floats(signal.get("t_s")), _floats(signal.get("u"))
+        fit = _floats(signal.get("fit"))
+        if len(u) != len(t):
+            t, u = np.zeros(0), np.zeros(0)
+        if len(fit) != len(t):
+            fit = np.full(t.shape, np.nan)
+        ok = np.isfinite(t)
+        t, u, fit = t[ok], u[ok], fit[ok]
+        if t.size:
+            recent = t >= t[-1] - self.keep_s
+            t, u, fit = t[recent], u[recent], fit[recent]
+        fitted = np.isfinite(fit)
+        step = max(1, math.ceil(int(fitted.sum()) / MAX_FIT_POINTS))
+        fit_payload = (
+            {"t_s": _rounded(t[fitted][::step], 4), "u": _rounded(fit[fitted][::step], 5)}
+            if fitted.any()
+            else None
+        )
+        from_s = self._append_from(t, u, origin_s)
+        if from_s is None:
+            self.t, self.u = t, u
+        else:
+            older = self.t < from_s
+            self.t = np.concatenate([self.t[older], t[t >= from_s]])
+            self.u = np.concatenate([self.u[older], u[t >= from_s]])
+            if self.t.size:
+                recent = self.t >= self.t[-1] - self.keep_s
+                self.t, self.u = self.t[recent], self.u[recent]
+        self.origin_s = origin_s
+        out: dict[str, object] = {
+            "from_t_s": None if from_s is None else round(from_s, 4),
+            "t_s": _rounded(t if from_s is None else t[t >= from_s], 4),
+            "u": _rounded(u if from_s is None else u[t >= from_s], 5),
+        }
+        if from_s is None or fit_payload != self.fit:
+            out["fit"] = fit_payload
+        self.fit = fit_payload
+        return out
+
+    def _append_from(self, t: np.ndarray, u: np.ndarray, origin_s: float) -> float | None:
+        """Where the new signal replaces the page's [s, decay clock]; None: replace it all."""
+        same_clock = abs(origin_s - self.origin_s) <= ORIGIN_TOL_S  # False when either NaN
+        if not (same_clock and self.t.size and t.size):
+            return None
+        # half a sample before one of the new signal: the page drops its samples from there
+        # (a refresh's clock may be shifted by a fraction of a sample from the last one's)
+        first = int(np.searchsorted(t, float(self.t[-1]) - OVERLAP_S))
+        if not 1 <= first < len(t):
+            return None
+        from_s = float(t[first] - 0.5 * (t[first] - t[first - 1]))
+        check = (self.t >= from_s - CHECK_S) & (self.t < from_s)
+        check &= (self.t >= t[0]) & (self.t <= t[-1])
+        if check.sum() < 3:
+            return None
+        mine = self.u[check]
+        theirs = np.interp(self.t[check], t, u)
+        scale = float(np.nanstd(self.u)) or 1.0
+        rms = float(np.sqrt(np.nanmean((theirs - mine) ** 2)))
+        return from_s if rms <= AGREE_REL * scale else None
+
+    def snapshot(self) -> dict[str, object]:
+        """The whole kept signal as a ``signal`` payload (``from_t_s`` null)."""
+        return {
+            "from_t_s": None,
+            "t_s": _rounded(self.t, 4),
+            "u": _rounded(self.u, 5),
+            "fit": self.fit,
+        }
 
 
 def draw_arrows(
@@ -108,6 +238,21 @@ def draw_arrows(
     return bgr
 
 
+def _origin_s(update: dict) -> float:
+    """The decay clock's zero on the stream's clock [s]: ``elapsed_s - t_s`` (NaN unknown)."""
+    elapsed, t_s = update.get("elapsed_s"), update.get("t_s")
+    if isinstance(elapsed, int | float) and isinstance(t_s, int | float):
+        return float(elapsed) - float(t_s)
+    return math.nan
+
+
+def _with_signal(text: str, signal: str | None) -> str:
+    """An update's JSON ``text`` with ``"signal": signal`` added (unchanged when None)."""
+    if signal is None:
+        return text
+    return f'{text[:-1]}{"," if text != "{}" else ""}"signal":{signal}}}'
+
+
 def _points(points: np.ndarray | None) -> np.ndarray | None:
     """A float copy of marker positions as (N, 2), or None."""
     return None if points is None else np.array(points, dtype=float).reshape(-1, 2)
@@ -141,7 +286,9 @@ class LiveHub:
         self._changed = threading.Condition()
         self._seq: list[int] = []  # sequence number of each kept update, increasing
         self._text: list[str] = []  # its JSON without ``signal``
-        self._signal: tuple[int, str] | None = None  # (seq, full JSON) of the newest with one
+        self._signals = SignalDeltas()  # the signal as browsers that kept up have it
+        self._deltas: OrderedDict[int, str] = OrderedDict()  # seq -> its signal delta (JSON)
+        self._evicted = 0  # the newest seq whose delta is no longer kept
         self._last_seq = 0
         self._closed = False
         self._frames: dict[str, _Frame] = {}
@@ -151,29 +298,34 @@ class LiveHub:
     def publish(self, update: dict) -> None:
         """Add one update (a JSON-able dict; numpy values and NaN are converted).
 
-        Ignored once the hub is closed.
+        Its ``signal`` (``t_s``, ``u``, ``fit``: the whole current signal) is kept as what
+        browsers need to catch up: the delta from the previous one
+        (:class:`SignalDeltas`). Ignored once the hub is closed.
         """
-        update = jsonable(update)
         if not isinstance(update, dict):
             raise TypeError(f"an update is a dict, got {type(update).__name__}")
-        has_signal = update.get("signal") is not None
-        full = json.dumps(update, allow_nan=False, separators=(",", ":")) if has_signal else None
-        update.pop("signal", None)
+        update = dict(update)
+        signal = update.pop("signal", None)
+        update = jsonable(update)
         text = json.dumps(update, allow_nan=False, separators=(",", ":"))
+        origin = _origin_s(update)
         with self._changed:
             if self._closed:
                 return
             self._last_seq += 1
             self._seq.append(self._last_seq)
             self._text.append(text)
-            if full is not None:
-                self._signal = (self._last_seq, full)
+            if isinstance(signal, dict):
+                delta = self._signals.delta(signal, origin)
+                self._deltas[self._last_seq] = json.dumps(
+                    delta, allow_nan=False, separators=(",", ":")
+                )
+                while len(self._deltas) > KEPT_DELTAS:
+                    self._evicted = self._deltas.popitem(last=False)[0]
             if len(self._seq) > self.max_updates:
-                keep = {*range(0, len(self._seq) - 1, 2), len(self._seq) - 1}
-                if self._signal is not None:  # the update that carries the newest signal stays
-                    keep.add(bisect_right(self._seq, self._signal[0]) - 1)
-                self._seq = [self._seq[i] for i in sorted(keep)]
-                self._text = [self._text[i] for i in sorted(keep)]
+                keep = sorted({*range(0, len(self._seq) - 1, 2), len(self._seq) - 1})
+                self._seq = [self._seq[i] for i in keep]
+                self._text = [self._text[i] for i in keep]
             self._changed.notify_all()
 
     def publish_frame(
@@ -221,14 +373,23 @@ class LiveHub:
     def updates_since(self, seq: int) -> tuple[list[tuple[int, str]], bool]:
         """The kept updates after sequence number ``seq`` as (seq, JSON), and whether closed.
 
-        Both are read together: when ``closed`` is true and the list is empty,
-        the reader has seen every update.
+        A reader that saw every update up to ``seq`` gets each update's signal delta; one
+        that missed some (a late browser, a reconnect after the history was thinned or the
+        deltas dropped) gets the updates without signals and the whole kept signal (a
+        snapshot, bounded) on the newest. Both are read together: when ``closed`` is true
+        and the list is empty, the reader has seen every update.
         """
         with self._changed:
             start = bisect_right(self._seq, seq)
             items = list(zip(self._seq[start:], self._text[start:], strict=True))
-            if self._signal is not None:
-                items = [(s, self._signal[1] if s == self._signal[0] else t) for s, t in items]
+            if not items:
+                return items, self._closed
+            caught_up = items[0][0] == seq + 1 and items[-1][0] - seq == len(items)
+            if caught_up and seq >= self._evicted:
+                items = [(s, _with_signal(t, self._deltas.get(s))) for s, t in items]
+            elif self._deltas:
+                snapshot = json.dumps(self._signals.snapshot(), allow_nan=False)
+                items[-1] = (items[-1][0], _with_signal(items[-1][1], snapshot))
             return items, self._closed
 
     def wait(self, seq: int, timeout_s: float = 1.0) -> bool:

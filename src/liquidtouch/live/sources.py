@@ -17,6 +17,7 @@ read as fast as possible), from which the estimator's lag is measured.
 from __future__ import annotations
 
 import heapq
+import logging
 import math
 import os
 import queue
@@ -27,14 +28,27 @@ from pathlib import Path
 
 import numpy as np
 
-from liquidtouch.acquire.cameras import END, CaptureSession, check_distinct_sources, open_camera
+from liquidtouch.acquire.cameras import (
+    END,
+    CameraThread,
+    CaptureSession,
+    check_distinct_sources,
+    open_camera,
+)
+from liquidtouch.acquire.deadlines import DEFAULT_OPEN_TIMEOUT_S, DEFAULT_READ_TIMEOUT_S
 from liquidtouch.errors import DeviceError
 from liquidtouch.io.dataset import trial_sensor_starts
 from liquidtouch.io.frames import iter_frames
 from liquidtouch.io.sources import resolve_sources, select_sensors
 
+logger = logging.getLogger(__name__)
+
 #: how long a camera queue is polled before the next one is looked at [s]
 POLL_S = 0.005
+#: a camera that sends no frame this long has stalled [s]: its read deadline and a second
+STALL_S = DEFAULT_READ_TIMEOUT_S + 1.0
+#: cameras whose sources end within this much of each other ended together [s]
+END_GRACE_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -96,13 +110,23 @@ def camera_frames(
     names: Sequence[str] | None = None,
     profile: str = "raw",
     camera_options: Mapping[str, float] | None = None,
+    stall_s: float = STALL_S,
+    end_grace_s: float = END_GRACE_S,
 ) -> Iterator[LiveFrame]:
     """Frames of live cameras (any :func:`open_camera` source), as they arrive.
 
     ``names`` default to ``left``, ``right``, ... ; ``t_s`` and ``due_s`` are
     the frame's :func:`time.monotonic` capture time. The cameras are closed when
-    the generator is closed or ends (every source ended or failed; a failure is
-    raised as :class:`DeviceError` after the frames before it).
+    the generator is closed or ends.
+
+    The stream ends when every camera's source ended (within ``end_grace_s`` [s] of
+    each other: recordings of one length). Losing **one** camera ends it too, with
+    :class:`DeviceError` after the frames before it, because an estimate from the others
+    would silently freeze on the lost camera's last frame: a camera that failed (a read
+    past its deadline, a broken part, a bad timestamp), whose source ended while the
+    others go on, that sent no frame for ``stall_s`` [s] (a read that ignores its
+    deadline), or that gave a timestamp that is not a finite number. A frame whose
+    timestamp does not increase is skipped (logged).
     """
     check_distinct_sources(list(sources))
     cameras = []
@@ -114,23 +138,70 @@ def camera_frames(
         for camera in cameras:
             camera.close()
         raise
-    open_queues = dict(session.queues)
+    threads = {thread.sensor: thread for thread in session.threads}
     with session:
-        while open_queues:
-            for name, q in list(open_queues.items()):
+        # before its first frame a camera may take its open timeout to start sending
+        now = time.monotonic()
+        open_s = dict(camera_options or {}).get("open_timeout_s", DEFAULT_OPEN_TIMEOUT_S)
+        deadline = dict.fromkeys(threads, now + open_s + stall_s)
+        last_t = dict.fromkeys(threads, -math.inf)
+        ended_at: dict[str, float] = {}  # sources that ended by themselves [s, monotonic]
+        while len(ended_at) < len(threads):
+            for name, q in session.queues.items():
+                if name in ended_at:
+                    continue
                 try:
                     frame = q.get(timeout=POLL_S)
                 except queue.Empty:
-                    if session.all_ended and q.empty():
-                        del open_queues[name]
+                    _check_camera(name, threads[name], q, deadline[name], ended_at, stall_s)
                     continue
                 if frame is END:
-                    del open_queues[name]
+                    ended_at[name] = time.monotonic()
                     continue
-                yield LiveFrame(name, float(frame.t_s), frame.image, float(frame.t_s))
+                t_s = float(frame.t_s)
+                if not math.isfinite(t_s):
+                    raise DeviceError(f"camera {name} failed: its frame timestamp is {t_s}")
+                deadline[name] = time.monotonic() + stall_s
+                if t_s <= last_t[name]:
+                    logger.info("camera %s: frame at %.6f s does not follow %.6f s; skipped",
+                                name, t_s, last_t[name])  # fmt: skip
+                    continue
+                last_t[name] = t_s
+                yield LiveFrame(name, t_s, frame.image, t_s)
+            _check_ends(ended_at, threads, end_grace_s)
     if session.errors:
         name, error = next(iter(session.errors.items()))
         raise DeviceError(f"camera {name} failed: {error}")
+
+
+def _check_camera(
+    name: str,
+    thread: CameraThread,
+    q: queue.Queue,
+    deadline: float,
+    ended_at: dict[str, float],
+    stall_s: float,
+) -> None:
+    """A camera with no frame waiting: DeviceError if it failed or stalled; note its end."""
+    if thread.ended.is_set() and q.empty():
+        if thread.error is not None:
+            raise DeviceError(f"camera {name} failed: {thread.error}")
+        ended_at.setdefault(name, time.monotonic())
+    elif time.monotonic() > deadline:
+        raise DeviceError(f"camera {name} failed: no frame for {stall_s:g} s (stalled)")
+
+
+def _check_ends(ended_at: dict[str, float], threads: dict, grace_s: float) -> None:
+    """DeviceError when a camera's source ended more than ``grace_s`` [s] before the others."""
+    if not ended_at or len(ended_at) == len(threads):
+        return
+    name, when = min(ended_at.items(), key=lambda item: item[1])
+    if time.monotonic() - when > grace_s:
+        why = threads[name].end_reason
+        raise DeviceError(
+            f"camera {name} stopped sending frames while the others go on"
+            + (f": {why}" if why is not None else "")
+        )
 
 
 def is_recording(source: str | os.PathLike[str]) -> bool:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import os
 import time
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 
@@ -22,10 +23,11 @@ from liquidtouch.acquire.cameras import default_names
 from liquidtouch.errors import LiquidTouchError, SignalError, VideoError
 from liquidtouch.fit_settings import FitSettings
 from liquidtouch.io.sources import resolve_sources
-from liquidtouch.live.estimator import REFRESH_S, LiveEstimator
+from liquidtouch.live.estimator import MAX_TIMED_FRAMES, REFRESH_S, LiveEstimator
 from liquidtouch.live.sources import LiveFrame, is_recording, open_frames
 from liquidtouch.live.stopping import parse_until_std, stop_reached
 from liquidtouch.live.updates import LiveUpdate
+from liquidtouch.models.kernel_limits import single_threaded_blas
 from liquidtouch.models.modelfile import load_model
 
 PathLike = str | os.PathLike[str]
@@ -121,46 +123,50 @@ def live_updates(
         threaded=paced if threaded is None else threaded,
         protocol=protocol,
     )
-    lags: list[float] = []
+    lags: deque[float] = deque(maxlen=MAX_TIMED_FRAMES)
     stopped = "end_of_stream"
     source_error = ""
     first_t = math.nan
     iterator = iter(frames)
+    blas = single_threaded_blas()  # small matrices: BLAS threads only spin on a busy machine
     try:
         try:
-            for frame in _until_source_fails(iterator):
-                if isinstance(frame, LiquidTouchError):  # a camera died after frames came
-                    stopped, source_error = "source_error", str(frame)
-                    break
-                if math.isfinite(frame.due_s):
-                    lags.append(time.monotonic() - frame.due_s)
-                first_t = frame.t_s if math.isnan(first_t) else first_t
-                if max_duration_s is not None and frame.t_s - first_t > max_duration_s:
-                    stopped = "max_duration"
-                    break
-                if on_event is not None:
-                    for name, t_s in on_event():
-                        estimator.add_event(name, t_s)
-                update = estimator.add_frame(frame.sensor, frame.t_s, frame.image, frame.due_s)
-                if on_frame is not None:
-                    grown = estimator.tracks[frame.sensor]
-                    on_frame(frame, grown.positions[grown.n - 1], grown.reference)
-                if update is not None:
-                    yield update
-                    stds = {target: update.std_of(target) for target in limits}
-                    if stop_reached(limits, stds):
-                        stopped = "until_std"
+            try:
+                for frame in _until_source_fails(iterator):
+                    if isinstance(frame, LiquidTouchError):  # a camera died after frames came
+                        stopped, source_error = "source_error", str(frame)
                         break
-                if stop is not None and stop():
-                    stopped = "stopped"
-                    break
-        except KeyboardInterrupt:  # Ctrl-C (here or thrown in by the caller): the final update
-            stopped = "interrupted"
+                    if math.isfinite(frame.due_s):
+                        lags.append(time.monotonic() - frame.due_s)
+                    first_t = frame.t_s if math.isnan(first_t) else first_t
+                    if max_duration_s is not None and frame.t_s - first_t > max_duration_s:
+                        stopped = "max_duration"
+                        break
+                    if on_event is not None:
+                        for name, t_s in on_event():
+                            estimator.add_event(name, t_s)
+                    update = estimator.add_frame(frame.sensor, frame.t_s, frame.image, frame.due_s)
+                    if on_frame is not None:
+                        grown = estimator.tracks[frame.sensor]
+                        on_frame(frame, grown.positions[grown.n - 1], grown.reference)
+                    if update is not None:
+                        yield update
+                        stds = {target: update.std_of(target) for target in limits}
+                        if stop_reached(limits, stds):
+                            stopped = "until_std"
+                            break
+                    if stop is not None and stop():
+                        stopped = "stopped"
+                        break
+            except KeyboardInterrupt:  # Ctrl-C (here or thrown in by the caller): the final update
+                stopped = "interrupted"
+        finally:
+            close = getattr(iterator, "close", None)
+            if close is not None:
+                close()
+        final = estimator.finish(stopped)
     finally:
-        close = getattr(iterator, "close", None)
-        if close is not None:
-            close()
-    final = estimator.finish(stopped)
+        blas.restore_original_limits()
     if source_error:
         final.message = f"{source_error}; {final.message}" if final.message else source_error
     final.timing = estimator.timing()
