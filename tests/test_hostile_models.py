@@ -337,7 +337,8 @@ def test_deeply_nested_or_absurd_json_is_a_model_file_error(tmp_path, files, cap
     with pytest.raises(ModelFileError):
         load_model(path)
     status, _, err = _run(capsys, "predict", path, files / "far.csv")
-    assert status == 2 and str(path) in _one_error_line(err)
+    line = _one_error_line(err)  # the path cut in the middle when long, the file name kept
+    assert status == 2 and path.name in line and "model file" in line and len(line) < 300
 
 
 # -- 13. integrity and provenance ----------------------------------------------------------

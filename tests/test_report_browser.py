@@ -55,8 +55,8 @@ def test_report_renders_with_all_images_and_the_headline_table(browser, report_h
     png = report_html.with_name("screenshot.png")
     check = check_report(report_html, png, browser=browser)
     assert check.problems == [], check.problems
-    assert check.images == check.images_loaded == 7  # one figure per experiment
-    assert check.colours > 500  # text and seven figures, not a blank page
+    assert check.images == check.images_loaded == 8  # one figure per experiment
+    assert check.colours > 500  # text and eight figures, not a blank page
     from PIL import Image
 
     with Image.open(png) as im:
@@ -72,7 +72,7 @@ def test_the_check_catches_a_broken_image_and_wt_percent(browser, report_html, t
     path = tmp_path / "broken.html"
     path.write_text(broken, encoding="utf-8")
     problems = check_report(path, tmp_path / "broken.png", browser=browser).problems
-    assert any("6 of 7 images decoded" in p for p in problems), problems
+    assert any("7 of 8 images decoded" in p for p in problems), problems
     assert any("wt%" in p for p in problems), problems
 
 

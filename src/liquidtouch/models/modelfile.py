@@ -232,6 +232,9 @@ def load_model(path: str | os.PathLike[str]) -> PropertyModel:
         raise ModelFileError(
             f"{path} is not a liquidtouch model file (JSON nested too deeply)"
         ) from None
-    except ValueError as exc:  # e.g. an integer of more than 4300 digits
-        raise ModelFileError(f"{path} is a corrupt model file: {exc} (retrain the model)") from None
+    except ValueError:  # an integer of more than 4300 digits: no model file holds one
+        raise ModelFileError(
+            f"{path} is a corrupt model file (a number with thousands of digits); "
+            "retrain the model"
+        ) from None
     return model_from_dict(doc, str(path))
