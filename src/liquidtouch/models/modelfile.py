@@ -234,7 +234,6 @@ def load_model(path: str | os.PathLike[str]) -> PropertyModel:
         ) from None
     except ValueError:  # an integer of more than 4300 digits: no model file holds one
         raise ModelFileError(
-            f"{path} is a corrupt model file (a number with thousands of digits); "
-            "retrain the model"
+            f"{path} is a corrupt model file (a number with thousands of digits); retrain the model"
         ) from None
     return model_from_dict(doc, str(path))
