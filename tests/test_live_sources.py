@@ -121,7 +121,7 @@ class FaultyCamera:
 @pytest.mark.parametrize(
     ("kind", "message"),
     [
-        ("stall", "no data within"),
+        ("stall", "no complete frame within"),  # the read's whole-call deadline
         ("broken", "Content-Length"),
         ("nan", "X-Timestamp"),
         ("garbage", "X-Timestamp"),
@@ -188,9 +188,9 @@ def test_a_read_that_ignores_its_deadline_is_a_stall(monkeypatch) -> None:
     import liquidtouch.live.sources as sources
 
     cams = iter([_Frozen(10**6), _Frozen(15)])
-    monkeypatch.setattr(sources, "open_camera", lambda source, profile: next(cams))
+    monkeypatch.setattr(sources, "open_camera", lambda source, profile, **deadlines: next(cams))
     got = 0
     with pytest.raises(DeviceError, match=r"camera right failed: no frame for 0\.5 s"):
-        for _ in camera_frames(["a", "b"], stall_s=0.5):
+        for _ in camera_frames(["http://127.0.0.1:9/a", "http://127.0.0.1:9/b"], stall_s=0.5):
             got += 1
     assert got >= 15

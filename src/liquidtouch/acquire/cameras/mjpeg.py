@@ -199,7 +199,7 @@ class MjpegStream:
             body = self._body(headers.get(mjpeg.LENGTH_HEADER.lower()))
         except TimeoutError:
             raise DeviceError(
-                f"stream {self.url} delivered no complete frame within {timeout_s:g} s; is "
+                f"stream {self.url} delivered no complete frame within {timeout_s:.3g} s; is "
                 "the sensor still streaming?"
             ) from None
         except (OSError, http.client.HTTPException) as exc:
