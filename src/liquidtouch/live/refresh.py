@@ -160,20 +160,12 @@ def refresh(
     decay_start = float(t[min(start, len(t) - 1)])
     if t_in[-1] - decay_start < MIN_WINDOW_S:
         return Refreshed(t, u, "push", decay_start, message="the push is under way")
-    keep = (t >= decay_start) & trusted
-    options = fit_options(settings, final)
-    try:
-        fit = fit_oscillation(
-            t[keep],
-            u[keep],
-            **options,
-            min_duration_s=MIN_WINDOW_S,
-            warm_start=None if final else warm_start,
-        )
-    except NoOscillationError as exc:
-        return Refreshed(t, u, "decay", decay_start, message=str(exc), no_oscillation=True)
-    except LiquidTouchError as exc:
-        return Refreshed(t, u, "decay", decay_start, message=str(exc))
+    keep = trusted & (t >= decay_start)
+    fit, message, no_oscillation = fit_ring_down(
+        t[keep], u[keep], decay_start, math.inf, settings, final=final, warm_start=warm_start
+    )
+    if fit is None:
+        return Refreshed(t, u, "decay", decay_start, message=message, no_oscillation=no_oscillation)
     return Refreshed(t, u, "decay", decay_start, fit)
 
 
