@@ -33,7 +33,7 @@ from synthetic_tables import (
     sloshing_features,
 )
 
-from liquidtouch.models.property_model import train_regression
+from liquidtouch.models.training import train_regression
 
 LIQUIDS = ("water", "mirin", "corn-oil", "olive-oil", "detergent")
 TARGETS = ("height_mm", "log10_viscosity_cst")

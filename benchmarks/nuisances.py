@@ -38,7 +38,7 @@ import pandas as pd
 from liquidtouch.batch.features import extract_features
 from liquidtouch.experiments.common import X, mae, usable
 from liquidtouch.io.dataset import MANIFEST_NAME
-from liquidtouch.models.property_model import train_regression
+from liquidtouch.models.training import train_regression
 from liquidtouch.sim.presets import get_preset, simulate_dataset
 from liquidtouch.sim.realism import NUISANCES, Realism
 

@@ -30,7 +30,8 @@ from synthetic_tables import (
 )
 
 from liquidtouch.io.tables import FEATURE_COLUMNS
-from liquidtouch.models.property_model import MODEL_KINDS, train_regression
+from liquidtouch.models.property_model import MODEL_KINDS
+from liquidtouch.models.training import train_regression
 from liquidtouch.models.transfer import fit_transfer
 
 FEATURES = list(FEATURE_COLUMNS)

@@ -251,7 +251,7 @@ def simulated_classifier(path: Path, liquids=("water", "olive-oil", "detergent")
     """A classifier file trained on the simulator's truth (4 trials at each of 8 heights
     20-40 mm per liquid, with the fit's typical noise: λ 4 %, ω 0.3 %)."""
     from liquidtouch.models.modelfile import save_model
-    from liquidtouch.models.property_model import train_classifier
+    from liquidtouch.models.training import train_classifier
     from liquidtouch.sim.trial import simulate_trial
 
     rng = np.random.default_rng(3)

@@ -233,7 +233,7 @@ def simulate_all(args) -> dict:
 
 
 def train_models(train: list[dict]) -> dict:
-    from liquidtouch.models.property_model import train_regression
+    from liquidtouch.models.training import train_regression
 
     X, y = train_matrix(train)
     models = {

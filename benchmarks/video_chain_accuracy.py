@@ -30,7 +30,7 @@ from scipy.signal import butter, sosfiltfilt
 
 from liquidtouch.extraction import extract
 from liquidtouch.fit.oscillation import fit_oscillation
-from liquidtouch.segment import free_decay
+from liquidtouch.ring_down import free_decay
 from liquidtouch.signal import tactile_signal
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.trial_io import write_trial

@@ -18,7 +18,7 @@ from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.live.estimator import LiveEstimator
 from liquidtouch.models.classifier import UNKNOWN, LiquidClassifier
 from liquidtouch.models.modelfile import load_model, model_to_dict, save_model
-from liquidtouch.models.property_model import train_classifier
+from liquidtouch.models.training import train_classifier
 from liquidtouch.sim.protocol_scene import protocol_scene
 from liquidtouch.sim.trial import simulate_trial
 

@@ -12,7 +12,7 @@ import pytest
 from liquidtouch.errors import ModelFileError, TableError
 from liquidtouch.models.conformal import TargetCalibration, min_rows_for_level
 from liquidtouch.models.modelfile import load_model, model_from_dict, model_to_dict, save_model
-from liquidtouch.models.property_model import train_regression
+from liquidtouch.models.training import train_regression
 
 
 def _table(n: int, noise: float, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

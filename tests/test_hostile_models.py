@@ -36,8 +36,8 @@ from liquidtouch.models.feature_space import FeatureMap, TrainingDomain
 from liquidtouch.models.kernel_limits import MAX_KERNEL_ROWS, MAX_KERNEL_ROWS_TOTAL
 from liquidtouch.models.modelfile import MAX_MODEL_FILE_BYTES, load_model, model_to_dict, save_model
 from liquidtouch.models.modelfile_checks import document_sha256
-from liquidtouch.models.property_model import train_regression
 from liquidtouch.models.regressors import GPRegressor
+from liquidtouch.models.training import train_regression
 
 FEATURES = list(FEATURE_COLUMNS)
 SRC = Path(liquidtouch.__file__).resolve().parents[1]

@@ -465,7 +465,8 @@ def _lowpassed_noise(n: int, fps: float, seed: int) -> np.ndarray:
 
 
 def test_no_push_found_in_a_still_signal() -> None:
-    from liquidtouch.segment import MIN_PUSH_SNR, free_decay, push_snr
+    from liquidtouch.ring_down import free_decay
+    from liquidtouch.segment import MIN_PUSH_SNR, push_snr
 
     fps, n = 25.0, 325
     t = np.arange(n) / fps

@@ -135,7 +135,7 @@ class _LinearModel:
 
 def test_property_std_adds_the_fit_std() -> None:
     """A model of f = 2 λ + 0.5 ω: std² = model std² + (2 σλ)² + (0.5 σω)² (delta method)."""
-    from liquidtouch.models.property_model import train_regression
+    from liquidtouch.models.training import train_regression
 
     rng = np.random.default_rng(0)
     X = np.column_stack([rng.uniform(0.1, 0.4, 40), rng.uniform(12.0, 16.0, 40)])
@@ -205,7 +205,7 @@ def test_camera_frames_from_a_replayed_file(trial) -> None:
 @pytest.fixture(scope="module")
 def classifier():
     """A liquid classifier on made-up features: water λ ≈ 0.1-0.3/s, oil λ ≈ 0.9-1.5/s."""
-    from liquidtouch.models.property_model import train_classifier
+    from liquidtouch.models.training import train_classifier
 
     rng = np.random.default_rng(0)
     lam = np.concatenate([rng.uniform(0.08, 0.3, 30), rng.uniform(0.9, 1.5, 30)])

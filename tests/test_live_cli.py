@@ -37,7 +37,7 @@ def trial(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
 def model_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A quadratic model of a made-up target height_mm = 2 ω − 3 [mm] (exact on its grid)."""
     from liquidtouch.models.modelfile import save_model
-    from liquidtouch.models.property_model import train_regression
+    from liquidtouch.models.training import train_regression
 
     lam, omega = np.meshgrid(np.linspace(0.05, 0.6, 8), np.linspace(8.0, 20.0, 8))
     X = np.column_stack([lam.ravel(), omega.ravel()])
@@ -147,7 +147,7 @@ def test_serve_publishes_updates_and_frames(capsys, trial, monkeypatch) -> None:
 
 def test_classifier_model_names_the_liquid(capsys, trial, tmp_path) -> None:
     from liquidtouch.models.modelfile import save_model
-    from liquidtouch.models.property_model import train_classifier
+    from liquidtouch.models.training import train_classifier
 
     # made-up features: "thin" λ 0.05-0.3/s, "thick" λ 0.5-1.5/s (mirin's λ ≈ 0.7/s)
     rng = np.random.default_rng(1)

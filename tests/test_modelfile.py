@@ -18,7 +18,8 @@ from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.models.feature_space import FeatureMap
 from liquidtouch.models.modelfile import load_model, model_to_dict, save_model
 from liquidtouch.models.modelfile_checks import document_sha256
-from liquidtouch.models.property_model import PropertyModel, train_classifier, train_regression
+from liquidtouch.models.property_model import PropertyModel
+from liquidtouch.models.training import train_classifier, train_regression
 
 FEATURES = list(FEATURE_COLUMNS)
 

@@ -25,9 +25,9 @@ from liquidtouch.models.physics_prior import (
     fit_wavenumber,
     prior_for_target,
 )
-from liquidtouch.models.property_model import train_classifier, train_regression
 from liquidtouch.models.quadratic import QuadraticRegressor
 from liquidtouch.models.regressors import GPRegressor
+from liquidtouch.models.training import train_classifier, train_regression
 from liquidtouch.models.transfer import fit_transfer
 
 FEATURES = list(FEATURE_COLUMNS)

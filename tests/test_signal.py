@@ -80,7 +80,8 @@ def test_errors():
 
 
 def test_free_decay_starts_at_the_push_not_at_the_end_of_a_slip_drift():
-    from liquidtouch.segment import free_decay, free_decay_start
+    from liquidtouch.ring_down import free_decay
+    from liquidtouch.segment import free_decay_start
 
     t = np.arange(0, 13, 1 / 30)
     ring = np.where(t >= 1.2, np.exp(-3.5 * (t - 1.2)) * np.cos(15.0 * (t - 1.2)), 0.0)
@@ -201,7 +202,8 @@ def test_signal_helpers_check_their_arguments():
     ],
 )
 def test_free_decay_checks_its_arguments(args, kwargs, match):
-    from liquidtouch.segment import free_decay, free_decay_start
+    from liquidtouch.ring_down import free_decay
+    from liquidtouch.segment import free_decay_start
 
     with pytest.raises(SignalError, match=match):
         free_decay_start(*args, **kwargs)

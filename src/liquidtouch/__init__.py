@@ -38,7 +38,7 @@ _EXPORTS: dict[str, str] = {
     "extract": "extraction",
     "extract_signal": "extraction",
     "Extraction": "extraction",
-    "free_decay": "segment",
+    "free_decay": "ring_down",
     "plot_extraction": "extraction_plot",
     # properties
     "GPRegressor": "models",

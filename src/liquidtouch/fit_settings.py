@@ -17,7 +17,7 @@ from liquidtouch._core.checks import as_number
 from liquidtouch.errors import SignalError
 from liquidtouch.fit.choices import DEFAULT_MODEL, LOSSES, MODELS, NOISE_MODELS
 from liquidtouch.fit.oscillation import GAP_STEPS, MIN_DURATION_S, fit_oscillation, validate_signal
-from liquidtouch.segment import free_decay
+from liquidtouch.ring_down import free_decay
 
 AUTO = "auto"
 """``FitSettings.start`` value: fit from the start of the free decay (:func:`free_decay`)."""
@@ -29,7 +29,7 @@ class FitSettings:
 
     ``loss``, ``model``, ``band_hz`` [Hz] and ``noise`` are passed to
     :func:`~liquidtouch.fit.oscillation.fit_oscillation`. ``start`` is ``"auto"``
-    (the free decay after the push: :func:`~liquidtouch.segment.free_decay`) or a
+    (the free decay after the push: :func:`~liquidtouch.ring_down.free_decay`) or a
     time [s] on the signal's clock: the samples from then on are fitted. The
     defaults are what ``extract``, ``features``, ``fit`` and ``fit_oscillation``
     use: the paper's loss and the model the data choose
@@ -117,7 +117,7 @@ def fit_window(
     The whole signal is first checked as a fit input (finite, strictly increasing
     time, long enough, not flat, at most ``MAX_SAMPLES``), so a bad signal is named
     for what it is. ``start="auto"``: the free decay
-    (:func:`~liquidtouch.segment.free_decay`, what ``extract`` fits); a number: the
+    (:func:`~liquidtouch.ring_down.free_decay`, what ``extract`` fits); a number: the
     samples at ``t >= start`` (before the first sample: all of them), at least
     ``MIN_DURATION_S`` of them.
     """

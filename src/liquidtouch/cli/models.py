@@ -128,7 +128,7 @@ def train(
     from liquidtouch.io.tables import numeric_column
     from liquidtouch.models.held_out import regression_errors, selection_summary, split_rows
     from liquidtouch.models.modelfile import save_model
-    from liquidtouch.models.property_model import train_regression
+    from liquidtouch.models.training import train_regression
 
     kind = str(model)
     table, X, skipped = _read_training_table(features)
@@ -214,7 +214,7 @@ def classify(
         split_rows,
     )
     from liquidtouch.models.modelfile import save_model
-    from liquidtouch.models.property_model import train_classifier
+    from liquidtouch.models.training import train_classifier
 
     table, X, skipped = _read_training_table(features)
     table, X, rest, chosen = split_rows(table, X, split, where, features)

@@ -22,7 +22,8 @@ import pandas as pd
 from liquidtouch.errors import TableError
 from liquidtouch.experiments.common import TARGETS, X, pyplot, save_figure, split, usable
 from liquidtouch.experiments.report import ExperimentResult, Headline
-from liquidtouch.models.property_model import STD_COLUMNS, can_calibrate, train_regression
+from liquidtouch.models.property_model import STD_COLUMNS
+from liquidtouch.models.training import can_calibrate, train_regression
 
 #: central-interval levels of the reliability diagram
 LEVELS = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95)

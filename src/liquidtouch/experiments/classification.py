@@ -16,7 +16,7 @@ import pandas as pd
 from liquidtouch.experiments.common import X, pyplot, save_figure, split, usable
 from liquidtouch.experiments.paper import CLASSIFICATION_ACCURACY, PaperValue
 from liquidtouch.experiments.report import ExperimentResult, Headline
-from liquidtouch.models.property_model import train_classifier
+from liquidtouch.models.training import train_classifier
 
 
 def classify(table: pd.DataFrame) -> tuple[object, pd.DataFrame, float, int]:

@@ -26,7 +26,8 @@ from liquidtouch.experiments.common import (
 )
 from liquidtouch.experiments.paper import SUGAR_TEST_MAE, UNITS
 from liquidtouch.experiments.report import ExperimentResult, Headline
-from liquidtouch.models.property_model import MODEL_KINDS, train_regression
+from liquidtouch.models.property_model import MODEL_KINDS
+from liquidtouch.models.training import train_regression
 
 
 def train_models(train: pd.DataFrame, kind: str, targets=tuple(TARGETS)):

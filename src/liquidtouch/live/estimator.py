@@ -10,21 +10,7 @@ refresh that finished, else ``None``; :meth:`LiveEstimator.finish` fits the
 whole stream as offline (a stream stopped on ``until_std`` keeps the estimate
 that met the thresholds) and returns the final update.
 
-**Emission rule** (from the uncertainty, no time floor): ω is reported once its
-std is below :data:`MAX_FREQ_REL_STD` of ω; λ once its std is below
-:data:`MAX_DECAY_REL_STD` of λ. While streaming, the std is how far the value
-may still be from the stream's final one (:mod:`liquidtouch.live.uncertainty`):
-the fit's correlated-noise standard error plus calibrated terms for the
-window's length, in e-foldings of the decay and in seconds — the damping of a real slosh is
-not exactly exponential, so the fit's std alone claims a precision a short
-window does not have (simulated water: the first λ emitted was 38 % off the
-final one while its std claimed 6 %). The final update keeps the final fit's
-std. Properties do not wait for these gates: a regression model's targets are
-predicted from every fit, the λ and ω std propagated and added to the model's
-calibrated std (:mod:`liquidtouch.live.properties`), and a target with an
-``until_std`` threshold is reported once its std meets it (so a height that
-depends on ω answers before λ's std is below 10 %). A classifier's probabilities
-wait until λ and ω are both reported.
+What of each refresh is reported: :mod:`liquidtouch.live.emission`.
 """
 
 from __future__ import annotations
@@ -36,17 +22,14 @@ import threading
 import time
 from collections import deque
 from collections.abc import Mapping
-from dataclasses import dataclass
 
 import numpy as np
 
 from liquidtouch.errors import LiquidTouchError, VideoError
 from liquidtouch.fit_settings import FitSettings
+from liquidtouch.live.emission import emitted_update
 from liquidtouch.live.properties import (
     check_live_model,
-    classify_with_fit_std,
-    out_of_domain,
-    predict_with_fit_std,
 )
 from liquidtouch.live.refresh import (
     EDGE_S,
@@ -55,21 +38,18 @@ from liquidtouch.live.refresh import (
     fit_ring_down,
     shared_signal,
 )
+from liquidtouch.live.ring_downs import RingDown, copy_segment, mark_segment, signal_start_s
 from liquidtouch.live.stopping import check_until_std
 from liquidtouch.live.tracks import GrowingTracks
-from liquidtouch.live.uncertainty import streamed_decay_rate_std, streamed_frequency_std
 from liquidtouch.live.updates import LiveUpdate
-from liquidtouch.segment import MIN_FREE_DECAY_S, Segment, ring_down_reason, trial_segments
+from liquidtouch.ring_down import Segment, ring_down_reason, trial_segments
+from liquidtouch.segment import MIN_FREE_DECAY_S
 from liquidtouch.signal import check_signal_options
 
 logger = logging.getLogger(__name__)
 
 #: stream time between refreshes of the estimate [s]
 REFRESH_S = 0.25
-#: ω is reported once its std is below this fraction of ω
-MAX_FREQ_REL_STD = 0.01
-#: λ is reported once its std (fit and window length) is below this fraction of λ
-MAX_DECAY_REL_STD = 0.10
 #: frames whose add_frame latency is kept for the final update's timing (~1 h at 2 × 30 fps)
 MAX_TIMED_FRAMES = 216_000
 #: a candidate's verdict is reused for one starting within this much of it [s]
@@ -81,59 +61,9 @@ KEPT_FIELDS = (
 )  # fmt: skip
 
 
-@dataclass
-class RingDown:
-    """A ring-down whose hold ended (or the stream's last, at its end): its final estimate."""
-
-    index: int
-    start_s: float
-    end_s: float
-    update: LiveUpdate
-
-    def summary(self, origin_s: float) -> dict[str, object]:
-        """JSON-ready: the segment (times since the first frame [s]) and its λ, ω."""
-        u = self.update
-        return {
-            "segment": self.index,
-            "start_s": _json(self.start_s - origin_s),
-            "end_s": _json(self.end_s - origin_s),
-            "decay_rate": _json(u.decay_rate),
-            "decay_rate_std": _json(u.decay_rate_std),
-            "angular_frequency": _json(u.angular_frequency),
-            "angular_frequency_std": _json(u.angular_frequency_std),
-            "window_s": _json(u.window_s),
-            "message": u.message,
-        }
-
-
-def _json(value: float) -> float | None:
-    return float(value) if math.isfinite(value) else None
-
-
 def _within(t: np.ndarray, u: np.ndarray, start: float, end: float):
     keep = (t >= start) & (t <= end)
     return t[keep], u[keep]
-
-
-def _window_from(segments: list[Segment], i: int) -> float:
-    """Where the signal of ring-down ``segments[i]`` starts [s]: after the stretch before its
-    push (the whole stream when its push is the first transient)."""
-    before = segments[i - 1] if i >= 1 and segments[i - 1].kind == "push" else None
-    j = i - 2 if before is not None else i - 1
-    if j < 0 or segments[j].kind == "rest":
-        return -math.inf
-    return before.start_s if before is not None else segments[i].start_s - EDGE_S
-
-
-def _copy_segment(update: LiveUpdate, other: LiveUpdate) -> None:
-    update.segment, update.segment_final = other.segment, other.segment_final
-    update.segment_start_s, update.segment_end_s = other.segment_start_s, other.segment_end_s
-
-
-def _mark_segment(update: LiveUpdate, index: int, seg: Segment, *, final: bool) -> None:
-    update.segment = index
-    update.segment_start_s, update.segment_end_s = seg.start_s, seg.end_s
-    update.segment_final = final
 
 
 def _whole_stream_fit(settings: FitSettings, full) -> Refreshed:
@@ -279,7 +209,7 @@ class LiveEstimator:
         tracks, frames, elapsed, due = self._snapshot()
         if not all(grown.n for grown in self.tracks.values()):
             result = Refreshed(np.zeros(0), np.zeros(0), "waiting", message="no frames")
-            update = self._update(result, frames, elapsed, due, final=True)
+            update = self._emit(result, frames, elapsed, due, final=True)
         else:
             update = self._run_refresh(tracks, frames, elapsed, due, final=True)
             self._take_result()
@@ -307,7 +237,7 @@ class LiveEstimator:
                     setattr(update, name, getattr(previous, name))
                 why = update.message if refit_failed else "stopped on the std thresholds"
                 update.message = f"{why}: the last streamed estimate is kept"
-                _copy_segment(update, previous)
+                copy_segment(update, previous)
         update.segments = [r.summary(self.first_t_s) for r in self.finals]
         update.phase, update.stopped_because = "done", stopped_because
         self.last = update
@@ -331,7 +261,7 @@ class LiveEstimator:
             self.events[str(name)] = float(t_s)
 
     def _segments(self, tracks: list, t: np.ndarray, x: np.ndarray, u: np.ndarray, final: bool):
-        """The stream's segments (:func:`~liquidtouch.segment.trial_segments`), each candidate
+        """The stream's segments (:func:`~liquidtouch.ring_down.trial_segments`), each candidate
         judged on its own window's signal; closed candidates' verdicts are kept."""
         with self._lock:
             events = dict(self.events)
@@ -360,13 +290,13 @@ class LiveEstimator:
             full = shared_signal(tracks, **self.options)
         except LiquidTouchError as exc:
             result = Refreshed(np.zeros(0), np.zeros(0), "waiting", message=str(exc))
-            return self._publish(self._update(result, frames, elapsed_s, due_s, final=final))
+            return self._publish(self._emit(result, frames, elapsed_s, due_s, final=final))
         t, u = full.t, full.u
         x = full.motion.reshape(len(t), -1)
         trusted = np.ones(t.shape, bool) if final else t <= t[-1] - EDGE_S
         if trusted.sum() < 8:
             result = Refreshed(t, u, "waiting", message="too little signal yet")
-            return self._publish(self._update(result, frames, elapsed_s, due_s, final=final))
+            return self._publish(self._emit(result, frames, elapsed_s, due_s, final=final))
         segments = self._segments(tracks, t[trusted], x[trusted], u[trusted], final)
         last_end = self.finals[-1].end_s if self.finals else -math.inf
         # a stream longer than the tracks' window: a segment at the window's start began
@@ -377,7 +307,7 @@ class LiveEstimator:
         for i, seg in enumerate(segments):
             if seg.kind != "ring-down" or seg.start_s <= max(last_end, cut_s):
                 continue
-            window_from = _window_from(segments, i)
+            window_from = signal_start_s(segments, i)
             if seg.closed or final:
                 self._finalize(tracks, seg, window_from, full, frames, elapsed_s, due_s)
                 last_end = seg.end_s
@@ -405,7 +335,7 @@ class LiveEstimator:
             if tail.kind == "release":
                 message = "the hold ended"
             result = Refreshed(t, u, phase, message=message)
-            update = self._update(result, frames, elapsed_s, due_s, final=final)
+            update = self._emit(result, frames, elapsed_s, due_s, final=final)
         if math.isfinite(due_s):
             update.lag_s = time.monotonic() - due_s
         return self._publish(update)
@@ -454,10 +384,10 @@ class LiveEstimator:
             self.verdicts.append((seg.start_s, True, result.message or "no fit"))
             logger.info("candidate at %.2f s is not a ring-down: %s", seg.start_s, result.message)
             return
-        update = self._update(result, frames, elapsed_s, due_s, final=True)
+        update = self._emit(result, frames, elapsed_s, due_s, final=True)
         update.phase = "ended"
         update.final = False
-        _mark_segment(update, index, seg, final=True)
+        mark_segment(update, index, seg, final=True)
         logger.info(
             "ring-down %d (%.2f-%.2f s) is final: λ %.4g, ω %.4g",
             index, seg.start_s - self.first_t_s, seg.end_s - self.first_t_s,
@@ -474,7 +404,7 @@ class LiveEstimator:
         try:
             sig = shared_signal(tracks, **self.options, from_s=window_from)
         except LiquidTouchError as exc:
-            return self._update(
+            return self._emit(
                 Refreshed(np.zeros(0), np.zeros(0), "push", start, message=str(exc)),
                 frames, elapsed_s, due_s, final=False,
             )  # fmt: skip
@@ -489,8 +419,8 @@ class LiveEstimator:
             if fit is not None:
                 self.warm_start = (fit.decay_rate, fit.angular_frequency)
             result = Refreshed(sig.t, sig.u, "decay", start, fit, message, no_osc)
-        update = self._update(result, frames, elapsed_s, due_s, final=False)
-        _mark_segment(update, len(self.finals) + 1, seg, final=False)
+        update = self._emit(result, frames, elapsed_s, due_s, final=False)
+        mark_segment(update, len(self.finals) + 1, seg, final=False)
         return update
 
     def _take_result(self) -> LiveUpdate | None:
@@ -500,55 +430,19 @@ class LiveEstimator:
             self.last = update
         return update
 
-    def _update(
+    def _emit(
         self, result: Refreshed, frames: int, elapsed_s: float, due_s: float, *, final: bool
     ) -> LiveUpdate:
-        """The :class:`LiveUpdate` of one refresh, with the emission rule applied."""
-        decay_clock = result.t - (result.decay_start_s if result.phase != "waiting" else np.nan)
-        update = LiveUpdate(
-            t_s=result.now_s - result.decay_start_s,
-            phase=result.phase,
-            elapsed_s=elapsed_s,
-            frames=frames,
+        return emitted_update(
+            result,
+            frames,
+            elapsed_s,
+            due_s,
             final=final,
-            message=result.message,
-            signal_t_s=decay_clock,
-            signal_u=result.u,
-            signal_fit=result.fit_curve(),
+            model=self.model,
+            model_kind=self.model_kind,
+            until_std=self.until_std,
         )
-        fit = result.fit
-        if fit is not None:
-            update.window_s, update.model = fit.duration_s, fit.model
-            lam, omega = fit.decay_rate, fit.angular_frequency
-            if final:
-                lam_std, omega_std = fit.decay_rate_std, fit.angular_frequency_std
-            else:
-                lam_std = streamed_decay_rate_std(lam, fit.decay_rate_std, fit.duration_s)
-                omega_std = streamed_frequency_std(omega, fit.angular_frequency_std, fit.duration_s)
-            show_omega = final or omega_std < MAX_FREQ_REL_STD * abs(omega)
-            show_lam = final or lam_std < MAX_DECAY_REL_STD * abs(lam)
-            if show_omega:
-                update.angular_frequency, update.angular_frequency_std = omega, omega_std
-            if show_lam:
-                update.decay_rate, update.decay_rate_std = lam, lam_std
-            features = (lam, lam_std, omega, omega_std)
-            if self.model_kind == "regression":
-                # no λ/ω gate: a property is as good as its own propagated std says (a
-                # height that hangs on ω answers before λ is known to 10 %); a target
-                # with an until_std threshold is reported once its std meets it
-                predicted = predict_with_fit_std(self.model, *features)
-                update.predicted = {
-                    t: (mean, std)
-                    for t, (mean, std) in predicted.items()
-                    if final or std <= self.until_std.get(t, math.inf)
-                }
-            elif self.model is not None and show_omega and show_lam:
-                update.classified = classify_with_fit_std(self.model, *features)
-            if update.predicted or update.classified:  # an answer: is it one the model knows?
-                update.out_of_domain = out_of_domain(self.model, lam, omega, update.classified)
-        if math.isfinite(due_s):
-            update.lag_s = time.monotonic() - due_s
-        return update
 
     # -- measurements -------------------------------------------------------------------
 

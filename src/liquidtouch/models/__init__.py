@@ -13,14 +13,10 @@ from liquidtouch.models.classifier import LiquidClassifier
 from liquidtouch.models.feature_space import TrainingDomain
 from liquidtouch.models.modelfile import load_model, save_model
 from liquidtouch.models.physics_prior import PhysicsGPRegressor
-from liquidtouch.models.property_model import (
-    MODEL_KINDS,
-    PropertyModel,
-    train_classifier,
-    train_regression,
-)
+from liquidtouch.models.property_model import MODEL_KINDS, PropertyModel
 from liquidtouch.models.quadratic import QuadraticRegressor
 from liquidtouch.models.regressors import GPRegressor
+from liquidtouch.models.training import train_classifier, train_regression
 from liquidtouch.models.transfer import fit_transfer
 
 __all__ = [

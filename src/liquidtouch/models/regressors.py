@@ -15,7 +15,7 @@ is one numeric label (``height_mm``, ``sugar_concentration``,
 (n,); ``predict(X, return_std=True)`` returns ``(mean, std)``, both (n,), as
 ``sklearn.gaussian_process.GaussianProcessRegressor`` does. Several targets are
 several estimators, each with its own hyperparameters (and physics prior):
-:func:`~liquidtouch.models.property_model.train_regression` builds one per
+:func:`~liquidtouch.models.training.train_regression` builds one per
 target; ``sklearn.multioutput.MultiOutputRegressor`` does the same and returns (n, k).
 
 - :class:`GPRegressor` — Gaussian-process regression with an anisotropic RBF +

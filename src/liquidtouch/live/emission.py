@@ -1,0 +1,98 @@
+"""What of a refresh the live estimate reports: the emission rule.
+
+From the uncertainty, no time floor: ω is reported once its
+std is below :data:`MAX_FREQ_REL_STD` of ω; λ once its std is below
+:data:`MAX_DECAY_REL_STD` of λ. While streaming, the std is how far the value
+may still be from the stream's final one (:mod:`liquidtouch.live.uncertainty`):
+the fit's correlated-noise standard error plus calibrated terms for the
+window's length, in e-foldings of the decay and in seconds — the damping of a real slosh is
+not exactly exponential, so the fit's std alone claims a precision a short
+window does not have (simulated water: the first λ emitted was 38 % off the
+final one while its std claimed 6 %). The final update keeps the final fit's
+std. Properties do not wait for these gates: a regression model's targets are
+predicted from every fit, the λ and ω std propagated and added to the model's
+calibrated std (:mod:`liquidtouch.live.properties`), and a target with an
+``until_std`` threshold is reported once its std meets it (so a height that
+depends on ω answers before λ's std is below 10 %). A classifier's probabilities
+wait until λ and ω are both reported.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+
+import numpy as np
+
+from liquidtouch.live.properties import classify_with_fit_std, out_of_domain, predict_with_fit_std
+from liquidtouch.live.refresh import Refreshed
+from liquidtouch.live.uncertainty import streamed_decay_rate_std, streamed_frequency_std
+from liquidtouch.live.updates import LiveUpdate
+
+__all__ = ["MAX_DECAY_REL_STD", "MAX_FREQ_REL_STD", "emitted_update"]
+
+#: ω is reported once its std is below this fraction of ω
+MAX_FREQ_REL_STD = 0.01
+#: λ is reported once its std (fit and window length) is below this fraction of λ
+MAX_DECAY_REL_STD = 0.10
+
+
+def emitted_update(
+    result: Refreshed,
+    frames: int,
+    elapsed_s: float,
+    due_s: float,
+    *,
+    final: bool,
+    model: object | None = None,
+    model_kind: str | None = None,
+    until_std: Mapping[str, float] | None = None,
+) -> LiveUpdate:
+    """The :class:`LiveUpdate` of one refresh, with the emission rule applied (module
+    docstring); ``model`` (``model_kind`` regression or classifier) adds properties."""
+    decay_clock = result.t - (result.decay_start_s if result.phase != "waiting" else np.nan)
+    update = LiveUpdate(
+        t_s=result.now_s - result.decay_start_s,
+        phase=result.phase,
+        elapsed_s=elapsed_s,
+        frames=frames,
+        final=final,
+        message=result.message,
+        signal_t_s=decay_clock,
+        signal_u=result.u,
+        signal_fit=result.fit_curve(),
+    )
+    fit = result.fit
+    if fit is not None:
+        update.window_s, update.model = fit.duration_s, fit.model
+        lam, omega = fit.decay_rate, fit.angular_frequency
+        if final:
+            lam_std, omega_std = fit.decay_rate_std, fit.angular_frequency_std
+        else:
+            lam_std = streamed_decay_rate_std(lam, fit.decay_rate_std, fit.duration_s)
+            omega_std = streamed_frequency_std(omega, fit.angular_frequency_std, fit.duration_s)
+        show_omega = final or omega_std < MAX_FREQ_REL_STD * abs(omega)
+        show_lam = final or lam_std < MAX_DECAY_REL_STD * abs(lam)
+        if show_omega:
+            update.angular_frequency, update.angular_frequency_std = omega, omega_std
+        if show_lam:
+            update.decay_rate, update.decay_rate_std = lam, lam_std
+        features = (lam, lam_std, omega, omega_std)
+        if model_kind == "regression":
+            # no λ/ω gate: a property is as good as its own propagated std says (a
+            # height that hangs on ω answers before λ is known to 10 %); a target
+            # with an until_std threshold is reported once its std meets it
+            predicted = predict_with_fit_std(model, *features)
+            update.predicted = {
+                t: (mean, std)
+                for t, (mean, std) in predicted.items()
+                if final or std <= (until_std or {}).get(t, math.inf)
+            }
+        elif model is not None and show_omega and show_lam:
+            update.classified = classify_with_fit_std(model, *features)
+        if update.predicted or update.classified:  # an answer: is it one the model knows?
+            update.out_of_domain = out_of_domain(model, lam, omega, update.classified)
+    if math.isfinite(due_s):
+        update.lag_s = time.monotonic() - due_s
+    return update
