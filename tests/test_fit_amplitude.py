@@ -64,30 +64,37 @@ def test_cubic_damper_lambda0_and_gain(seed: int) -> None:
     lam0, k = 0.3, 4.0
     u = cubic_damper_signal(T, lam0, 10.0, k, 0.01, rng)
     fit = fit_oscillation(T, u, model="amplitude")
-    paper = fit_oscillation(T, u)
-    assert fit.model == "amplitude" and fit.damping_exponent == 2
-    assert fit.decay_rate == pytest.approx(lam0, rel=0.04)
-    assert abs(fit.decay_rate - lam0) < abs(paper.decay_rate - lam0) + 0.005
-    assert fit.damping_gain == pytest.approx(k / 4, rel=0.25)
+    single = fit_oscillation(T, u, model="single-mode")
+    assert fit.model == "amplitude" and 1 <= fit.damping_exponent <= 2
+    # p is free in [1, 2]: this damper's envelope (u = ε'', harmonic balance to first
+    # order) is fitted best at p ≈ 1.46 even at this noise, which costs λ0 up to 4 %
+    # (it was 1-3 % with p held at 2); the issue's target is 5 %
+    assert fit.decay_rate == pytest.approx(lam0, rel=0.05)
+    assert abs(fit.decay_rate - lam0) < 0.5 * abs(single.decay_rate - lam0)  # single: +10 %
+    # κ A0^p, the excess damping λ(A0)/λ0 − 1 at the window start (p = 2 truth: 0.9)
+    assert _excess_damping(fit) == pytest.approx(k / 4 * fit.amplitude**2, rel=0.35)
     assert 0 < fit.damping_gain_std < 0.3 * fit.damping_gain
     assert fit.angular_frequency == pytest.approx(10.0, rel=0.005)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_velocity_squared_damper_lambda0_and_gain(seed: int, monkeypatch) -> None:
-    # ε'' + 2λ0ε' + c|ε'|ε' + ω0²ε = 0: p = 1, κ = 4cω0/(3πλ0). The default tries p = 2
-    # only (amplitude.EXPONENTS); p = 1 is there for a damper known to be velocity-squared
-    monkeypatch.setattr(am, "EXPONENTS", (2, 1))
+def test_velocity_squared_damper_lambda0_and_gain(seed: int) -> None:
+    # ε'' + 2λ0ε' + c|ε'|ε' + ω0²ε = 0: p = 1, κ = 4cω0/(3πλ0); p is fitted in [1, 2]
     rng = np.random.default_rng(seed)
     lam0, omega, drag = 0.3, 10.0, 0.12
     u = quadratic_damper_signal(T, lam0, omega, drag, 0.01, rng)
     fit = fit_oscillation(T, u, model="amplitude")
     paper = fit_oscillation(T, u, model="two-mode")
-    assert fit.damping_exponent == 1
+    assert fit.damping_exponent < 1.5
     assert fit.decay_rate == pytest.approx(lam0, rel=0.05)
     assert abs(fit.decay_rate - lam0) < abs(paper.decay_rate - lam0)  # paper: +7 to +10 %
     kappa = 4 * drag * math.hypot(omega, lam0) / (3 * math.pi * lam0)
-    assert fit.damping_gain == pytest.approx(kappa, rel=0.25)
+    assert _excess_damping(fit) == pytest.approx(kappa * fit.amplitude, rel=0.25)
+
+
+def _excess_damping(fit) -> float:
+    """κ A0^p: λ(A0)/λ0 − 1 at the window start (dimensionless)."""
+    return fit.damping_gain * fit.amplitude**fit.damping_exponent
 
 
 def test_constant_rate_signal_falls_back_to_single_mode() -> None:
@@ -170,5 +177,5 @@ def test_cli_fit_model_amplitude(tmp_path, capsys) -> None:
     args = ["fit", str(path), "--json", "--model", "amplitude", "--start", "0"]
     assert main(args) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["model"] == "amplitude" and out["damping_exponent"] == 2.0
+    assert out["model"] == "amplitude" and 1 <= out["damping_exponent"] <= 2
     assert out["decay_rate"] == pytest.approx(0.3, rel=0.04)

@@ -83,24 +83,25 @@ def test_exact_two_mode_signal_is_fitted_with_two_modes() -> None:
     ("make", "tolerance"),
     [
         (lambda rng: cubic_damper_signal(T, 0.3, 11.0, 4.0, 0.01, rng), 0.05),
-        (lambda rng: quadratic_damper_signal(T, 0.3, 11.0, 1.5 * 0.3 / 11.0, 0.01, rng), 0.10),
+        (lambda rng: quadratic_damper_signal(T, 0.3, 11.0, 1.5 * 0.3 / 11.0, 0.01, rng), 0.05),
     ],
 )
 def test_non_linear_damping_small_amplitude_rate(make, tolerance) -> None:
     """λ0 of numerically integrated dampers: cubic (p = 2) within 5 %, velocity-squared
-    (p = 1) within 10 % (``benchmarks/fit_accuracy.py``: medians 1.3 % and 6.1 %).
+    (p = 1) within 5 % (``benchmarks/fit_accuracy.py``).
 
-    Mostly by the amplitude model (p = 2: the default tries only the slosh's exponent;
-    two modes can mimic a damper's early decay as well, and then also find λ0).
+    By the amplitude model (its exponent p fitted in [1, 2]) or by two modes, which
+    mimic a damper's early decay as well and then also find λ0 (these four cubic
+    signals choose two modes, the velocity-squared ones the amplitude model).
     """
-    errors, amplitude = [], 0
+    errors, models = [], set()
     for seed in range(4):
         fit = fit_oscillation(T, make(np.random.default_rng(seed)))
+        models.add(fit.model)
         if fit.model in ("amplitude", "amplitude-two-mode"):
-            amplitude += 1
-            assert fit.damping_exponent == 2.0
+            assert 1.0 <= fit.damping_exponent <= 2.0
         errors.append(abs(fit.decay_rate / 0.3 - 1))
-    assert amplitude >= 1
+    assert "single-mode" not in models  # the early decay is not one exponential
     assert np.median(errors) < tolerance
 
 

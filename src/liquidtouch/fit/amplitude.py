@@ -3,13 +3,22 @@
 A slosh loses energy faster while it is large (wave breaking, steep-wave and
 boundary-layer losses), so the decay rate is a function of the amplitude ``A``::
 
-    λ(A) = λ0 (1 + κ A^p),   p = 2 or 1,
+    λ(A) = λ0 (1 + κ A^p),   1 ≤ p ≤ 2,
 
 with ``λ0`` [1/s] the small-amplitude rate — a property of the liquid and fill,
 whatever the push — and ``κ`` [1/u^p] the damping gain. ``p = 2`` is the
 simulator's ``λ0 + k A²`` (wave steepness squared) and a damper growing with the
 displacement squared; ``p = 1`` is a velocity-squared (quadratic) damper
 ``c |v| v``, for which harmonic balance gives ``λ(A) = λ0 + (4 / 3π) c ω A``.
+
+The exponent is fitted, bounded to ``[1, 2]`` (:data:`EXPONENT_BOUNDS`): a
+continuous parameter, so λ0 moves smoothly with the data. Choosing between
+``p = 1`` and ``p = 2`` instead flipped the exponent between the pushes of one
+trial and between gapped copies of one recording (λ0 jumping 10-50 %), and
+``p = 2`` alone biases a velocity-squared damper's λ0 by 6 % (``benchmarks/RESULTS.md``,
+fit_accuracy). The fit starts from both ends (``p = 1`` and ``p = 2``, each
+with the start search of :func:`~liquidtouch.fit.start.amplitude_starts`) and
+frees ``p`` from each; the lower cost is kept.
 
 Envelope
 --------
@@ -26,7 +35,9 @@ The fitted signal is ``u(τ) = A(τ) cos(ωτ + ψ)`` + quadratic drift; written
 ``(a, b)`` and the drift, so those are solved exactly for any start (as in
 :mod:`liquidtouch.fit.model`).
 
-Parameter vector: ``[λ0, ω, g, a, b, d0, d1, d2]``.
+Parameter vector: ``[λ0, ω, g, a, b, d0, d1, d2]``; ``p`` is held in the state
+(``AmplitudeState.exponent``) and is a parameter of the covariance and of the
+information criterion when it was fitted (``exponent_free``).
 """
 
 from __future__ import annotations
@@ -41,13 +52,15 @@ from liquidtouch.fit import model as om
 from liquidtouch.fit.solve import RATE_MAX, FitState, std_from_variance
 from liquidtouch.fit.start import amplitude_starts, spectral_peaks
 
-#: exponents p of λ(A) = λ0 (1 + κ A^p) tried: the slosh's steepness-squared damping (and a
-#: cubic damper), p = 2. A velocity-squared damper (flow past a baffle) has p = 1; with
-#: (2, 1) the better-fitting one is kept (:func:`optimise_amplitude`) and that damper's λ0
-#: error falls from 6.1 to 1.5 %, but the choice flips between pushes of one trial and
-#: between gapped copies of one recording (λ0 moves 10-50 %; push spread 2.5 -> 3.1 %),
-#: so the default tries p = 2 only (``benchmarks/RESULTS.md``, fit_accuracy)
-EXPONENTS: tuple[int, ...] = (2,)
+#: range of the exponent p of λ(A) = λ0 (1 + κ A^p): a velocity-squared damper (flow past
+#: a baffle, p = 1) to the slosh's steepness-squared damping (and a cubic damper, p = 2)
+EXPONENT_BOUNDS = (1.0, 2.0)
+#: exponent of the amplitude-damped mode when a second mode is fitted beside it (the slosh's);
+#: with p free as well the combined model's λ0 followed p between pushes of one trial
+TWO_MODE_EXPONENT = 2.0
+#: below this excess damping g the exponent has no effect on the curve (not identifiable):
+#: the covariance then takes p as given
+GAIN_IDENTIFIES_EXPONENT = 1e-2
 #: largest excess damping g = λ(A0)/λ0 − 1 at the window start
 GAIN_MAX = 100.0
 N_NONLINEAR = 3
@@ -142,22 +155,41 @@ def jacobian(
     return jac
 
 
+def exponent_derivative(
+    theta: np.ndarray, tau: np.ndarray, x: np.ndarray, exponent: float, second: bool = False
+) -> np.ndarray:
+    """``d curve / d p``: ``ln E = −λ0 τ − ln G / p`` with ``G = 1 + g (1 − e^{−p λ0 τ})``."""
+    k = n_nonlinear(second)
+    rate, _, gain = theta[:N_NONLINEAR]
+    a, b = theta[k : k + 2]
+    design = basis(tau, x, theta, exponent, second)
+    mode = a * design[:, 0] + b * design[:, 1]
+    q = np.exp(-exponent * rate * tau)
+    grown = 1.0 + gain * (1.0 - q)
+    return mode * (np.log(grown) / exponent**2 - gain * rate * tau * q / (exponent * grown))
+
+
 @dataclass
 class AmplitudeState(FitState):
     """An optimum of the amplitude-damping model on the normalised signal.
 
     ``gain_fixed``: g is held at 0 (the constant-rate fallback), so it is not a
-    free parameter of the covariance.
+    free parameter of the covariance. ``exponent_free``: p was fitted (a parameter
+    of the criterion, and of the covariance while the gain makes it identifiable).
     """
 
-    exponent: int = 2
+    exponent: float = 2.0
     gain_fixed: bool = False
+    exponent_free: bool = False
     #: a second, exponentially damped mode (λ', ω') besides the amplitude-damped one
     second: bool = False
 
     @property
     def n_params(self) -> int:
-        return self.theta.size - int(self.gain_fixed)
+        return self.theta.size - int(self.gain_fixed) + int(self.exponent_free)
+
+    def _exponent_in_covariance(self) -> bool:
+        return self.exponent_free and self.gain > GAIN_IDENTIFIES_EXPONENT
 
     @property
     def gain(self) -> float:
@@ -176,8 +208,14 @@ class AmplitudeState(FitState):
         return curve(self.theta, self.tau, self.x, self.exponent, self.second)
 
     def model_jacobian(self) -> np.ndarray:
+        """Jacobian of the free parameters: θ (without g when held), then p when fitted."""
         jac = jacobian(self.theta, self.tau, self.x, self.exponent, self.second)
-        return np.delete(jac, 2, axis=1) if self.gain_fixed else jac
+        if self.gain_fixed:
+            return np.delete(jac, 2, axis=1)
+        if self._exponent_in_covariance():
+            d_exp = exponent_derivative(self.theta, self.tau, self.x, self.exponent, self.second)
+            return np.column_stack([jac, d_exp])
+        return jac
 
     def amplitudes_phases(self) -> tuple[np.ndarray, np.ndarray]:
         k = n_nonlinear(self.second)
@@ -220,7 +258,7 @@ class AmplitudeState(FitState):
         a, b = self.theta[k : k + 2]
         r2 = a * a + b * b
         p = self.exponent
-        grad = np.zeros(self.theta.size)
+        grad = np.zeros(cov.shape[0])  # p (when free) last, at 0
         grad[2] = r2 ** (-p / 2)
         grad[k] = -p * self.gain * a * r2 ** (-p / 2 - 1)
         grad[k + 1] = -p * self.gain * b * r2 ** (-p / 2 - 1)
@@ -230,16 +268,16 @@ class AmplitudeState(FitState):
 
 def _solve(
     theta_nl: np.ndarray,
-    exponent: int,
+    exponent: float,
     tau: np.ndarray,
     x: np.ndarray,
     u: np.ndarray,
     sqrt_w: np.ndarray,
     band: tuple[float, float],
 ) -> AmplitudeState:
+    """Least squares at a fixed exponent ``p``, from the start ``theta_nl``."""
     second = theta_nl.size == n_nonlinear(True)
-    lo_nl = np.array([0.0, band[0], 0.0, 0.0, band[0]][: theta_nl.size])
-    hi_nl = np.array([RATE_MAX, band[1], GAIN_MAX, RATE_MAX, band[1]][: theta_nl.size])
+    lo_nl, hi_nl = _nonlinear_bounds(theta_nl.size, band)
     span = hi_nl - lo_nl
     theta_nl = np.clip(theta_nl, lo_nl + 1e-6 * span, hi_nl - 1e-6 * span)
     lin, _ = om.solve_linear(basis(tau, x, theta_nl, exponent, second), u, sqrt_w)
@@ -263,35 +301,95 @@ def _solve(
     )
 
 
-def optimise_amplitude(
+def _nonlinear_bounds(size: int, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of ``[λ0, ω, g]`` (and a second mode's ``λ', ω'``)."""
+    lo = np.array([0.0, band[0], 0.0, 0.0, band[0]][:size])
+    hi = np.array([RATE_MAX, band[1], GAIN_MAX, RATE_MAX, band[1]][:size])
+    return lo, hi
+
+
+def _free_exponent(start: AmplitudeState, band: tuple[float, float]) -> AmplitudeState:
+    """Least squares with ``p`` free in :data:`EXPONENT_BOUNDS`, from the optimum ``start``.
+
+    The parameter vector is θ with ``p`` after the nonlinear parameters.
+    """
+    tau, x, u, sqrt_w, second = start.tau, start.x, start.u, start.sqrt_w, start.second
+    k = n_nonlinear(second)
+    lo_nl, hi_nl = _nonlinear_bounds(k, band)
+    n_lin = start.theta.size - k
+    lo = np.concatenate([lo_nl, [EXPONENT_BOUNDS[0]], np.full(n_lin, -np.inf)])
+    hi = np.concatenate([hi_nl, [EXPONENT_BOUNDS[1]], np.full(n_lin, np.inf)])
+    full = np.concatenate([start.theta[:k], [start.exponent], start.theta[k:]])
+    span = np.where(np.isfinite(hi - lo), hi - lo, 0.0)
+    full = np.clip(full, lo + 1e-6 * span, hi - 1e-6 * span)
+
+    def split(v: np.ndarray) -> tuple[np.ndarray, float]:
+        return np.concatenate([v[:k], v[k + 1 :]]), float(v[k])
+
+    def fun(v: np.ndarray) -> np.ndarray:
+        theta, exponent = split(v)
+        return sqrt_w * (curve(theta, tau, x, exponent, second) - u)
+
+    def jac(v: np.ndarray) -> np.ndarray:
+        theta, exponent = split(v)
+        full_jac = jacobian(theta, tau, x, exponent, second)
+        d_exp = exponent_derivative(theta, tau, x, exponent, second)
+        return sqrt_w[:, None] * np.column_stack([full_jac[:, :k], d_exp, full_jac[:, k:]])
+
+    res = least_squares(
+        fun, full, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=200
+    )
+    theta, exponent = split(res.x)
+    return AmplitudeState(
+        start.n_modes,
+        theta,
+        tau,
+        x,
+        u,
+        sqrt_w,
+        float(2 * res.cost),
+        exponent=exponent,
+        second=second,
+        exponent_free=True,
+    )
+
+
+def optimise_amplitude_ends(
     tau: np.ndarray,
     x: np.ndarray,
     u: np.ndarray,
     sqrt_w: np.ndarray,
     band: tuple[float, float],
     single: FitState,
-) -> AmplitudeState:
-    """Amplitude-damping fit started from the single-mode optimum ``single``.
+) -> list[AmplitudeState]:
+    """The amplitude-damping optimum at each end of :data:`EXPONENT_BOUNDS` (p held).
 
-    Each exponent of :data:`EXPONENTS` is fitted from the starts of
-    :func:`~liquidtouch.fit.start.amplitude_starts`, and the one with the lower
-    residual is kept (equal parameter counts: the lower information criterion).
-    Whether the gain is supported at all (against ``single``) is decided by the
-    caller (:mod:`liquidtouch.fit.selection`; :func:`without_gain`).
+    Each is the best of the starts of :func:`~liquidtouch.fit.start.amplitude_starts`
+    around the single-mode optimum ``single``.
     """
     lam, omega = float(single.rates[0]), float(single.freqs[0])
-    per_exponent = [
+    return [
         min(
             (_solve(np.array(s), p, tau, x, u, sqrt_w, band) for s in amplitude_starts(lam, omega)),
             key=lambda f: f.cost,
         )
-        for p in EXPONENTS
+        for p in EXPONENT_BOUNDS
     ]
-    finite = [f for f in per_exponent if math.isfinite(f.cost)] or per_exponent
-    return min(finite, key=lambda f: float(np.sum(f.residual() ** 2)))
 
 
-def without_gain(single: FitState, exponent: int) -> AmplitudeState:
+def optimise_amplitude(ends: list[AmplitudeState], band: tuple[float, float]) -> AmplitudeState:
+    """Amplitude-damping fit with ``p`` free, from the fixed-exponent optima ``ends``.
+
+    ``p`` is freed from each (:func:`optimise_amplitude_ends`) and the lower cost
+    kept (module docstring). Whether the gain is supported at all (against the
+    single mode) is decided by the caller (:mod:`liquidtouch.fit.selection`;
+    :func:`without_gain`).
+    """
+    fits = [_free_exponent(s, band) for s in ends if math.isfinite(s.cost)]
+    return min(fits or ends, key=lambda f: f.cost)
+
+
+def without_gain(single: FitState, exponent: float) -> AmplitudeState:
     """The single-mode optimum as an amplitude-damping state with g = 0 held fixed.
 
     λ0 is then the single-mode λ with its std (a constant-rate signal, or too short
@@ -322,9 +420,9 @@ def optimise_amplitude_two_mode(
 ) -> AmplitudeState:
     """Both together: the amplitude-damped mode plus a second, exponentially damped mode.
 
-    Started from the amplitude fit ``amplitude`` (λ0, ω, g, its exponent) with the
-    second mode at the two-mode fit's other mode (``two``) and at the strongest
-    peak of the amplitude fit's residual; the exponent is the amplitude fit's.
+    Started from ``amplitude``, the amplitude fit at ``p =`` :data:`TWO_MODE_EXPONENT`
+    (λ0, ω, g), with the second mode at the two-mode fit's other mode (``two``) and
+    at the strongest peak of that fit's residual.
     """
     lam0, omega, gain = amplitude.theta[:N_NONLINEAR]
     gain = max(float(gain), 0.3)
@@ -334,7 +432,7 @@ def optimise_amplitude_two_mode(
         i = int(np.argmax(np.abs(two.freqs - omega)))
         seconds.append((float(two.rates[i]), float(two.freqs[i])))
     fits = [
-        _solve(np.array([lam0, omega, gain, r, w]), amplitude.exponent, tau, x, u, sqrt_w, band)
+        _solve(np.array([lam0, omega, gain, r, w]), TWO_MODE_EXPONENT, tau, x, u, sqrt_w, band)
         for r, w in seconds
     ]
     return min(fits, key=lambda f: f.cost)

@@ -67,8 +67,10 @@ import numpy as np
 
 from liquidtouch.errors import NoOscillationError, SignalError
 from liquidtouch.fit.amplitude import (
+    TWO_MODE_EXPONENT,
     AmplitudeState,
     optimise_amplitude,
+    optimise_amplitude_ends,
     optimise_amplitude_two_mode,
     without_gain,
 )
@@ -279,7 +281,8 @@ def fit_oscillation(
     wanted = AUTO_CANDIDATES if model == AUTO else (model,)
     amp = two = None
     if "amplitude" in wanted or COMBINED in wanted:
-        amp = optimise_amplitude(tau, x, u_n, sqrt_w, band, single)
+        ends = optimise_amplitude_ends(tau, x, u_n, sqrt_w, band, single)
+        amp = optimise_amplitude(ends, band)
         if "amplitude" in wanted:
             candidates["amplitude"] = amp
     if "two-mode" in wanted or COMBINED in wanted:
@@ -287,7 +290,8 @@ def fit_oscillation(
         if two is not None and "two-mode" in wanted:
             candidates["two-mode"] = two
     if COMBINED in wanted:
-        both = optimise_amplitude_two_mode(tau, x, u_n, sqrt_w, band, amp, two)
+        at_two = next(e for e in ends if e.exponent == TWO_MODE_EXPONENT)
+        both = optimise_amplitude_two_mode(tau, x, u_n, sqrt_w, band, at_two, two)
         candidates[COMBINED] = both
     selection = select_model(candidates)
     chosen = candidates[selection.chosen]

@@ -27,7 +27,7 @@ class OscillationFit:
     depends on the amplitude, ``λ(A) = λ0 (1 + κ A^p)``; ``decay_rate`` is the
     small-amplitude λ0, ``amplitude`` A at ``t0``, ``damping_gain`` κ [1/u^p]
     (0 when the data do not support a gain: then λ0 is the single-mode λ),
-    ``damping_gain_std`` its standard error and ``damping_exponent`` p (2 or 1).
+    ``damping_gain_std`` its standard error and ``damping_exponent`` p (fitted, 1 to 2).
     All three are NaN for the other models. ``model == "amplitude-two-mode"``: that
     mode plus a second, exponentially damped one (``fast_*``).
 
