@@ -18,7 +18,11 @@ trial and between gapped copies of one recording (λ0 jumping 10-50 %), and
 ``p = 2`` alone biases a velocity-squared damper's λ0 by 6 % (``benchmarks/RESULTS.md``,
 fit_accuracy). The fit starts from both ends (``p = 1`` and ``p = 2``, each
 with the start search of :func:`~liquidtouch.fit.start.amplitude_starts`) and
-frees ``p`` from each; the lower cost is kept.
+frees ``p`` from each; the lower cost is kept. The price: a p = 2 damper whose
+envelope is not exactly this one (a cubic damper's, to first order in harmonic
+balance) is fitted at p ≈ 1.5, which moves λ0 by a few per cent. With a second
+mode beside it (``amplitude-two-mode``) p stays at :data:`TWO_MODE_EXPONENT`: with p
+free there too, λ0 followed p between the pushes of one trial.
 
 Envelope
 --------
