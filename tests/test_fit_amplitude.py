@@ -57,6 +57,18 @@ def test_jacobian_matches_finite_differences(exponent: int) -> None:
         np.testing.assert_allclose(jac[:, j], numeric, atol=1e-6)
 
 
+@pytest.mark.parametrize("exponent", [1.0, 1.46, 2.0])
+def test_exponent_derivative_matches_finite_differences(exponent: float) -> None:
+    x = T / T[-1]
+    theta = np.array([0.35, 11.0, 1.7, 0.8, -0.3, 0.1, -0.2, 0.05])
+    step = 1e-6
+    numeric = (am.curve(theta, T, x, exponent + step) - am.curve(theta, T, x, exponent - step)) / (
+        2 * step
+    )
+    assert np.abs(numeric).max() > 1e-2  # p matters at this gain
+    np.testing.assert_allclose(am.exponent_derivative(theta, T, x, exponent), numeric, atol=1e-6)
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_cubic_damper_lambda0_and_gain(seed: int) -> None:
     # ε'' + 2λ0(1 + kε²)ε' + ω0²ε = 0: p = 2, κ = k/4 (u has the amplitude of ε)
