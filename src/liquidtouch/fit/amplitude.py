@@ -249,7 +249,7 @@ class AmplitudeState(FitState):
         return self.gain / amp**self.exponent
 
     def damping_gain_std(self, weights: np.ndarray, *, correlated: bool, scale: float) -> float:
-        """Standard error of κ [1/u^p] (delta method through g, a, b).
+        """Standard error of κ [1/u^p] (delta method through g, a, b and a fitted p).
 
         With g held at 0 it is the std of κ at g = 0 with g free: how large a
         gain the data cannot tell from none.
@@ -262,12 +262,16 @@ class AmplitudeState(FitState):
         a, b = self.theta[k : k + 2]
         r2 = a * a + b * b
         p = self.exponent
-        grad = np.zeros(cov.shape[0])  # p (when free) last, at 0
+        # κ = g / (A0 scale)^p in the unit of u, A0 = √(a² + b²) on the normalised signal
+        grad = np.zeros(cov.shape[0])
         grad[2] = r2 ** (-p / 2)
         grad[k] = -p * self.gain * a * r2 ** (-p / 2 - 1)
         grad[k + 1] = -p * self.gain * b * r2 ** (-p / 2 - 1)
+        grad /= scale**p
+        if cov.shape[0] > self.theta.size:  # p fitted, last: dκ/dp = −κ ln(A0 scale)
+            grad[-1] = -self.damping_gain(scale) * math.log(math.sqrt(r2) * scale)
         var = float(grad @ cov @ grad)
-        return math.sqrt(var) / scale**p if var >= 0 else math.nan
+        return math.sqrt(var) if var >= 0 else math.nan
 
 
 def _solve(
