@@ -4,8 +4,8 @@
 drift) and its loss, ``amplitude`` the model whose damping grows with the amplitude
 (λ(A) = λ0 (1 + κ A^p)), ``choices`` the models and the one default (``"auto"``:
 the data choose the model), ``selection`` the information criterion that chooses,
-``start`` finds start values, ``solve`` runs the optimisers, ``oscillation`` is the
-public fit,
+``start`` finds start values, ``solve`` and ``amplitude_solve`` run the optimisers,
+``oscillation`` is the public fit,
 ``result`` its :class:`OscillationFit` (decay rate λ [1/s], angular frequency ω
 [rad/s], their std), ``example`` a built-in signal, ``synthetic`` non-linearly
 damped test signals with known λ0, and ``plot`` the figure of a fit.

@@ -66,9 +66,8 @@ from dataclasses import replace
 import numpy as np
 
 from liquidtouch.errors import NoOscillationError, SignalError
-from liquidtouch.fit.amplitude import (
-    TWO_MODE_EXPONENT,
-    AmplitudeState,
+from liquidtouch.fit.amplitude import TWO_MODE_EXPONENT, AmplitudeState
+from liquidtouch.fit.amplitude_solve import (
     optimise_amplitude,
     optimise_amplitude_ends,
     optimise_amplitude_two_mode,
