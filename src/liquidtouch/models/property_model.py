@@ -243,7 +243,8 @@ class PropertyModel:
         else:
             fit_var = {t: np.zeros(X.shape[0]) for t in self.regressors}
         for t, (mean, std) in raw.items():
-            scale = self.calibration[t].std_scale if t in self.calibration else 1.0
+            cal = self.calibration.get(t)
+            scale = 1.0 if cal is None else cal.std_scale * cal.local_factor(Xm)
             out[t] = (np.asarray(mean), scale * np.asarray(std), np.sqrt(fit_var[t]))
         return out
 
