@@ -33,7 +33,6 @@ from synthetic_tables import (
     sloshing_features,
 )
 
-from liquidtouch.models.conformal import trial_groups
 from liquidtouch.models.training import train_regression
 
 LIQUIDS = ("water", "mirin", "corn-oil", "olive-oil", "detergent")
@@ -55,11 +54,6 @@ def table(liquids, heights_mm: np.ndarray, repeats: int, rng: np.random.Generato
         y["height_mm"].append(h)
         y["log10_viscosity_cst"].append(np.log10(nu))
     return np.concatenate(X), {t: np.concatenate(v) for t, v in y.items()}
-
-
-def repeats_of(y: dict) -> np.ndarray:
-    """Calibration groups: the repeats of one (liquid, height), held out together."""
-    return np.array([f"{v:g}|{h:g}" for v, h in zip(*(y[t] for t in TARGETS), strict=True)])
 
 
 def scores(model, X: np.ndarray, y: dict) -> dict[str, tuple[float, ...]]:
@@ -99,7 +93,7 @@ def main() -> None:
                 rng = np.random.default_rng(1000 * seed + 10 * n_heights + repeats)
                 X, y = table(LIQUIDS, np.linspace(16, 40, n_heights), repeats, rng)
                 model = train_regression(
-                    X, y, "gpr", calibration_folds=10, calibration_groups=repeats_of(y)
+                    X, y, "gpr", calibration_folds=10, calibration_groups=y["height_mm"]
                 )
                 test_rng = np.random.default_rng(10_000 + seed)
                 Xt, yt = table(LIQUIDS, test_rng.uniform(16, 40, 500), 1, test_rng)
@@ -117,7 +111,7 @@ def main() -> None:
         X = train[["decay_rate", "angular_frequency"]].to_numpy()
         targets = {t: train[t].to_numpy() for t in TARGETS}
         model = train_regression(
-            X, targets, "gpr", calibration_folds=10, calibration_groups=trial_groups(train)
+            X, targets, "gpr", calibration_folds=10, calibration_groups=targets["height_mm"]
         )
         rng = np.random.default_rng(20_000 + seed)
         Xt, yt = table(("olive-oil", "corn-oil", "mirin"), rng.uniform(16, 40, 300), 1, rng)

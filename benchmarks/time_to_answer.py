@@ -8,7 +8,7 @@ One run, on simulated trials (GelSight Mini videos, 320 × 240 at 25 fps):
    fill heights 16-40 mm — extracted offline as ``liquidtouch extract`` does,
    and a GPR and a physics-GPR trained on it as ``liquidtouch train`` does
    (targets ``height_mm``, ``log10_viscosity_cst``; cross-conformal calibration,
-   10 folds, a trial's repeats held out together, as ``train`` does), plus a GPR trained on the
+   10 folds grouped by fill height, as ``train`` does), plus a GPR trained on the
    sugar-water trials alone (``sugar-only``, judged on olive oil, corn oil and mirin);
 2. ``--trials`` test trials per liquid (random heights 18-38 mm; sugar water at a
    random concentration 20-140) streamed through
@@ -238,14 +238,18 @@ def simulate_all(args) -> dict:
 
 def train_models(train: list[dict]) -> dict:
     """A GPR and a physics-GPR on every training trial, a GPR on the sugar-water ones; each
-    calibrated as ``train`` does (10 folds; a trial's repeats held out together — one
-    trial per liquid and height here, so every row alone)."""
+    calibrated as ``train`` does (10 folds grouped by fill height)."""
     from liquidtouch.models.training import train_regression
 
     X, y = train_matrix(train)
-    models = {kind: train_regression(X, y, kind, calibration_folds=10) for kind in KINDS}
+    models = {
+        kind: train_regression(X, y, kind, calibration_folds=10, calibration_groups=y["height_mm"])
+        for kind in KINDS
+    }
     Xs, ys = train_matrix(train, ("sugar-water",))
-    models["sugar-only"] = train_regression(Xs, ys, "gpr", calibration_folds=10)
+    models["sugar-only"] = train_regression(
+        Xs, ys, "gpr", calibration_folds=10, calibration_groups=ys["height_mm"]
+    )
     return models
 
 

@@ -194,19 +194,6 @@ def test_a_local_factor_calibrates_each_region_of_uneven_noise(tmp_path) -> None
     assert np.array_equal(back.predict(Xt[:50])["h"][1], fitted.predict(Xt[:50])["h"][1])
 
 
-def test_trial_groups_hold_repeats_out_together() -> None:
-    from liquidtouch.models.conformal import trial_groups
-
-    table = pd.DataFrame(
-        {"liquid": ["water", "water", "sugar-water", "sugar-water", "water"],
-         "height_mm": [20.0, 20.0, 20.0, 20.0, 25.0],
-         "sugar_concentration": [np.nan, np.nan, 40.0, 100.0, np.nan], "decay_rate": 0.1}
-    )  # fmt: skip
-    groups = trial_groups(table)
-    assert groups[0] == groups[1] and len(set(groups)) == 4
-    assert trial_groups(table[["decay_rate"]]) is None
-
-
 def test_an_omega_std_larger_than_omega_is_propagated_without_failing() -> None:
     # a failed final fit reported ω = 1.9 ± 100 rad/s; the physics GP refuses ω <= 0, so the
     # step below ω must stop above 0

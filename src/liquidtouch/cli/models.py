@@ -112,9 +112,8 @@ def train(
         None,
         "--calibration-group",
         help="Column whose rows the calibration holds out together, so that each row is "
-        "predicted by a model that never saw its value (default: the trials recorded under "
-        "the same liquid, container, height_mm and sugar_concentration, i.e. repeats; "
-        "'none': every row alone).",
+        "predicted by a model that never saw its value (default: height_mm when the table "
+        "has it: a new trial comes at a new fill height; 'none': every row alone).",
         show_default=False,
     ),
     as_json: options.Json = False,
@@ -180,20 +179,19 @@ def train(
 
 
 def calibration_groups(table: Any, column: str | None) -> Any:
-    """The calibration's groups: ``column``'s values (default: the repeats of one trial's
-    recording conditions, :func:`~liquidtouch.models.conformal.trial_groups`)."""
+    """The calibration's groups: ``column``'s values (default ``height_mm`` if present)."""
     from liquidtouch.errors import TableError
-    from liquidtouch.models.conformal import trial_groups
 
-    if column is None:
-        return trial_groups(table)
-    if column.strip().lower() == "none":
+    if column is not None and column.strip().lower() == "none":
         return None
-    if column not in table.columns:
+    name = column or "height_mm"
+    if name not in table.columns:
+        if column is None:
+            return None
         raise TableError(f"--calibration-group {column!r}: no such column in the training table")
-    values = table[column]
+    values = table[name]
     if values.isna().any():
-        raise TableError(f"--calibration-group {column}: the column has empty values")
+        raise TableError(f"--calibration-group {name}: the column has empty values")
     return values.astype(str).to_numpy()
 
 

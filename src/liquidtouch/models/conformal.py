@@ -15,14 +15,16 @@ so any level can be answered afterwards:
 
 - ``std_scale`` s = the conformal 68.27 % quantile of the scores: the calibrated
   std is ``s · ρ · σ̂`` (±1 calibrated std covers 68 % of held-out rows);
-- rows that share a group (``groups``: by default the trials recorded under the
-  same conditions, :func:`trial_groups`: repeats of one liquid at one fill) are held
-  out together, so a row is never predicted by a model that saw its twins. Holding
-  out a fill height for every liquid at once is too strict: the height is read from
-  ω, nearly the same for every liquid at one height, so the held-out rows lie two grid
-  steps from their nearest training height, where a new trial lies within half a
-  step (simulated benchmark: out-of-fold height error 2.0-2.7 mm per liquid, new
-  trials 0.4-0.6 mm; held out per trial 0.4-0.7 mm);
+- rows that share a group (``groups``: e.g. a fill height recorded for several
+  liquids or several times) are held out together, so a row is never predicted
+  by a model that saw its twins. For height, every liquid at a fill height is a
+  twin (the height is read from ω, nearly the same for every liquid at one height):
+  held out one trial at a time, a sparse design looks far better than it is
+  (``benchmarks/learning_curve.py``, 3-4 heights: height RMS z 4-42). Holding out the
+  height errs the other way on a dense design: the held-out rows lie two grid steps
+  from the nearest training height, a new trial within half a step (simulated
+  benchmark, 8 heights: out-of-fold height error 2.0-2.7 mm per liquid, new trials
+  0.4-0.6 mm) — over-cautious, the safe side;
 - the model's std is not equally wrong everywhere (one GP noise level for every
   liquid): a local factor ρ(λ, ω) learnt from the out-of-fold scores
   (:mod:`liquidtouch.models.local_scale`, chosen by cross-validation) widens it
@@ -55,12 +57,10 @@ from liquidtouch.models.local_scale import LocalScale, fit_local_scale
 __all__ = [
     "DEFAULT_FOLDS",
     "ONE_SIGMA_LEVEL",
-    "TRIAL_COLUMNS",
     "TargetCalibration",
     "calibrate_regressor",
     "calibration_folds",
     "min_rows_for_level",
-    "trial_groups",
 ]
 
 #: folds of the cross-conformal calibration (fewer rows than folds: leave-one-out)
@@ -69,22 +69,6 @@ DEFAULT_FOLDS = 10
 ONE_SIGMA_LEVEL = math.erf(1 / math.sqrt(2))
 #: calibration methods a model file may name
 METHODS = ("cross-conformal",)
-#: label columns that say under which conditions a trial was recorded (its twins share them)
-TRIAL_COLUMNS = ("liquid", "container", "height_mm", "sugar_concentration")
-
-
-def trial_groups(table: Any) -> np.ndarray | None:
-    """Default calibration groups of a training table: one per set of recording conditions.
-
-    Rows with equal values in every :data:`TRIAL_COLUMNS` column the table has (an
-    empty cell counts as a value) share a group: repeats of one liquid at one fill.
-    ``None`` (every row alone) when the table has none of them.
-    """
-    columns = [c for c in TRIAL_COLUMNS if c in table.columns]
-    if not columns:
-        return None
-    keys = table[columns].astype(object).where(table[columns].notna(), "").astype(str)
-    return keys.agg("|".join, axis=1).to_numpy()
 
 
 def min_rows_for_level(level: float) -> int:

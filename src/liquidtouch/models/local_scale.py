@@ -52,7 +52,8 @@ class LocalScale:
     """ρ(x) of the module docstring: the rows' features, their squared scores, the kernel.
 
     ``points`` (n, 2): training (λ [1/s], ω [rad/s]); ``z2`` (n,): their squared
-    out-of-fold scores (floored at ``MIN_SCORE²``); ``centre``/``spread``: the standardisation of the features;
+    out-of-fold scores (floored at ``MIN_SCORE²``); ``centre``/``spread``: the
+    standardisation of the features;
     ``bandwidth`` h and ``prior_weight`` n0.
     """
 
@@ -82,7 +83,9 @@ class LocalScale:
             and self.prior_weight > 0
         )
         if not ok or points.shape[0] < 2:
-            raise TableError("a local scale needs n >= 2 rows of 2 features, n scores >= 0 and h > 0")
+            raise TableError(
+                "a local scale needs n >= 2 rows of 2 features, n scores >= 0 and h > 0"
+            )
 
     def _weights(self, X: np.ndarray) -> np.ndarray:
         centre, spread = np.asarray(self.centre), np.asarray(self.spread)
