@@ -194,6 +194,25 @@ def test_a_local_factor_calibrates_each_region_of_uneven_noise(tmp_path) -> None
     assert np.array_equal(back.predict(Xt[:50])["h"][1], fitted.predict(Xt[:50])["h"][1])
 
 
+def test_default_groups_hold_out_a_height_on_sparse_designs_and_repeats_on_dense() -> None:
+    from liquidtouch.models.conformal import DENSE_HEIGHTS, default_groups
+
+    def table(n_heights: int) -> pd.DataFrame:
+        h = np.repeat(np.linspace(16, 40, n_heights), 2)  # two trials per height
+        return pd.DataFrame(
+            {"liquid": ["water"] * h.size + ["mirin"] * h.size, "height_mm": np.tile(h, 2),
+             "sugar_concentration": np.nan, "decay_rate": 0.1}
+        )  # fmt: skip
+
+    sparse = default_groups(table(DENSE_HEIGHTS - 2))
+    assert len(set(sparse)) == DENSE_HEIGHTS - 2  # one group per height, both liquids in it
+    dense_table = table(DENSE_HEIGHTS)
+    dense = default_groups(dense_table)
+    assert len(set(dense)) == 2 * DENSE_HEIGHTS  # a (liquid, height): its two repeats
+    assert dense[0] == dense[1] and dense[0] != dense[2 * DENSE_HEIGHTS]
+    assert default_groups(dense_table[["decay_rate"]]) is None
+
+
 def test_an_omega_std_larger_than_omega_is_propagated_without_failing() -> None:
     # a failed final fit reported ω = 1.9 ± 100 rad/s; the physics GP refuses ω <= 0, so the
     # step below ω must stop above 0

@@ -15,16 +15,18 @@ so any level can be answered afterwards:
 
 - ``std_scale`` s = the conformal 68.27 % quantile of the scores: the calibrated
   std is ``s · ρ · σ̂`` (±1 calibrated std covers 68 % of held-out rows);
-- rows that share a group (``groups``: e.g. a fill height recorded for several
-  liquids or several times) are held out together, so a row is never predicted
-  by a model that saw its twins. For height, every liquid at a fill height is a
-  twin (the height is read from ω, nearly the same for every liquid at one height):
-  held out one trial at a time, a sparse design looks far better than it is
-  (``benchmarks/learning_curve.py``, 3-4 heights: height RMS z 4-42). Holding out the
-  height errs the other way on a dense design: the held-out rows lie two grid steps
-  from the nearest training height, a new trial within half a step (simulated
-  benchmark, 8 heights: out-of-fold height error 2.0-2.7 mm per liquid, new trials
-  0.4-0.6 mm) — over-cautious, the safe side;
+- rows that share a group (``groups``) are held out together, so a row is never
+  predicted by a model that saw its twins. Which rows are twins depends on the
+  design (:func:`default_groups`). For height, every liquid at one fill height is a
+  twin of a sparse design (the height is read from ω, nearly the same for every
+  liquid at one height): held out one trial at a time, 3-4 heights per liquid (or 6
+  with repeats) look far better than they are (``benchmarks/learning_curve.py``:
+  height RMS z 3.8-42), so the fill height is held out whole. On a dense design (≥
+  :data:`DENSE_HEIGHTS` heights per liquid) that errs the other way: the held-out
+  rows lie two grid steps from the nearest training height, a new trial within half
+  a step (simulated video benchmark, 8 heights: out-of-fold height error 2.0-2.7 mm
+  per liquid against 0.4-0.6 mm on new trials; learning curve 9 × 1-3: RMS z 0.84-1.17
+  by height, 0.99-1.08 by trial), so only a trial's repeats are held out together;
 - the model's std is not equally wrong everywhere (one GP noise level for every
   liquid): a local factor ρ(λ, ω) learnt from the out-of-fold scores
   (:mod:`liquidtouch.models.local_scale`, chosen by cross-validation) widens it
@@ -56,10 +58,13 @@ from liquidtouch.models.local_scale import LocalScale, fit_local_scale
 
 __all__ = [
     "DEFAULT_FOLDS",
+    "DENSE_HEIGHTS",
     "ONE_SIGMA_LEVEL",
+    "TRIAL_COLUMNS",
     "TargetCalibration",
     "calibrate_regressor",
     "calibration_folds",
+    "default_groups",
     "min_rows_for_level",
 ]
 
@@ -69,6 +74,33 @@ DEFAULT_FOLDS = 10
 ONE_SIGMA_LEVEL = math.erf(1 / math.sqrt(2))
 #: calibration methods a model file may name
 METHODS = ("cross-conformal",)
+#: label columns that say under which conditions a trial was recorded (its repeats share them)
+TRIAL_COLUMNS = ("liquid", "container", "height_mm", "sugar_concentration")
+#: fill heights per liquid from which a design is dense: a trial's repeats are held out
+#: together, not its whole fill height (module docstring; the README asks for 8-9)
+DENSE_HEIGHTS = 8
+
+
+def default_groups(table: Any) -> np.ndarray | None:
+    """The calibration groups of a training table (module docstring): ``height_mm``'s
+    values, or — with at least :data:`DENSE_HEIGHTS` distinct heights per liquid (median
+    over the liquids) — one group per set of equal :data:`TRIAL_COLUMNS` values (a
+    trial's repeats; an empty cell counts as a value). ``None`` (every row alone)
+    without a ``height_mm`` column.
+    """
+    if "height_mm" not in table.columns:
+        return None
+    heights = table["height_mm"].astype(str)
+    if "liquid" in table.columns:
+        per_liquid = heights.groupby(table["liquid"].astype(str)).nunique()
+        dense = float(per_liquid.median()) >= DENSE_HEIGHTS
+    else:
+        dense = heights.nunique() >= DENSE_HEIGHTS
+    if not dense:
+        return heights.to_numpy()
+    columns = [c for c in TRIAL_COLUMNS if c in table.columns]
+    keys = table[columns].astype(object).where(table[columns].notna(), "").astype(str)
+    return keys.agg("|".join, axis=1).to_numpy()
 
 
 def min_rows_for_level(level: float) -> int:
