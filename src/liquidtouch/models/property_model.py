@@ -363,10 +363,13 @@ class PropertyModel:
             )
             cal = self.calibration.get(target)
             if cal is not None:
+                local = ""
+                if cal.local is not None:
+                    local = f" × a local factor (bandwidth {cal.local.bandwidth:g})"
                 lines.append(
                     f"  calibration: {cal.n_folds}-fold cross-conformal on {cal.n} rows; "
-                    f"std scale {cal.std_scale:.3g} (the model's std × this covers 68 % of "
-                    "held-out rows)"
+                    f"std scale {cal.std_scale:.3g}{local} (the model's std × this covers 68 % "
+                    "of held-out rows)"
                 )
             else:
                 lines.append("  calibration: none (its std is not calibrated)")
