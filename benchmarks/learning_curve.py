@@ -5,7 +5,7 @@ container A, 4 % noise on λ, 0.3 % on ω) of five liquids (water, mirin, corn o
 olive oil, detergent at its zero-shear viscosity). A lab records ``H`` fill heights
 per liquid (evenly over 16-40 mm) and ``R`` trials per (liquid, height); a GPR per
 target is trained on them with the 10-fold cross-conformal calibration of
-``liquidtouch train`` (folds grouped by fill height), and judged on 500 new
+``liquidtouch train`` (its default calibration groups), and judged on 500 new
 trials per liquid at random heights (held-out seeds): mean absolute error,
 coverage of the calibrated ±1σ, ±2σ and 90 % interval, and the RMS of
 z = error / std (1 when calibrated).
@@ -24,6 +24,7 @@ import math
 import time
 
 import numpy as np
+import pandas as pd
 from synthetic_tables import (
     CONTAINER_A,
     LAMBDA_NOISE,
@@ -33,6 +34,7 @@ from synthetic_tables import (
     sloshing_features,
 )
 
+from liquidtouch.models.conformal import default_groups
 from liquidtouch.models.training import train_regression
 
 LIQUIDS = ("water", "mirin", "corn-oil", "olive-oil", "detergent")
@@ -54,6 +56,12 @@ def table(liquids, heights_mm: np.ndarray, repeats: int, rng: np.random.Generato
         y["height_mm"].append(h)
         y["log10_viscosity_cst"].append(np.log10(nu))
     return np.concatenate(X), {t: np.concatenate(v) for t, v in y.items()}
+
+
+def groups_of(y: dict) -> np.ndarray | None:
+    """``train``'s default calibration groups of a table's rows (a liquid is its viscosity)."""
+    liquid = [f"{v:g}" for v in y["log10_viscosity_cst"]]
+    return default_groups(pd.DataFrame({"liquid": liquid, "height_mm": y["height_mm"]}))
 
 
 def scores(model, X: np.ndarray, y: dict) -> dict[str, tuple[float, ...]]:
@@ -93,7 +101,7 @@ def main() -> None:
                 rng = np.random.default_rng(1000 * seed + 10 * n_heights + repeats)
                 X, y = table(LIQUIDS, np.linspace(16, 40, n_heights), repeats, rng)
                 model = train_regression(
-                    X, y, "gpr", calibration_folds=10, calibration_groups=y["height_mm"]
+                    X, y, "gpr", calibration_folds=10, calibration_groups=groups_of(y)
                 )
                 test_rng = np.random.default_rng(10_000 + seed)
                 Xt, yt = table(LIQUIDS, test_rng.uniform(16, 40, 500), 1, test_rng)
@@ -111,7 +119,7 @@ def main() -> None:
         X = train[["decay_rate", "angular_frequency"]].to_numpy()
         targets = {t: train[t].to_numpy() for t in TARGETS}
         model = train_regression(
-            X, targets, "gpr", calibration_folds=10, calibration_groups=targets["height_mm"]
+            X, targets, "gpr", calibration_folds=10, calibration_groups=default_groups(train)
         )
         rng = np.random.default_rng(20_000 + seed)
         Xt, yt = table(("olive-oil", "corn-oil", "mirin"), rng.uniform(16, 40, 300), 1, rng)

@@ -118,7 +118,7 @@ def test_the_calibration_is_stored_in_the_model_file(tmp_path) -> None:
     lo0, hi0 = fitted.predict_interval(X, 0.9)["h"]
     assert np.array_equal(lo, lo0) and np.array_equal(hi, hi0)
     doc = json.loads(path.read_text())
-    assert doc["format_version"] == 4 and doc["calibration"]["h"]["n_folds"] == 5
+    assert doc["format_version"] == 5 and doc["calibration"]["h"]["n_folds"] == 5
     # a version-2 file (no calibration) still loads, uncalibrated
     from liquidtouch.models.modelfile_checks import document_sha256
 
@@ -165,3 +165,58 @@ def test_grouped_folds_hold_a_height_out_whole_and_still_cover() -> None:
     assert np.mean(np.abs(mean - yt) <= 2 * std) >= 0.9
     with pytest.raises(TableError, match="at least 2 groups"):
         calibration_folds(len(y), 10, groups=np.zeros(len(y)))
+
+
+def test_a_local_factor_calibrates_each_region_of_uneven_noise(tmp_path) -> None:
+    """Noise 0.2 below λ = 0.7, 1.0 above (one liquid measured worse than the others): one
+    scale would be too wide in the first region and too narrow in the second."""
+    rng = np.random.default_rng(11)
+
+    def rows(n: int) -> tuple[np.ndarray, np.ndarray]:
+        X = np.column_stack([rng.uniform(0.1, 1.3, n), rng.uniform(10.0, 14.0, n)])
+        noise = np.where(X[:, 0] < 0.7, 0.2, 1.0)
+        return X, 20 + 3 * X[:, 0] + (X[:, 1] - 12.0) + noise * rng.standard_normal(n)
+
+    X, y = rows(300)
+    fitted = train_regression(X, {"h": y}, "gpr", calibration_folds=10)
+    cal = fitted.calibration["h"]
+    assert cal.local is not None  # chosen over one scale by cross-validation
+    Xt, yt = rows(3000)
+    mean, std = fitted.predict(Xt)["h"]
+    z = np.abs(mean - yt) / std
+    for region in (Xt[:, 0] < 0.65, Xt[:, 0] > 0.75):
+        assert np.mean(z[region] <= 1) == pytest.approx(0.683, abs=0.08)
+        assert math.sqrt(np.mean(z[region] ** 2)) == pytest.approx(1.0, abs=0.2)
+    rho = cal.local_factor(np.array([[0.3, 12.0], [1.1, 12.0]]))
+    assert rho[1] > 2.5 * rho[0]  # the true ratio is 5
+    back = load_model(save_model(fitted, tmp_path / "m.json"))
+    assert back.calibration == fitted.calibration
+    assert np.array_equal(back.predict(Xt[:50])["h"][1], fitted.predict(Xt[:50])["h"][1])
+
+
+def test_default_groups_hold_out_a_height_on_sparse_designs_and_repeats_on_dense() -> None:
+    from liquidtouch.models.conformal import DENSE_HEIGHTS, default_groups
+
+    def table(n_heights: int) -> pd.DataFrame:
+        h = np.repeat(np.linspace(16, 40, n_heights), 2)  # two trials per height
+        return pd.DataFrame(
+            {"liquid": ["water"] * h.size + ["mirin"] * h.size, "height_mm": np.tile(h, 2),
+             "sugar_concentration": np.nan, "decay_rate": 0.1}
+        )  # fmt: skip
+
+    sparse = default_groups(table(DENSE_HEIGHTS - 2))
+    assert len(set(sparse)) == DENSE_HEIGHTS - 2  # one group per height, both liquids in it
+    dense_table = table(DENSE_HEIGHTS)
+    dense = default_groups(dense_table)
+    assert len(set(dense)) == 2 * DENSE_HEIGHTS  # a (liquid, height): its two repeats
+    assert dense[0] == dense[1] and dense[0] != dense[2 * DENSE_HEIGHTS]
+    assert default_groups(dense_table[["decay_rate"]]) is None
+
+
+def test_an_omega_std_larger_than_omega_is_propagated_without_failing() -> None:
+    # a failed final fit reported ω = 1.9 ± 100 rad/s; the physics GP refuses ω <= 0, so the
+    # step below ω must stop above 0
+    X, _, y = _table(40, 0.1, seed=8)
+    fitted = train_regression(X, {"height_mm": y}, "physics-gpr")
+    _, std = fitted.predict([[0.6, 1.9]], X_std=[[0.1, 100.0]])["height_mm"]
+    assert np.isfinite(std[0]) and std[0] > 0

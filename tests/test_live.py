@@ -78,24 +78,24 @@ def test_estimates_come_before_the_end_and_converge(trial, streamed) -> None:
 
 def test_until_std_stops_early(trial, streamed) -> None:
     _, _, simulated = trial
-    # ω's streamed std is ≥ 0.4 % of ω on the first 0.8 s of decay (uncertainty.py); 0.006
+    # ω's streamed std is ≥ 0.6 % of ω on the first 0.8 s of decay (uncertainty.py); 0.04
     # rad/s comes after ~2 s, enough for the final refit (fit_oscillation's 2 s minimum)
-    updates = list(live_updates(trial[0], until_std=["angular_frequency=0.006"]))
+    updates = list(live_updates(trial[0], until_std=["angular_frequency=0.04"]))
     final = updates[-1]
     assert final.stopped_because == "until_std"
     assert final.frames < 0.6 * streamed[-1].frames
-    assert updates[-2].angular_frequency_std < 0.006
+    assert updates[-2].angular_frequency_std < 0.04
     assert final.angular_frequency == pytest.approx(simulated.true_angular_frequency, rel=0.005)
 
 
 def test_stopped_before_the_final_fit_keeps_the_last_estimate(trial) -> None:
-    # ω's std is below 0.03 rad/s after ~1.2 s of decay: the final update is the estimate that
+    # ω's std is below 0.08 rad/s after ~1.2 s of decay: the final update is the estimate that
     # met the threshold (a refit of 1.5 s, edge included, gave λ = 0.004 ± 0.1 here)
-    updates = list(live_updates(trial[0], until_std=["angular_frequency=0.03"]))
+    updates = list(live_updates(trial[0], until_std=["angular_frequency=0.08"]))
     final = updates[-1]
     assert final.stopped_because == "until_std" and final.t_s < 2.0
     assert final.angular_frequency == updates[-2].angular_frequency
-    assert final.angular_frequency_std == updates[-2].angular_frequency_std < 0.03
+    assert final.angular_frequency_std == updates[-2].angular_frequency_std < 0.08
     assert "the last streamed estimate is kept" in final.message
 
 
@@ -156,8 +156,8 @@ def test_window_std_falls_with_the_efoldings_seen() -> None:
     # relative std, any liquid
     assert window_rel_std(0.2, 15.0) == pytest.approx(window_rel_std(1.0, 3.0), rel=1e-3)
     assert window_rel_std(0.2, 0.5) > window_rel_std(0.2, 5.0) > window_rel_std(0.2, 50.0)
-    assert window_rel_std(0.2, 0.0) == pytest.approx(math.sqrt(0.5**2 + 1.0 + 0.005**2))
-    assert window_rel_std(0.2, 50.0) == pytest.approx(0.005)  # the floor
+    assert window_rel_std(0.2, 0.0) == pytest.approx(math.sqrt(0.5**2 + 1.0 + 0.025**2))
+    assert window_rel_std(0.2, 50.0) == pytest.approx(0.025)  # the floor
     # the first second of any liquid is uncertain: a viscous liquid's 0.5 s shows 1.5
     # e-foldings, yet its λ is less certain than water's after the same e-foldings in 7.5 s
     assert window_rel_std(3.0, 0.5) > 1.5 * window_rel_std(0.2, 7.5)

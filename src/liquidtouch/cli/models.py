@@ -112,8 +112,9 @@ def train(
         None,
         "--calibration-group",
         help="Column whose rows the calibration holds out together, so that each row is "
-        "predicted by a model that never saw its value (default: height_mm when the table "
-        "has it: a new trial comes at a new fill height; 'none': every row alone).",
+        "predicted by a model that never saw its value (default: height_mm; with 8 or more "
+        "heights per liquid only a trial's repeats, the rows of equal liquid, container, "
+        "height_mm and sugar_concentration; 'none': every row alone).",
         show_default=False,
     ),
     as_json: options.Json = False,
@@ -179,19 +180,22 @@ def train(
 
 
 def calibration_groups(table: Any, column: str | None) -> Any:
-    """The calibration's groups: ``column``'s values (default ``height_mm`` if present)."""
+    """The calibration's groups: ``column``'s values (default:
+    :func:`~liquidtouch.models.conformal.default_groups`)."""
     from liquidtouch.errors import TableError
+    from liquidtouch.models.conformal import default_groups
 
-    if column is not None and column.strip().lower() == "none":
+    if column is None:
+        if "height_mm" in table.columns and table["height_mm"].isna().any():
+            raise TableError("--calibration-group height_mm: the column has empty values")
+        return default_groups(table)
+    if column.strip().lower() == "none":
         return None
-    name = column or "height_mm"
-    if name not in table.columns:
-        if column is None:
-            return None
+    if column not in table.columns:
         raise TableError(f"--calibration-group {column!r}: no such column in the training table")
-    values = table[name]
+    values = table[column]
     if values.isna().any():
-        raise TableError(f"--calibration-group {name}: the column has empty values")
+        raise TableError(f"--calibration-group {column}: the column has empty values")
     return values.astype(str).to_numpy()
 
 

@@ -1,13 +1,13 @@
 """Experiment 8 (ours, not in the paper): is every ± the models print calibrated?
 
 A GPR trained on the sugar-water training trials as ``liquidtouch train`` does
-(10-fold cross-conformal calibration, folds grouped by fill height), judged on the
-sugar-water test trials and on the other liquids (olive oil, corn oil, mirin): per
-target, the coverage of the calibrated ±1σ and ±2σ and of the 90 % interval, the
-RMS of z = error / std (1 when calibrated), and a reliability diagram — the share
-of trials inside the central interval of each level against that level (on the
-diagonal when calibrated). The offline fit's λ, ω std are propagated as ``predict``
-does.
+(10-fold cross-conformal calibration with the default groups, a local factor on
+the GP's std), judged on the sugar-water test trials and on the other
+liquids (olive oil, corn oil, mirin): per target, the coverage of the calibrated
+±1σ and ±2σ and of the 90 % interval, the RMS of z = error / std (1 when
+calibrated), and a reliability diagram — the share of trials inside the central
+interval of each level against that level (on the diagonal when calibrated). The
+offline fit's λ, ω std are propagated as ``predict`` does.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ import pandas as pd
 from liquidtouch.errors import TableError
 from liquidtouch.experiments.common import TARGETS, X, pyplot, save_figure, split, usable
 from liquidtouch.experiments.report import ExperimentResult, Headline
+from liquidtouch.models.conformal import default_groups
 from liquidtouch.models.property_model import STD_COLUMNS
 from liquidtouch.models.training import can_calibrate, train_regression
 
@@ -73,11 +74,11 @@ def run(sugar_table: pd.DataFrame, other_table: pd.DataFrame, out_dir: Path) -> 
     start = time.perf_counter()
     train, test = usable(split(sugar_table, "train")), usable(split(sugar_table, "test"))
     targets = [t for t in ("height_mm", "log10_viscosity_cst") if t in train.columns]
-    groups = train["height_mm"].to_numpy()
+    groups = default_groups(train)
     if not len(test) or not can_calibrate("gpr", len(train), 10, groups):
         raise TableError(
-            f"too few sugar-water trials to calibrate ({len(train)} for training over "
-            f"{len(set(groups))} heights, {len(test)} for testing)"
+            f"too few sugar-water trials to calibrate ({len(train)} for training, "
+            f"{len(test)} for testing)"
         )
     model = train_regression(
         X(train),
@@ -112,7 +113,7 @@ def run(sugar_table: pd.DataFrame, other_table: pd.DataFrame, out_dir: Path) -> 
         ax.legend(fontsize=7, loc="upper left")
     fig.suptitle(
         "Reliability of the calibrated intervals: sugar-water GPR (10-fold cross-conformal, "
-        "grouped by fill height)",
+        "default groups)",
         fontsize=10,
     )
     figure = save_figure(fig, out_dir / "calibration.png")
@@ -129,8 +130,9 @@ def run(sugar_table: pd.DataFrame, other_table: pd.DataFrame, out_dir: Path) -> 
     ]
     summary = (
         f"Every ± is calibrated on the training rows: a GPR trained on {len(train)} sugar-water "
-        "trials with the cross-conformal calibration of `liquidtouch train` (10 folds grouped "
-        "by fill height, scores normalised by the GP's std), judged on trials it never saw. "
+        "trials with the cross-conformal calibration of `liquidtouch train` (10 folds, the "
+        "default groups, scores normalised by the GP's std and a local factor learnt from "
+        "them), judged on trials it never saw. "
         "Nominal: ±1σ 68.3 %, ±2σ 95.4 %, the 90 % interval 90 %, RMS z 1."
     )
     return ExperimentResult(

@@ -14,11 +14,24 @@ The sorted scores are kept (:class:`TargetCalibration`, stored in the model file
 so any level can be answered afterwards:
 
 - ``std_scale`` s = the conformal 68.27 % quantile of the scores: the calibrated
-  std is ``s · σ̂`` (±1 calibrated std covers 68 % of held-out rows);
-- rows that share a group (``groups``: e.g. a fill height recorded for several
-  liquids or several times) are held out together, so a row is never predicted
-  by a model that saw its twins;
-- a level-α interval is ``ŷ ± q_α · σ̂``, q_α = the ⌈(n + 1) α⌉-th smallest score
+  std is ``s · ρ · σ̂`` (±1 calibrated std covers 68 % of held-out rows);
+- rows that share a group (``groups``) are held out together, so a row is never
+  predicted by a model that saw its twins. Which rows are twins depends on the
+  design (:func:`default_groups`). For height, every liquid at one fill height is a
+  twin of a sparse design (the height is read from ω, nearly the same for every
+  liquid at one height): held out one trial at a time, 3-4 heights per liquid (or 6
+  with repeats) look far better than they are (``benchmarks/learning_curve.py``:
+  height RMS z 3.8-42), so the fill height is held out whole. On a dense design (≥
+  :data:`DENSE_HEIGHTS` heights per liquid) that errs the other way: the held-out
+  rows lie two grid steps from the nearest training height, a new trial within half
+  a step (simulated video benchmark, 8 heights: out-of-fold height error 2.0-2.7 mm
+  per liquid against 0.4-0.6 mm on new trials; learning curve 9 × 1-3: RMS z 0.84-1.17
+  by height, 0.99-1.08 by trial), so only a trial's repeats are held out together;
+- the model's std is not equally wrong everywhere (one GP noise level for every
+  liquid): a local factor ρ(λ, ω) learnt from the out-of-fold scores
+  (:mod:`liquidtouch.models.local_scale`, chosen by cross-validation) widens it
+  where the held-out rows erred more, and the scores are taken in units of σ̂ ρ;
+- a level-α interval is ``ŷ ± q_α · ρ · σ̂``, q_α = the ⌈(n + 1) α⌉-th smallest score
   (finite-sample marginal coverage ≥ α for exchangeable rows, for the split
   version; cross-conformal "base" is the usual close approximation). With n rows
   the largest level that has a finite q is n / (n + 1): a 90 % interval needs 9
@@ -41,13 +54,17 @@ from sklearn.base import clone
 from sklearn.model_selection import GroupKFold, KFold, PredefinedSplit
 
 from liquidtouch.errors import TableError
+from liquidtouch.models.local_scale import LocalScale, fit_local_scale
 
 __all__ = [
     "DEFAULT_FOLDS",
+    "DENSE_HEIGHTS",
     "ONE_SIGMA_LEVEL",
+    "TRIAL_COLUMNS",
     "TargetCalibration",
     "calibrate_regressor",
     "calibration_folds",
+    "default_groups",
     "min_rows_for_level",
 ]
 
@@ -57,6 +74,33 @@ DEFAULT_FOLDS = 10
 ONE_SIGMA_LEVEL = math.erf(1 / math.sqrt(2))
 #: calibration methods a model file may name
 METHODS = ("cross-conformal",)
+#: label columns that say under which conditions a trial was recorded (its repeats share them)
+TRIAL_COLUMNS = ("liquid", "container", "height_mm", "sugar_concentration")
+#: fill heights per liquid from which a design is dense: a trial's repeats are held out
+#: together, not its whole fill height (module docstring; the README asks for 8-9)
+DENSE_HEIGHTS = 8
+
+
+def default_groups(table: Any) -> np.ndarray | None:
+    """The calibration groups of a training table (module docstring): ``height_mm``'s
+    values, or — with at least :data:`DENSE_HEIGHTS` distinct heights per liquid (median
+    over the liquids) — one group per set of equal :data:`TRIAL_COLUMNS` values (a
+    trial's repeats; an empty cell counts as a value). ``None`` (every row alone)
+    without a ``height_mm`` column.
+    """
+    if "height_mm" not in table.columns:
+        return None
+    heights = table["height_mm"].astype(str)
+    if "liquid" in table.columns:
+        per_liquid = heights.groupby(table["liquid"].astype(str)).nunique()
+        dense = float(per_liquid.median()) >= DENSE_HEIGHTS
+    else:
+        dense = heights.nunique() >= DENSE_HEIGHTS
+    if not dense:
+        return heights.to_numpy()
+    columns = [c for c in TRIAL_COLUMNS if c in table.columns]
+    keys = table[columns].astype(object).where(table[columns].notna(), "").astype(str)
+    return keys.agg("|".join, axis=1).to_numpy()
 
 
 def min_rows_for_level(level: float) -> int:
@@ -74,14 +118,17 @@ def min_rows_for_level(level: float) -> int:
 class TargetCalibration:
     """The cross-conformal calibration of one target (dimensionless scores).
 
-    ``scores``: the sorted out-of-fold normalised scores ``|y − ŷ| / σ̂``, one per
-    training row; ``n_folds``: K; ``random_state``: the fold shuffle's seed.
+    ``scores``: the sorted out-of-fold normalised scores ``|y − ŷ| / (σ̂ ρ)``, one per
+    training row; ``n_folds``: K; ``random_state``: the fold shuffle's seed; ``local``:
+    the local factor ρ on the model's std (:mod:`~liquidtouch.models.local_scale`;
+    ``None``: ρ = 1, one scale everywhere).
     """
 
     scores: tuple[float, ...]
     n_folds: int
     random_state: int = 0
     method: str = "cross-conformal"
+    local: LocalScale | None = None
 
     def __post_init__(self) -> None:
         s = np.asarray(self.scores, dtype=float)
@@ -116,6 +163,12 @@ class TargetCalibration:
         """s: the calibrated std is ``s · σ̂`` (the 68.27 % conformal quantile; > 0)."""
         return max(self.quantile(ONE_SIGMA_LEVEL), 1e-12)
 
+    def local_factor(self, X: Any) -> np.ndarray:
+        """ρ (n,) at the (n, 2) features ``X`` (λ [1/s], ω [rad/s]): ones without a local scale."""
+        if self.local is None:
+            return np.ones(np.asarray(X).shape[0])
+        return self.local.factor(X)
+
     def half_width(self, level: float) -> float:
         """Half-width of the level-``level`` interval in calibrated stds (q_α / s)."""
         return self.quantile(level) / self.std_scale
@@ -126,12 +179,15 @@ class TargetCalibration:
 
     def to_state(self) -> dict[str, Any]:
         """Plain-data state (model file)."""
-        return {
+        state = {
             "method": self.method,
             "n_folds": int(self.n_folds),
             "random_state": int(self.random_state),
             "scores": list(self.scores),
         }
+        if self.local is not None:
+            state["local"] = self.local.to_state()
+        return state
 
     @classmethod
     def from_state(cls, state: dict[str, Any]) -> TargetCalibration:
@@ -141,6 +197,7 @@ class TargetCalibration:
             n_folds=int(state["n_folds"]),
             random_state=int(state.get("random_state", 0)),
             method=state.get("method", "cross-conformal"),
+            local=None if state.get("local") is None else LocalScale.from_state(state["local"]),
         )
 
 
@@ -206,4 +263,7 @@ def calibrate_regressor(
     )
     mapie.fit_conformalize(X, y)
     scores = np.abs(np.asarray(mapie.conformity_scores, dtype=float))
-    return TargetCalibration(tuple(scores.tolist()), n_folds=len(folds), random_state=random_state)
+    local, rho = fit_local_scale(X, scores, groups)
+    return TargetCalibration(
+        tuple((scores / rho).tolist()), n_folds=len(folds), random_state=random_state, local=local
+    )

@@ -3,7 +3,7 @@
 A model file is one JSON document (small arrays — training data, scaling —
 are embedded as lists; JSON floats round-trip exactly)::
 
-    {"format": "liquidtouch-model", "format_version": 4,
+    {"format": "liquidtouch-model", "format_version": 5,
      "kind": "regression" | "classification", "created_by": "liquidtouch 0.1.0",
      "provenance": {"liquidtouch": ..., "scikit_learn": ..., "numpy": ..., "python": ...,
                     "training_sha256": ...},
@@ -13,7 +13,8 @@ are embedded as lists; JSON floats round-trip exactly)::
      "regressors": {target: {"model": "gpr" | "physics-gpr" | "quadratic", ...}},
      "classifier": {"model": "svm", "C": ..., "gamma": ..., ..., "unknown": {...}} | null,
      "calibration": {target: {"method": "cross-conformal", "n_folds": K,
-                              "random_state": 0, "scores": [...]}},
+                              "random_state": 0, "scores": [...],
+                              "local": {"points": [...], "z2": [...], "bandwidth": h, ...}}},
      "sha256": ...}
 
 Each estimator stores its hyperparameters (GP kernel: constant, RBF length
@@ -32,10 +33,11 @@ from liquidtouch.io.tables import FEATURE_COLUMNS
 
 FORMAT_NAME = "liquidtouch-model"
 #: Version 2 adds ``sha256``, ``provenance`` and ``domain``; version 3 ``calibration``
-#: (cross-conformal scores per target); version 4 the classifier's ``unknown`` rule.
-#: Versions 1-3 still load (uncalibrated; a classifier without ``unknown`` gets the
+#: (cross-conformal scores per target); version 4 the classifier's ``unknown`` rule;
+#: version 5 a calibration's ``local`` scale (:mod:`liquidtouch.models.local_scale`).
+#: Versions 1-4 still load (uncalibrated; a classifier without ``unknown`` gets the
 #: rule at its default false-alarm rate from its training rows).
-FORMAT_VERSION = 4
+FORMAT_VERSION = 5
 
 PositiveFloat = Annotated[float, Field(gt=0)]
 Sha256 = Annotated[str, Field(pattern=r"^[0-9a-f]{64}$")]
@@ -156,11 +158,27 @@ class DomainState(_Strict):
         return self
 
 
+class LocalScaleState(_Strict):
+    points: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(min_length=2)
+    z2: list[Annotated[float, Field(ge=0)]] = Field(min_length=2)
+    centre: list[float] = Field(min_length=2, max_length=2)
+    spread: list[PositiveFloat] = Field(min_length=2, max_length=2)
+    bandwidth: PositiveFloat
+    prior_weight: PositiveFloat
+
+    @model_validator(mode="after")
+    def _rows(self) -> LocalScaleState:
+        if len(self.z2) != len(self.points):
+            raise ValueError(f"local: {len(self.z2)} scores for {len(self.points)} points")
+        return self
+
+
 class CalibrationState(_Strict):
     method: Literal["cross-conformal"]
     n_folds: int = Field(ge=2)
     random_state: int = 0
     scores: list[Annotated[float, Field(ge=0)]] = Field(min_length=2)
+    local: LocalScaleState | None = None
 
 
 class ProvenanceState(_Strict):
@@ -214,6 +232,8 @@ class ModelFile(_Strict):
                 )
         if self.calibration and self.format_version < 3:
             raise ValueError("calibration needs format version 3")
+        if self.format_version < 5 and any(c.local for c in self.calibration.values()):
+            raise ValueError("a local calibration scale needs format version 5")
         if self.format_version >= 4 and self.classifier is not None:
             if self.classifier.unknown is None:
                 raise ValueError(f"format version {self.format_version} needs classifier.unknown")

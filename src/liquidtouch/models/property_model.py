@@ -243,7 +243,8 @@ class PropertyModel:
         else:
             fit_var = {t: np.zeros(X.shape[0]) for t in self.regressors}
         for t, (mean, std) in raw.items():
-            scale = self.calibration[t].std_scale if t in self.calibration else 1.0
+            cal = self.calibration.get(t)
+            scale = 1.0 if cal is None else cal.std_scale * cal.local_factor(Xm)
             out[t] = (np.asarray(mean), scale * np.asarray(std), np.sqrt(fit_var[t]))
         return out
 
@@ -362,10 +363,13 @@ class PropertyModel:
             )
             cal = self.calibration.get(target)
             if cal is not None:
+                local = ""
+                if cal.local is not None:
+                    local = f" × a local factor (bandwidth {cal.local.bandwidth:g})"
                 lines.append(
                     f"  calibration: {cal.n_folds}-fold cross-conformal on {cal.n} rows; "
-                    f"std scale {cal.std_scale:.3g} (the model's std × this covers 68 % of "
-                    "held-out rows)"
+                    f"std scale {cal.std_scale:.3g}{local} (the model's std × this covers 68 % "
+                    "of held-out rows)"
                 )
             else:
                 lines.append("  calibration: none (its std is not calibrated)")
