@@ -1,4 +1,5 @@
-"""Shared test helpers: synthetic GelSight marker images with known marker positions.
+"""Shared test helpers: synthetic GelSight marker images with known marker positions,
+Chromium for the browser checks, and fewer random draws for the experiments.
 
 Test modules import these (``from helpers import grid, render_blobs``; ``tests/`` is on
 pytest's ``pythonpath``) instead of importing each other. The synthetic feature
@@ -10,7 +11,10 @@ from __future__ import annotations
 import os
 
 import numpy as np
+import pytest
 from scipy.special import erf
+
+from liquidtouch.experiments import data_efficiency, transfer
 
 
 def render_blobs(positions: np.ndarray, shape=(160, 200), radius=4.5, gain=1.0, noise=0.0, seed=0):
@@ -52,3 +56,18 @@ def chromium_or_skip() -> str:
             pytest.fail("CI is set but chromium is not installed (.ci/run installs it)")
         pytest.skip("chromium is not installed (apt-get install chromium) and CI is not set")
     return path
+
+
+def fewer_experiment_draws(patch: pytest.MonkeyPatch) -> None:
+    """Experiments 6 and 7 with fewer random draws (their curves' sizes and repeats).
+
+    The data-efficiency and transfer curves average many GPR fits over random
+    subsets (~40 CPU-s of a run on the synthetic tables); a test whose claim is
+    not about those averages (the report's layout, an experiment that cannot
+    run, the pipeline end to end) runs them on fewer draws, set through ``patch``:
+    seconds, not a minute.
+    """
+    patch.setattr(data_efficiency, "SIZES", (6, 10, 20))
+    patch.setattr(data_efficiency, "REPEATS", 1)
+    patch.setattr(transfer, "SIZES", (5, 15))
+    patch.setattr(transfer, "REPEATS", 2)
