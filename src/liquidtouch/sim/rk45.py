@@ -109,6 +109,8 @@ def solve_rk45(
     t_eval = np.asarray(t_eval_s, dtype=float)
     t, t_bound = float(t_eval[0]), float(t_eval[-1])
     y = np.asarray(y0).astype(float, copy=False)
+    if t == t_bound:  # nothing to integrate: the initial state at every requested time
+        return np.repeat(y[:, None], len(t_eval), axis=1)
     atol_arr = np.asarray(atol)
     f = fun(t, y)
     h_abs = _initial_step(fun, t, y, t_bound, max_step_s, f, rtol, atol_arr)
