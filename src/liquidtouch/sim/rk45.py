@@ -82,7 +82,7 @@ def _initial_step(fun, t0, y0, t_bound, max_step, f0, rtol, atol) -> float:
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
     else:
-        h1 = (0.01 / max(d1, d2)) ** (1 / (4 + 1))
+        h1 = (0.01 / max(d1, d2)) ** -ERROR_EXPONENT
     return min(100 * h0, h1, interval_length, max_step)
 
 
