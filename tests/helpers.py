@@ -23,9 +23,17 @@ def render_blobs(positions: np.ndarray, shape=(160, 200), radius=4.5, gain=1.0, 
     yy, xx = np.mgrid[0:height, 0:width].astype(float)
     light = gain * (150 + 60 * xx / width + 20 * np.sin(yy / 40))
     ink = np.zeros(shape)
+    # beyond radius + 6 px, erf((r - radius) / 0.9) is exactly 1.0 in float64 and the ink
+    # exactly 0: each disc is drawn in its window only (the same image, ~10x faster)
+    reach = radius + 6.0
     for x, y in positions:
-        r = np.hypot(xx - x, yy - y)
-        ink = np.maximum(ink, 0.5 * (1 - erf((r - radius) / 0.9)))
+        if np.isfinite(x) and np.isfinite(y):
+            cols = slice(max(int(np.floor(x - reach)), 0), max(int(np.ceil(x + reach)) + 1, 0))
+            rows = slice(max(int(np.floor(y - reach)), 0), max(int(np.ceil(y + reach)) + 1, 0))
+        else:
+            cols = rows = slice(None)
+        r = np.hypot(xx[rows, cols] - x, yy[rows, cols] - y)
+        ink[rows, cols] = np.maximum(ink[rows, cols], 0.5 * (1 - erf((r - radius) / 0.9)))
     image = light * (1 - 0.75 * ink)
     if noise:
         image = image + np.random.default_rng(seed).normal(0, noise, shape)
