@@ -15,8 +15,8 @@ so these import as ``from helpers import ...`` and
 Tests marked ``slow`` (the end-to-end runs, tens of seconds each) run first, so
 that under ``pytest -n 2 --dist worksteal`` (``make test``) the other worker takes
 the many short tests meanwhile and no long test starts last, alone, on an
-otherwise idle machine. They use no module-scoped fixtures, so moving them costs
-no extra fixture set-up.
+otherwise idle machine. Their module-scoped fixtures serve slow tests only (keep it
+so), so moving them costs no extra fixture set-up.
 """
 
 from __future__ import annotations
