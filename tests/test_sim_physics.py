@@ -3,21 +3,16 @@
 from __future__ import annotations
 
 import math
-from functools import partial
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.integrate import solve_ivp
 from scipy.signal import butter, hilbert, sosfiltfilt
 
 from liquidtouch._core.containers import get_container
 from liquidtouch._core.liquids import get_liquid, sugar_mass_fraction
 from liquidtouch.errors import CatalogueError, LiquidTouchError
-from liquidtouch.sim import slosh
-from liquidtouch.sim.activation import min_jerk_acceleration
-from liquidtouch.sim.rk45 import solve_rk45
 from liquidtouch.sim.slosh import integrate, slosh_system
 from liquidtouch.sim.trial import simulate_trial
 
@@ -140,34 +135,6 @@ def test_decay_rate_rises_with_viscosity():
     ]
     assert np.all(np.diff(rates) > 0)
     assert rates[-1] / rates[0] > 10
-
-
-@pytest.mark.parametrize(
-    ("liquid", "container", "height_mm"),
-    [("water", "grooved-cuboid", 28.0), ("detergent", "cylinder", 20.0), ("mirin", "glass", 35.0)],
-)
-def test_the_integrator_is_scipys_rk45_bit_for_bit(liquid, container, height_mm, monkeypatch):
-    """``sim.rk45`` repeats SciPy's ``solve_ivp`` RK45 so that no trajectory (and no
-    rendered frame) changed when the simulator stopped importing ``scipy.integrate``."""
-    system = slosh_system(get_liquid(liquid), get_container(container), height_mm)
-    t = np.arange(0.0, 13.0 + 1e-9, 1 / 240)
-    push = partial(min_jerk_acceleration, distance_m=0.015, start_s=1.0, duration_s=0.35)
-    y0 = np.zeros(6)
-    y0[2], y0[3] = 1e-4, -2e-4
-    calls = []
-
-    def both(rhs, t_eval_s, y_start, *, rtol, atol, max_step_s):
-        ref = solve_ivp(rhs, (t_eval_s[0], t_eval_s[-1]), y_start, t_eval=t_eval_s,
-                        method="RK45", rtol=rtol, atol=atol, max_step=max_step_s)  # fmt: skip
-        calls.append(ref)
-        return solve_rk45(rhs, t_eval_s, y_start, rtol=rtol, atol=atol, max_step_s=max_step_s)
-
-    monkeypatch.setattr(slosh, "solve_rk45", both)
-    ours = integrate(system, t, push, y0)
-    (scipy,) = calls
-    assert scipy.success and scipy.y.shape == ours.shape == (6, len(t))
-    assert np.array_equal(ours, scipy.y)
-    assert np.ptp(ours[2]) > 1e-3  # the push set the liquid sloshing (mm of slosh-mass motion)
 
 
 def test_damping_is_faster_at_large_amplitude():
