@@ -284,6 +284,10 @@ class LiveEstimator:
                 reason = ring_down_reason(*_within(window.t, window.u, start, end))[0]
             except LiquidTouchError as exc:
                 reason = str(exc)
+            except np.linalg.LinAlgError as exc:
+                # the PCA of a still stretch's window (synthetic frames, exactly still markers)
+                # can fail to converge: that stretch is no ring-down
+                reason = f"no signal: {exc}"
             if closed or not reason:  # a ring-down stays one while open; judged again closed
                 self.verdicts.append((start, closed, reason))
             return reason
