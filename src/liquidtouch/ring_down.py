@@ -106,10 +106,11 @@ MIN_CANDIDATE_S = 0.5
 #: a free decay's envelope follows its fit: over each period where either stands above
 #: ENVELOPE_FLOOR of the largest, the signal's RMS (less the fit's drift) is within this
 #: factor of the fitted oscillation's (a lowering or release that stops the slosh: the
-#: signal drops to the noise where the fit still rings — ratio ≤ 0.1 on simulated
-#: protocols; a two-mode beat or amplitude-dependent damping stays well within 3)
+#: signal drops to the noise where the fit still rings — ratio ≤ 0.2 on slosh stopped
+#: after 1.5-2 s of a 3 s window; a two-mode beat or amplitude-dependent damping stays
+#: within 3)
 ENVELOPE_RATIO = 3.0
-ENVELOPE_FLOOR = 0.3
+ENVELOPE_FLOOR = 0.1
 #: ... explains at least this fraction of the signal's variance (less its drift): a ring-down
 #: on simulated protocols ≥ 0.99, the slosh's end at the lowering and release 0.8
 MIN_FIT_R2 = 0.9
