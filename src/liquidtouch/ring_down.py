@@ -115,7 +115,7 @@ ENVELOPE_FLOOR = 0.1
 #: on simulated protocols ≥ 0.99, the slosh's end at the lowering and release 0.8
 MIN_FIT_R2 = 0.9
 #: ... and decays: the second half of the window holds at most this many times the RMS of the
-#: first (a grasp's step at the end of a still stretch fitted as a "cosine": ≫ 2)
+#: first (a free decay's is smaller; the margin is for a two-mode beat)
 MAX_LATE_GROWTH = 1.5
 
 #: ``classify(t, u, start_s, end_s, closed) -> reason`` ("" for a ring-down)
