@@ -1,6 +1,7 @@
 """From marker tracks to the 1-D tactile signal ``u(t)``: resample, low-pass, select, PCA.
 
-1. **Clock**: all sensors are resampled (linear interpolation) onto one
+1. **Clock**: all sensors are resampled (a cubic spline through each sensor's frames,
+   :func:`interpolate_frames`) onto one
    uniform clock over the time they all recorded. Each sensor's frame ``k`` is at
    ``start_s + t[k] - t[0]`` on the trial's shared clock
    (:attr:`MarkerTracks.start_s`, from the recorder's ``sensor_start_s``; 0 for
@@ -19,7 +20,9 @@
    (a dropped frame or a few) are interpolated.
 3. **Low-pass**: zero-phase Butterworth (``sosfiltfilt``), 3 Hz by default, run
    on each contiguous stretch of observed samples on its own (a stretch too short
-   to filter is dropped too), so no filter output mixes in a gap.
+   to filter is dropped too), so no filter output mixes in a gap; an end of a
+   stretch at a gap is continued by linear prediction for the filter's settling
+   (:func:`predict_edges`), and the continuation dropped.
 4. **Selection**: the ``n_markers`` markers (across all sensors) with the
    largest motion, ``sqrt(var x + var y)`` of the filtered displacement.
 5. **PCA**: their x, y displacements form a ``2·n``-D vector per frame; the
