@@ -1,7 +1,7 @@
 """From marker tracks to the 1-D tactile signal ``u(t)``: resample, low-pass, select, PCA.
 
-1. **Clock**: all sensors are resampled (a cubic spline through each sensor's frames,
-   :func:`interpolate_frames`) onto one
+1. **Clock**: all sensors are resampled (linear interpolation; a cubic spline across
+   dropped frames, :func:`interpolate_frames`) onto one
    uniform clock over the time they all recorded. Each sensor's frame ``k`` is at
    ``start_s + t[k] - t[0]`` on the trial's shared clock
    (:attr:`MarkerTracks.start_s`, from the recorder's ``sensor_start_s``; 0 for
@@ -246,9 +246,9 @@ def resample_displacement(
 
     ``t_uniform`` [s] is on the sensor's own clock from its first frame
     (``tracks.t - tracks.t[0]``). Unusable markers (too often or too long lost,
-    cut by the border) get zeros. Between frames the motion is a cubic spline
-    through each run of frames without a step over ``bridged_s`` [s]
-    (:func:`interpolate_frames`).
+    cut by the border) get zeros. Across dropped frames the motion is a cubic
+    spline through the frames around them (:func:`interpolate_frames`; no spline
+    spans a step over ``bridged_s`` [s]).
     """
     _check_gap_limits(max_lost_fraction, max_gap_s)
     t = tracks.t - tracks.t[0]
@@ -273,24 +273,34 @@ def interpolate_frames(
 ) -> np.ndarray:
     """``values`` (F, ...) at frame times ``t_frames`` [s] read at times ``t_out`` [s].
 
-    A cubic spline (not-a-knot) through each run of at least 4 frames without a step
-    over ``bridged_s`` [s]; linear elsewhere (held constant outside the frames).
-    Cubic, not linear: at 15-18 fps a dropped frame or three leave ~0.1-0.16 s
-    between frames, a quarter of a 2 Hz slosh period, and a straight line across
-    it cuts the peaks by up to half the amplitude (a spline: a few per cent); the
-    low-pass does not undo that and λ moved by 5-15 %.
+    Linear between consecutive frames (held constant outside them); across dropped
+    frames (a step of two frame periods or more, as :func:`~liquidtouch.clock.frame_period`
+    counts them) a cubic spline (not-a-knot) through the run of at least 4 frames
+    without a step over ``bridged_s`` [s] around them. Cubic there: at 15-18 fps a
+    dropped frame or three leave ~0.1-0.16 s between frames, a quarter of a 2 Hz
+    slosh period, and a straight line across it cuts a peak by up to half the
+    amplitude (the spline: a few per cent); the low-pass does not undo that, and λ
+    moved by 5-15 %. Linear elsewhere, so a recording without drops gives the same
+    signal as before (the model choice is sensitive to small changes of u).
     """
     from scipy.interpolate import CubicSpline
 
     flat = values.reshape(len(t_frames), -1)
     out = np.column_stack([np.interp(t_out, t_frames, c) for c in flat.T])
-    breaks = np.flatnonzero(np.diff(t_frames) > bridged_s) + 1
+    if t_frames.size < 4:
+        return out.reshape((t_out.size, *values.shape[1:]))
+    steps = np.diff(t_frames)
+    dropped = np.flatnonzero(np.rint(steps / np.median(steps)) > 1)
+    breaks = np.flatnonzero(steps > bridged_s) + 1
     for run in np.split(np.arange(t_frames.size), breaks):
-        if run.size < 4:
+        inside_run = dropped[(dropped >= run[0]) & (dropped < run[-1])]
+        if run.size < 4 or inside_run.size == 0:
             continue
-        inside = (t_out >= t_frames[run[0]]) & (t_out <= t_frames[run[-1]])
-        if inside.any():
-            out[inside] = CubicSpline(t_frames[run], flat[run], axis=0)(t_out[inside])
+        k = np.searchsorted(t_frames, t_out, side="right") - 1  # the step each time is in
+        across = np.isin(k, inside_run) & (t_out < t_frames[-1])
+        if across.any():
+            spline = CubicSpline(t_frames[run], flat[run], axis=0)
+            out[across] = spline(t_out[across])
     return out.reshape((t_out.size, *values.shape[1:]))
 
 
