@@ -22,7 +22,7 @@
    on each contiguous stretch of observed samples on its own (a stretch too short
    to filter is dropped too), so no filter output mixes in a gap; an end of a
    stretch at a gap is continued by linear prediction for the filter's settling
-   (:func:`predict_edges`), and the continuation dropped.
+   (:func:`~liquidtouch.linear_prediction.predict_edges`), and the continuation dropped.
 4. **Selection**: the ``n_markers`` markers (across all sensors) with the
    largest motion, ``sqrt(var x + var y)`` of the filtered displacement.
 5. **PCA**: their x, y displacements form a ``2·n``-D vector per frame; the
@@ -48,6 +48,7 @@ from liquidtouch._core.checks import as_number
 from liquidtouch._core.numbers import fixed, number
 from liquidtouch.clock import check_times, finite_array, uniform_clock
 from liquidtouch.errors import MarkerError, SignalError
+from liquidtouch.linear_prediction import AR_ORDER, predict_edges
 from liquidtouch.tracking.tracks import MarkerTracks
 
 __all__ = [
@@ -66,10 +67,6 @@ GAP_PERIODS = 2.0
 #: a stretch's end at a gap is predicted this many cut-off periods on before the low-pass
 #: (the 4th-order Butterworth's response to a step has settled to < 1 % by then)
 EDGE_PERIODS = 3.0
-#: order of the linear prediction at a gap [samples]: 4 damped oscillations, with room
-AR_ORDER = 8
-#: rows next to a stretch's end the prediction is fitted to (1.5 s at 25 fps)
-AR_FIT = 38
 
 
 def max_bridged_gap_s(lowpass_hz: float | None, fps: float) -> float:
@@ -101,10 +98,10 @@ def lowpass_observed(
     Returns ``(filtered, observed)``: a stretch too short to filter is marked not
     observed (its rows are left as they were). Without gaps this is :func:`lowpass`.
     An end of a stretch at a gap is first continued by linear prediction
-    (:func:`predict_edges`) over the filter's settling time and the continuation
-    dropped after filtering: the filter's own odd-reflection padding bent the
-    oscillation there by up to 10-20 % of its amplitude for ~0.5 s on each side of
-    a stall, and moved λ by 5-20 %. The continuation is never part of the output.
+    (:func:`~liquidtouch.linear_prediction.predict_edges`) over the filter's settling
+    time and the continuation dropped after filtering: the filter's own
+    odd-reflection padding bent the oscillation there by 3-19 % of its amplitude
+    for ~0.5 s on each side of a stall. The continuation is never part of the output.
     """
     if observed.all():
         return lowpass(x, fps, cutoff_hz), observed
@@ -123,55 +120,6 @@ def lowpass_observed(
         extended = predict_edges(x[begin:end], before, after) if predictable else x[begin:end]
         out[begin:end] = lowpass(extended, fps, cutoff_hz)[before : before + end - begin]
     return out, observed
-
-
-def predict_edges(x: np.ndarray, before: int, after: int, order: int = AR_ORDER) -> np.ndarray:
-    """``x`` (T, ...) continued by ``before`` rows back and ``after`` rows on, per column.
-
-    Burg's autoregressive model of ``order`` [samples], fitted to the ``AR_FIT``
-    rows next to each end (its linear trend removed, then restored), predicts the
-    continuation: a sum of damped oscillations continues as one, where a mirror
-    image breaks its curvature. ``x`` needs at least ``3 × order`` rows.
-    """
-    if x.shape[0] < 3 * order:
-        raise SignalError(f"{x.shape[0]} rows are too few to predict from (need {3 * order})")
-    shape, x = x.shape[1:], x.reshape(len(x), -1)
-    parts = [x]
-    if before:
-        parts.insert(0, _predict(x[:AR_FIT][::-1], before, order)[::-1])
-    if after:
-        parts.append(_predict(x[-AR_FIT:], after, order))
-    extended = np.concatenate(parts)
-    return extended.reshape((len(extended), *shape))
-
-
-def _predict(x: np.ndarray, n: int, order: int) -> np.ndarray:
-    """The ``n`` rows after ``x`` (T, C) by Burg's AR(``order``) of each column's detrended x."""
-    steps = np.arange(x.shape[0], dtype=float)
-    trend = np.polynomial.polynomial.polyfit(steps, x, 1)  # (2, C)
-    y = x - (trend[0] + np.outer(steps, trend[1]))
-    a = _burg(y, order)  # (order + 1, C), a[0] = 1
-    history = list(y[-order:])
-    ahead = np.empty((n, x.shape[1]))
-    for k in range(n):
-        nxt = -sum(a[j] * history[-j] for j in range(1, order + 1))
-        history.append(nxt)
-        ahead[k] = nxt
-    return ahead + trend[0] + np.outer(x.shape[0] + np.arange(n), trend[1])
-
-
-def _burg(y: np.ndarray, order: int) -> np.ndarray:
-    """Burg's AR coefficients of each column of ``y`` (T, C): (order + 1, C), first row 1."""
-    forward, backward = y.copy(), y.copy()
-    a = np.zeros((order + 1, y.shape[1]))
-    a[0] = 1.0
-    for m in range(order):
-        f, b = forward[m + 1 :], backward[m:-1]
-        energy = np.sum(f**2 + b**2, axis=0)
-        k = np.where(energy > 0, -2 * np.sum(f * b, axis=0) / np.where(energy > 0, energy, 1), 0)
-        a[: m + 2] = a[: m + 2] + k * a[: m + 2][::-1]
-        forward[m + 1 :], backward[m + 1 :] = f + k * b, b + k * f
-    return a
 
 
 @dataclass(repr=False)
