@@ -194,10 +194,9 @@ def resample_displacement(
 
     ``t_uniform`` [s] is on the sensor's own clock from its first frame
     (``tracks.t - tracks.t[0]``). Unusable markers (too often or too long lost,
-    cut by the border) get zeros. Across frames the camera dropped the motion is a
-    cubic spline through the frames around them (:func:`interpolate_frames`; no
-    spline spans a step over ``bridged_s`` [s]); across frames in which the tracker
-    lost a marker, linear.
+    cut by the border) get zeros. Across dropped frames the motion is a cubic
+    spline through the frames around them (:func:`interpolate_frames`; no spline
+    spans a step over ``bridged_s`` [s]).
     """
     _check_gap_limits(max_lost_fraction, max_gap_s)
     t = tracks.t - tracks.t[0]
@@ -208,15 +207,12 @@ def resample_displacement(
     usable &= _longest_gap_s(t, valid) <= max_gap_s
     usable &= ~_cut_by_border(tracks)
     out = np.zeros((t_uniform.size, n, 2))
-    whole = usable & valid.all(axis=0)
+    whole = usable & valid.all(axis=0)  # one spline for all of them
     if whole.any():
         out[:, whole] = interpolate_frames(t, disp[:, whole], t_uniform, bridged_s)
-    # a marker the tracker lost in some frames: linear across them, as before (a
-    # spline there moved the model choice of a clean video: push_invariance --video)
     for i in np.flatnonzero(usable & ~whole):
         ok = valid[:, i]
-        for axis in range(2):
-            out[:, i, axis] = np.interp(t_uniform, t[ok], disp[ok, i, axis])
+        out[:, i] = interpolate_frames(t[ok], disp[ok, i], t_uniform, bridged_s)
     return out, usable
 
 
