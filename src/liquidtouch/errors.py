@@ -17,6 +17,7 @@ __all__ = [
     "NoOscillationError",
     "OutputError",
     "SignalError",
+    "SwallowedRingDownError",
     "TableError",
     "VideoError",
 ]
@@ -32,6 +33,11 @@ class SignalError(LiquidTouchError):
 
 class NoOscillationError(SignalError):
     """The signal holds no damped oscillation (overdamped, or noise only)."""
+
+
+class SwallowedRingDownError(NoOscillationError):
+    """No oscillation was found after the push, and a gap without samples lies where the
+    ring-down should be: a camera stall may have swallowed it."""
 
 
 class VideoError(LiquidTouchError):

@@ -14,10 +14,17 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from liquidtouch._core.checks import as_number
-from liquidtouch.errors import SignalError
+from liquidtouch.errors import NoOscillationError, SignalError, SwallowedRingDownError
 from liquidtouch.fit.choices import DEFAULT_MODEL, LOSSES, MODELS, NOISE_MODELS
 from liquidtouch.fit.oscillation import GAP_STEPS, MIN_DURATION_S, fit_oscillation, validate_signal
 from liquidtouch.ring_down import free_decay
+
+#: a gap covering this share of the ring-down above the noise or more swallowed it: λ and ω
+#: then come from its tail (or from noise) and are reported as such
+SWALLOWED_SHARE = 0.5
+#: a refused fit names the gaps within this long after the window's start [s]: the
+#: ring-down of the most damped liquid (detergent) is above the noise for ~0.7 s
+SWALLOW_WINDOW_S = 1.0
 
 AUTO = "auto"
 """``FitSettings.start`` value: fit from the start of the free decay (:func:`free_decay`)."""
@@ -101,12 +108,28 @@ class FitSettings:
         """:func:`~liquidtouch.fit.oscillation.fit_oscillation` of :meth:`window` of ``(t, u)``.
 
         The result's ``gap_before_start_s`` is the gap [s] in ``t`` that ends where
-        the window starts (0 when none): the ring-down may have started in it.
+        the window starts (0 when none): the ring-down may have started in it; its
+        ``ring_down_gap_share`` the share of the ring-down above the noise that lies
+        in gaps (:func:`ring_down_swallowed`).
         """
 
         t_fit, u_fit = self.window(t, u)
-        fit = fit_oscillation(t_fit, u_fit, **self.fit_options())
-        return replace(fit, gap_before_start_s=gap_before(t, float(t_fit[0])))
+        try:
+            fit = fit_oscillation(t_fit, u_fit, **self.fit_options())
+        except NoOscillationError as exc:
+            gap_s = gap_before(t, float(t_fit[0])) + gap_within(t_fit, SWALLOW_WINDOW_S)
+            if gap_s > 0:
+                raise SwallowedRingDownError(
+                    f"{exc}; {gap_s:.2f} s without samples lie within {SWALLOW_WINDOW_S:g} s "
+                    f"of where the ring-down starts ({t_fit[0]:.2f} s): a camera stall may "
+                    "have swallowed it"
+                ) from None
+            raise
+        return replace(
+            fit,
+            gap_before_start_s=gap_before(t, float(t_fit[0])),
+            ring_down_gap_share=ring_down_gap_share(t_fit, fit),
+        )
 
 
 def fit_window(
@@ -150,3 +173,39 @@ def gap_before(t: np.ndarray, start_s: float) -> float:
     typical = float(np.median(np.diff(t)))
     step = float(t[i] - t[i - 1])
     return step - typical if step > GAP_STEPS * typical else 0.0
+
+
+def gap_within(t: np.ndarray, duration_s: float) -> float:
+    """Time [s] without samples in the first ``duration_s`` [s] of ``t`` [s] (steps over
+    ``GAP_STEPS`` × the median step, counted beyond one median step)."""
+    t = np.asarray(t, dtype=float)
+    if t.size < 2:
+        return 0.0
+    end = min(float(t[0]) + duration_s, float(t[-1]))
+    steps = np.diff(t)
+    typical = float(np.median(steps))
+    gap = steps > GAP_STEPS * typical
+    lo = np.clip(t[:-1][gap] + typical, None, end)
+    hi = np.clip(t[1:][gap], None, end)
+    return float(np.sum(np.maximum(hi - lo, 0.0)))
+
+
+def ring_down_gap_share(t: np.ndarray, fit: object) -> float:
+    """Share (0-1) of the ring-down above the noise that lies in gaps of the fitted ``t`` [s].
+
+    The ring-down above the noise runs from the fit's ``t0`` for
+    ``ln(|amplitude| / noise_std) / decay_rate`` [s] (0 when the amplitude is below
+    the noise); a gap is a step over ``GAP_STEPS`` × the median step, counted beyond
+    one median step. A stall of 0.3-1 s swallows a detergent's ~0.7 s ring-down.
+    """
+    t = np.asarray(t, dtype=float)
+    ratio = abs(fit.amplitude) / fit.noise_std if fit.noise_std > 0 else math.inf
+    ring_s = math.log(max(ratio, 1.0)) / fit.decay_rate if fit.decay_rate > 0 else math.inf
+    span_s = min(ring_s, float(t[-1] - t[0])) if t.size > 1 else 0.0
+    return gap_within(t, span_s) / span_s if span_s > 0 else 0.0
+
+
+def ring_down_swallowed(fit: object) -> bool:
+    """Whether a gap swallowed the fitted ring-down: ``ring_down_gap_share`` ≥
+    :data:`SWALLOWED_SHARE` (λ and ω then come from its tail, or from noise)."""
+    return getattr(fit, "ring_down_gap_share", 0.0) >= SWALLOWED_SHARE

@@ -1,6 +1,7 @@
 """From marker tracks to the 1-D tactile signal ``u(t)``: resample, low-pass, select, PCA.
 
-1. **Clock**: all sensors are resampled (linear interpolation) onto one
+1. **Clock**: all sensors are resampled (linear interpolation; a cubic spline across
+   dropped frames, :func:`interpolate_frames`) onto one
    uniform clock over the time they all recorded. Each sensor's frame ``k`` is at
    ``start_s + t[k] - t[0]`` on the trial's shared clock
    (:attr:`MarkerTracks.start_s`, from the recorder's ``sensor_start_s``; 0 for
@@ -19,7 +20,9 @@
    (a dropped frame or a few) are interpolated.
 3. **Low-pass**: zero-phase Butterworth (``sosfiltfilt``), 3 Hz by default, run
    on each contiguous stretch of observed samples on its own (a stretch too short
-   to filter is dropped too), so no filter output mixes in a gap.
+   to filter is dropped too), so no filter output mixes in a gap; an end of a
+   stretch at a gap is continued by linear prediction for the filter's settling
+   (:func:`predict_edges`), and the continuation dropped.
 4. **Selection**: the ``n_markers`` markers (across all sensors) with the
    largest motion, ``sqrt(var x + var y)`` of the filtered displacement.
 5. **PCA**: their x, y displacements form a ``2·n``-D vector per frame; the
@@ -60,6 +63,13 @@ __all__ = [
 MIN_SELECTED = 2
 #: without a low-pass, a stretch without frames longer than this many frame periods is a gap
 GAP_PERIODS = 2.0
+#: a stretch's end at a gap is predicted this many cut-off periods on before the low-pass
+#: (the 4th-order Butterworth's response to a step has settled to < 1 % by then)
+EDGE_PERIODS = 3.0
+#: order of the linear prediction at a gap [samples]: 4 damped oscillations, with room
+AR_ORDER = 8
+#: rows next to a stretch's end the prediction is fitted to (1.5 s at 25 fps)
+AR_FIT = 38
 
 
 def max_bridged_gap_s(lowpass_hz: float | None, fps: float) -> float:
@@ -90,17 +100,78 @@ def lowpass_observed(
 
     Returns ``(filtered, observed)``: a stretch too short to filter is marked not
     observed (its rows are left as they were). Without gaps this is :func:`lowpass`.
+    An end of a stretch at a gap is first continued by linear prediction
+    (:func:`predict_edges`) over the filter's settling time and the continuation
+    dropped after filtering: the filter's own odd-reflection padding bent the
+    oscillation there by up to 10-20 % of its amplitude for ~0.5 s on each side of
+    a stall, and moved λ by 5-20 %. The continuation is never part of the output.
     """
     if observed.all():
         return lowpass(x, fps, cutoff_hz), observed
     out, observed = x.copy(), observed.copy()
     edges = np.flatnonzero(np.diff(np.concatenate([[0], observed.astype(int), [0]])))
+    pad = math.ceil(EDGE_PERIODS * fps / cutoff_hz)
     for begin, end in zip(edges[0::2], edges[1::2], strict=True):
         if end - begin <= LOWPASS_PADLEN:
             observed[begin:end] = False
-        else:
-            out[begin:end] = lowpass(x[begin:end], fps, cutoff_hz)
+            continue
+        # the recording's own ends are filtered as without gaps; a stretch too short to
+        # fit a prediction to is filtered as it is
+        predictable = end - begin >= 3 * AR_ORDER
+        before = pad if begin > 0 and predictable else 0
+        after = pad if end < len(x) and predictable else 0
+        extended = predict_edges(x[begin:end], before, after) if predictable else x[begin:end]
+        out[begin:end] = lowpass(extended, fps, cutoff_hz)[before : before + end - begin]
     return out, observed
+
+
+def predict_edges(x: np.ndarray, before: int, after: int, order: int = AR_ORDER) -> np.ndarray:
+    """``x`` (T, ...) continued by ``before`` rows back and ``after`` rows on, per column.
+
+    Burg's autoregressive model of ``order`` [samples], fitted to the ``AR_FIT``
+    rows next to each end (its linear trend removed, then restored), predicts the
+    continuation: a sum of damped oscillations continues as one, where a mirror
+    image breaks its curvature. ``x`` needs at least ``3 × order`` rows.
+    """
+    if x.shape[0] < 3 * order:
+        raise SignalError(f"{x.shape[0]} rows are too few to predict from (need {3 * order})")
+    shape, x = x.shape[1:], x.reshape(len(x), -1)
+    parts = [x]
+    if before:
+        parts.insert(0, _predict(x[:AR_FIT][::-1], before, order)[::-1])
+    if after:
+        parts.append(_predict(x[-AR_FIT:], after, order))
+    extended = np.concatenate(parts)
+    return extended.reshape((len(extended), *shape))
+
+
+def _predict(x: np.ndarray, n: int, order: int) -> np.ndarray:
+    """The ``n`` rows after ``x`` (T, C) by Burg's AR(``order``) of each column's detrended x."""
+    steps = np.arange(x.shape[0], dtype=float)
+    trend = np.polynomial.polynomial.polyfit(steps, x, 1)  # (2, C)
+    y = x - (trend[0] + np.outer(steps, trend[1]))
+    a = _burg(y, order)  # (order + 1, C), a[0] = 1
+    history = list(y[-order:])
+    ahead = np.empty((n, x.shape[1]))
+    for k in range(n):
+        nxt = -sum(a[j] * history[-j] for j in range(1, order + 1))
+        history.append(nxt)
+        ahead[k] = nxt
+    return ahead + trend[0] + np.outer(x.shape[0] + np.arange(n), trend[1])
+
+
+def _burg(y: np.ndarray, order: int) -> np.ndarray:
+    """Burg's AR coefficients of each column of ``y`` (T, C): (order + 1, C), first row 1."""
+    forward, backward = y.copy(), y.copy()
+    a = np.zeros((order + 1, y.shape[1]))
+    a[0] = 1.0
+    for m in range(order):
+        f, b = forward[m + 1 :], backward[m:-1]
+        energy = np.sum(f**2 + b**2, axis=0)
+        k = np.where(energy > 0, -2 * np.sum(f * b, axis=0) / np.where(energy > 0, energy, 1), 0)
+        a[: m + 2] = a[: m + 2] + k * a[: m + 2][::-1]
+        forward[m + 1 :], backward[m + 1 :] = f + k * b, b + k * f
+    return a
 
 
 @dataclass(repr=False)
@@ -169,12 +240,15 @@ def resample_displacement(
     t_uniform: np.ndarray,
     max_lost_fraction: float = 0.05,
     max_gap_s: float = 0.25,
+    bridged_s: float = math.inf,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Displacement (T, N, 2) [px] on ``t_uniform`` and which markers are usable (N,).
 
     ``t_uniform`` [s] is on the sensor's own clock from its first frame
     (``tracks.t - tracks.t[0]``). Unusable markers (too often or too long lost,
-    cut by the border) get zeros.
+    cut by the border) get zeros. Across dropped frames the motion is a cubic
+    spline through the frames around them (:func:`interpolate_frames`; no spline
+    spans a step over ``bridged_s`` [s]).
     """
     _check_gap_limits(max_lost_fraction, max_gap_s)
     t = tracks.t - tracks.t[0]
@@ -185,11 +259,49 @@ def resample_displacement(
     usable &= _longest_gap_s(t, valid) <= max_gap_s
     usable &= ~_cut_by_border(tracks)
     out = np.zeros((t_uniform.size, n, 2))
-    for i in np.flatnonzero(usable):
+    whole = usable & valid.all(axis=0)  # one spline for all of them
+    if whole.any():
+        out[:, whole] = interpolate_frames(t, disp[:, whole], t_uniform, bridged_s)
+    for i in np.flatnonzero(usable & ~whole):
         ok = valid[:, i]
-        for axis in range(2):
-            out[:, i, axis] = np.interp(t_uniform, t[ok], disp[ok, i, axis])
+        out[:, i] = interpolate_frames(t[ok], disp[ok, i], t_uniform, bridged_s)
     return out, usable
+
+
+def interpolate_frames(
+    t_frames: np.ndarray, values: np.ndarray, t_out: np.ndarray, bridged_s: float = math.inf
+) -> np.ndarray:
+    """``values`` (F, ...) at frame times ``t_frames`` [s] read at times ``t_out`` [s].
+
+    Linear between consecutive frames (held constant outside them); across dropped
+    frames (a step of two frame periods or more, as :func:`~liquidtouch.clock.frame_period`
+    counts them) a cubic spline (not-a-knot) through the run of at least 4 frames
+    without a step over ``bridged_s`` [s] around them. Cubic there: at 15-18 fps a
+    dropped frame or three leave ~0.1-0.16 s between frames, a quarter of a 2 Hz
+    slosh period, and a straight line across it cuts a peak by up to half the
+    amplitude (the spline: a few per cent); the low-pass does not undo that, and λ
+    moved by 5-15 %. Linear elsewhere, so a recording without drops gives the same
+    signal as before (the model choice is sensitive to small changes of u).
+    """
+    from scipy.interpolate import CubicSpline
+
+    flat = values.reshape(len(t_frames), -1)
+    out = np.column_stack([np.interp(t_out, t_frames, c) for c in flat.T])
+    if t_frames.size < 4:
+        return out.reshape((t_out.size, *values.shape[1:]))
+    steps = np.diff(t_frames)
+    dropped = np.flatnonzero(np.rint(steps / np.median(steps)) > 1)
+    breaks = np.flatnonzero(steps > bridged_s) + 1
+    for run in np.split(np.arange(t_frames.size), breaks):
+        inside_run = dropped[(dropped >= run[0]) & (dropped < run[-1])]
+        if run.size < 4 or inside_run.size == 0:
+            continue
+        k = np.searchsorted(t_frames, t_out, side="right") - 1  # the step each time is in
+        across = np.isin(k, inside_run) & (t_out < t_frames[-1])
+        if across.any():
+            spline = CubicSpline(t_frames[run], flat[run], axis=0)
+            out[across] = spline(t_out[across])
+    return out.reshape((t_out.size, *values.shape[1:]))
 
 
 def _longest_gap_s(t: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -298,7 +410,7 @@ def tactile_signal(
     blocks, names = [], []
     for tr in tracks:
         local = t_uniform + (begin_s - float(tr.start_s))  # on this sensor's own clock
-        disp, usable = resample_displacement(tr, local, max_lost_fraction, max_gap_s)
+        disp, usable = resample_displacement(tr, local, max_lost_fraction, max_gap_s, bridged_s)
         observed &= observed_samples(tr.t - tr.t[0], local, bridged_s)
         blocks.append(disp[:, usable])
         names.extend((tr.sensor, int(i)) for i in np.flatnonzero(usable))

@@ -85,7 +85,16 @@ def fit_quality(result: object) -> str:
 
 
 def gap_warning(result: object) -> str | None:
-    """A line when a gap in the samples ends where the fitted free decay starts, else None."""
+    """A line when a gap swallowed the ring-down, or a gap in the samples ends where the
+    fitted free decay starts; else None."""
+    from liquidtouch.fit_settings import ring_down_swallowed
+
+    if ring_down_swallowed(result):
+        return (
+            f"gaps without samples cover {result.ring_down_gap_share:.0%} of the ring-down "
+            f"above the noise (from {float(result.t0):.2f} s): the gap swallowed the ring-down, "
+            "so λ and ω come from its tail and may be far off; record without stalls"
+        )
     gap = getattr(result, "gap_before_start_s", 0.0)
     if not gap > 0:
         return None

@@ -42,7 +42,10 @@ class OscillationFit:
     no samples (0-1), ``gap_before_start_s`` [s] the gap that ends where the fitted
     window starts (0 when there is none; set by
     :meth:`~liquidtouch.fit_settings.FitSettings.fit`: the ring-down may have
-    started inside it).
+    started inside it), ``ring_down_gap_share`` the share (0-1) of the ring-down
+    above the noise (from ``t0`` for ``ln(|amplitude| / noise_std) / decay_rate``)
+    that lies in gaps (also set by ``FitSettings.fit``; from a half on, the gap
+    swallowed the ring-down: :func:`~liquidtouch.fit_settings.ring_down_swallowed`).
 
     Its repr is one short line: λ and ω rounded to their std, the model and R².
     """
@@ -81,6 +84,7 @@ class OscillationFit:
     n_effective: float = math.nan
     gap_share: float = 0.0
     gap_before_start_s: float = 0.0
+    ring_down_gap_share: float = 0.0
 
     def __repr__(self) -> str:
         return (

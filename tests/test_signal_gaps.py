@@ -1,0 +1,147 @@
+"""Gaps are gaps (issue 23): stalls and dropped frames do not move λ, and a gap that
+swallows the ring-down is reported. Against the simulator's truth and the gap-free fit."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from liquidtouch.cli.format import gap_warning
+from liquidtouch.errors import SwallowedRingDownError
+from liquidtouch.fit_settings import FitSettings, ring_down_swallowed
+from liquidtouch.signal import interpolate_frames, lowpass, lowpass_observed, tactile_signal
+from liquidtouch.sim.gelsight import sensor_scene
+from liquidtouch.sim.sensors import get_sensor_profile
+from liquidtouch.sim.trial import simulate_trial
+from liquidtouch.tracking.tracks import MarkerTracks
+
+FPS = 25.0
+LAM, OMEGA = 0.8, 13.0  # a mirin-like ring-down [1/s, rad/s]
+
+
+def ring_down(t: np.ndarray) -> np.ndarray:
+    return np.exp(-LAM * t) * np.cos(OMEGA * t)
+
+
+def test_cubic_interpolation_keeps_the_peaks_across_dropped_frames():
+    """Three dropped frames at 25 fps are a quarter of a 2 Hz period: a straight line
+    cuts the peak by about half, the spline by a few per cent."""
+    t_clock = np.arange(100) / FPS
+    keep = np.ones(100, bool)
+    keep[[11, 12, 13, 40, 41, 70]] = False  # frame 12: near a peak (ω t ≈ 2π)
+    values = ring_down(t_clock[keep])[:, None]
+    truth = ring_down(t_clock)
+    cubic = interpolate_frames(t_clock[keep], values, t_clock)[:, 0]
+    linear = np.interp(t_clock, t_clock[keep], values[:, 0])
+    assert np.abs(linear - truth).max() > 0.2
+    assert np.abs(cubic - truth).max() < 0.05
+    assert np.array_equal(cubic[keep], truth[keep])  # the frames themselves are kept
+
+
+def test_lowpass_next_to_a_gap_matches_the_gap_free_lowpass():
+    """The stretch on each side of a stall is filtered as if the signal went on: within
+    1 % of the ring-down's amplitude of the low-pass without the gap (odd-reflection
+    padding: ~10 %)."""
+    t = np.arange(250) / FPS
+    x = ring_down(t)[:, None]
+    observed = (t < 2.0) | (t > 2.6)
+    filtered, still = lowpass_observed(x, observed, FPS, 3.0)
+    assert np.array_equal(still, observed)
+    reference = lowpass(x, FPS, 3.0)
+    assert np.abs(filtered - reference)[observed].max() < 0.01
+
+
+def truth_tracks(liquid: str, seed: int, height_mm: float) -> tuple[list[MarkerTracks], object]:
+    """Both sensors' true marker positions (mini profile, 25 fps) and 0.01 px of noise,
+    as ``benchmarks/gaps.py``."""
+    rng = np.random.default_rng(seed)
+    trial = simulate_trial(liquid, height_mm=height_mm, seed=seed)
+    scene = sensor_scene(trial.loads, get_sensor_profile("mini"), rng, jitter=False)
+    tracks = []
+    for s, name in enumerate(("left", "right")):
+        pos = scene.positions_px[s] + rng.normal(0, 0.01, scene.positions_px[s].shape)
+        valid = np.ones(pos.shape[:2], bool)
+        tracks.append(MarkerTracks(scene.timestamps_s.copy(), pos, valid, pos[0].copy(), name))
+    return tracks, trial
+
+
+def keep_frames(tracks: list[MarkerTracks], keep: list[np.ndarray]) -> list[MarkerTracks]:
+    return [
+        MarkerTracks(tr.t[k], tr.positions[k], tr.valid[k], tr.reference, tr.sensor)
+        for tr, k in zip(tracks, keep, strict=True)
+    ]
+
+
+def fit(tracks: list[MarkerTracks]):
+    sig = tactile_signal(tracks)
+    return FitSettings().fit(sig.t, sig.u)
+
+
+@pytest.mark.parametrize(
+    ("liquid", "seed", "height_mm", "stall_after_s", "stall_s"),
+    [("water", 0, 25.0, 1.0, 0.6), ("mirin", 2, 22.0, 0.4, 1.0), ("corn-oil", 3, 28.0, 0.3, 0.3)],
+)
+def test_a_stall_in_the_ring_down_does_not_move_lambda(
+    liquid, seed, height_mm, stall_after_s, stall_s
+):
+    tracks, trial = truth_tracks(liquid, seed, height_mm)
+    ref = fit(tracks)
+    assert ref.decay_rate == pytest.approx(trial.true_decay_rate, rel=0.08)
+    t = tracks[0].t
+    begin = ref.t0 + stall_after_s
+    kept = ~((t > begin) & (t < begin + stall_s))
+    gapped = fit(keep_frames(tracks, [kept, kept]))
+    assert gapped.gap_share > 0
+    assert not ring_down_swallowed(gapped)
+    assert gapped.decay_rate == pytest.approx(ref.decay_rate, rel=0.05)
+    assert gapped.angular_frequency == pytest.approx(ref.angular_frequency, rel=0.005)
+    assert gapped.decay_rate == pytest.approx(trial.true_decay_rate, rel=0.08)
+
+
+def test_irregular_drops_at_16_fps_do_not_move_lambda():
+    """Each sensor keeps each 25 fps frame with probability 16/25, independently."""
+    tracks, trial = truth_tracks("water", 5, 24.0)
+    ref = fit(tracks)
+    rng = np.random.default_rng(7)
+    keep = [rng.random(tr.t.size) < 16 / 25 for tr in tracks]
+    for k in keep:
+        k[[0, -1]] = True
+    gapped = fit(keep_frames(tracks, keep))
+    assert gapped.decay_rate == pytest.approx(ref.decay_rate, rel=0.05)
+    assert gapped.angular_frequency == pytest.approx(ref.angular_frequency, rel=0.005)
+    assert gapped.decay_rate == pytest.approx(trial.true_decay_rate, rel=0.08)
+
+
+def test_a_stall_that_swallows_a_detergent_ring_down_is_reported():
+    """Detergent (λ ≈ 4 1/s) is above the noise for ~0.7 s: a 1 s stall from its start
+    leaves its tail only. The fit either refuses, naming the gap, or warns."""
+    tracks, _ = truth_tracks("detergent", 4, 25.0)
+    ref = fit(tracks)
+    assert ref.ring_down_gap_share == 0 and not ring_down_swallowed(ref)
+    t = tracks[0].t
+    begin = ref.t0 + 0.1
+    kept = ~((t > begin) & (t < begin + 1.0))
+    try:
+        gapped = fit(keep_frames(tracks, [kept, kept]))
+    except SwallowedRingDownError as exc:
+        assert "stall" in str(exc) and "without samples" in str(exc)
+        return
+    assert ring_down_swallowed(gapped)
+    assert "swallowed the ring-down" in gap_warning(gapped)
+
+
+def test_the_swallowed_warning_names_the_gap_share():
+    result = SimpleNamespace(ring_down_gap_share=0.8, t0=1.25, gap_before_start_s=0.0)
+    assert ring_down_swallowed(result)
+    assert "80% of the ring-down" in gap_warning(result)
+    quiet = SimpleNamespace(ring_down_gap_share=0.1, t0=1.25, gap_before_start_s=0.0)
+    assert not ring_down_swallowed(quiet) and gap_warning(quiet) is None
+    assert math.isclose(FitSettings().fit(*example_signal()).ring_down_gap_share, 0.0)
+
+
+def example_signal() -> tuple[np.ndarray, np.ndarray]:
+    t = np.arange(300) / 30
+    return t, ring_down(t) + 0.01 * np.random.default_rng(0).normal(size=t.size)
