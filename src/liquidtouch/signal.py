@@ -16,11 +16,11 @@
    came** (a camera stall, dropped frames) are not invented: a clock sample
    inside a stretch without frames longer than half the low-pass cut-off's
    period (:func:`max_bridged_gap_s`: the low-passed motion is then sampled
-   below its Nyquist rate; 0.17 s at 3 Hz) is *not observed*; shorter stretches
-   (a dropped frame or a few) are interpolated.
-3. **Low-pass**: zero-phase Butterworth (``sosfiltfilt``), 3 Hz by default, run
-   on each contiguous stretch of observed samples on its own (a stretch too short
-   to filter is dropped too), so no filter output mixes in a gap; an end of a
+   below its Nyquist rate; 0.1 s at the default 5 Hz) is *not observed*; shorter
+   stretches (a dropped frame or a few) are interpolated.
+3. **Low-pass**: zero-phase Butterworth (``sosfiltfilt``), :data:`DEFAULT_LOWPASS_HZ`
+   (5 Hz) by default, run on each contiguous stretch of observed samples on its own
+   (a stretch too short to filter is dropped too), so no filter output mixes in a gap; an end of a
    stretch at a gap is continued by linear prediction for the filter's settling
    (:func:`predict_edges`), and the continuation dropped.
 4. **Selection**: the ``n_markers`` markers (across all sensors) with the
@@ -51,6 +51,7 @@ from liquidtouch.errors import MarkerError, SignalError
 from liquidtouch.tracking.tracks import MarkerTracks
 
 __all__ = [
+    "DEFAULT_LOWPASS_HZ",
     "TactileSignal",
     "check_signal_options",
     "first_component",
@@ -59,6 +60,13 @@ __all__ = [
     "tactile_signal",
 ]
 
+#: the low-pass cut-off [Hz] unless one is asked for, by the API and the command line alike.
+#: Not 3 Hz: a broad slosh line (detergent: ω ≈ 14.5 rad/s, λ 3-6 1/s) reaches into a 3 Hz
+#: roll-off, and the filter's response to the release then biases a one-mode fit's λ low by
+#: 5 % (λ 3/s) to 12 % (λ 6/s), noise-free; at 5 Hz the bias is below 0.5 % up to λ 6/s
+#: (4 Hz: up to 3.6 %), and the λ scatter under white marker noise grows ~1.4× (the noise
+#: band, 5/3). ``benchmarks/lowpass_bias.py``; RESULTS.md "# low-pass bias".
+DEFAULT_LOWPASS_HZ = 5.0
 #: fewest usable markers (over all sensors) a signal is built from
 MIN_SELECTED = 2
 #: without a low-pass, a stretch without frames longer than this many frame periods is a gap
@@ -201,7 +209,7 @@ class TactileSignal:
     weights: np.ndarray
     fps: float
     motion: np.ndarray
-    lowpass_hz: float | None = 3.0
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ
     gap_share: float = 0.0
 
     def __repr__(self) -> str:
@@ -327,7 +335,9 @@ def _cut_by_border(tracks: MarkerTracks) -> np.ndarray:
     return (x < margin) | (y < margin) | (x > width - 1 - margin) | (y > height - 1 - margin)
 
 
-def lowpass(x: np.ndarray, fps: float, cutoff_hz: float = 3.0, order: int = 4) -> np.ndarray:
+def lowpass(
+    x: np.ndarray, fps: float, cutoff_hz: float = DEFAULT_LOWPASS_HZ, order: int = 4
+) -> np.ndarray:
     """Zero-phase Butterworth low-pass of ``x`` along axis 0 (``sosfiltfilt``)."""
     from scipy.signal import butter, sosfiltfilt
 
@@ -373,7 +383,7 @@ def first_component(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
 def tactile_signal(
     tracks: Sequence[MarkerTracks],
     *,
-    lowpass_hz: float | None = 3.0,
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     max_lost_fraction: float = 0.05,
     max_gap_s: float = 0.25,
@@ -446,7 +456,7 @@ def tactile_signal(
 
 
 def check_signal_options(
-    lowpass_hz: float | None = 3.0,
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     max_lost_fraction: float = 0.05,
     max_gap_s: float = 0.25,
