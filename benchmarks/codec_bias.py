@@ -29,8 +29,10 @@ Mitigation probe (last column): the same λ fitted to the reference frames
 lossless tracks at the same frames.
 
 ``--simulator``: the simulator's encoder (``sim.encode``: ``ultrafast``) at CRF
-20/23/26 without the dead zone, CRF 20 with it, against FFV1: which setting is
-fastest with no effect on λ.
+20/23/26 without the dead zone, CRF 20 with it, ``superfast`` and ``veryfast`` at
+CRF 20/23 without it, lossless x264 (``ultrafast``, ``qp=0``), against FFV1:
+which setting is fastest with no effect on λ. ``encode frames/s per core`` is
+the encoder's process CPU time (RGB in, file out) per frame.
 
 ``--mechanism``: x264 ``fast`` CRF 18 with one option changed at a time
 (trellis, psy-rd, fast P-skip, AQ, macroblock tree, B-frames, sub-pel motion
@@ -127,6 +129,8 @@ SIMULATOR_GRID = [  # the simulator's own encoder (sim.encode): ultrafast, no de
     Codec("FFV1", "ffv1"),
     *[x264(crf, "ultrafast", DEAD_ZONE_OFF) for crf in (20, 23, 26)],
     x264(20, "ultrafast"),
+    *[x264(crf, p, DEAD_ZONE_OFF) for p in ("superfast", "veryfast") for crf in (20, 23)],
+    x264(0, "ultrafast", "qp=0", label="x264 ultrafast lossless (qp=0)"),
 ]
 MECHANISM_GRID = [
     x264(18),
@@ -241,14 +245,16 @@ def run_case(case, grid: list[Codec]) -> list[dict[str, object]]:
     rows = [{**common, "codec": "lossless (memory)", "lambda": lam0, "omega": om0,
              "lambda_base": lam0, "omega_base": om0, "frozen": frozen0, "mb_per_min": math.nan,
              "lambda_ref": math.nan, "lambda_ref_base": math.nan,
-             "seconds": 0.0}]  # fmt: skip
+             "encode_fps": math.nan, "seconds": 0.0}]  # fmt: skip
     work = Path(tempfile.mkdtemp(prefix="codec-bias-"))
     try:
         for codec in grid:
             start = time.perf_counter()
-            tracks, size, types = [], 0, None
+            tracks, size, types, encode_cpu_s = [], 0, None, 0.0
             for s, frames in enumerate(sensors):
+                cpu = time.process_time()  # one case per process, nothing else runs in it
                 path = encode(codec, frames, t_s, fps, work)
+                encode_cpu_s += time.process_time() - cpu
                 size += path.stat().st_size
                 types = frame_types(path) if types is None else types
                 tr = track_markers(iter_frames(path), f"s{s}")
@@ -274,6 +280,7 @@ def run_case(case, grid: list[Codec]) -> list[dict[str, object]]:
                          "lambda_base": lam0, "omega_base": om0, "frozen": frozen,
                          "lambda_ref": lam_ref, "lambda_ref_base": lam_ref0,
                          "mb_per_min": size / 1e6 / minutes,
+                         "encode_fps": len(t_s) * len(sensors) / encode_cpu_s,
                          "seconds": time.perf_counter() - start})  # fmt: skip
     finally:
         shutil.rmtree(work, ignore_errors=True)
@@ -296,8 +303,9 @@ def summarise(rows: list[dict[str, object]]) -> None:
     print("\n## Median over cases\n")
     print("| codec | λ vs lossless: median | min | max | λ vs truth: median | "
           "ω vs lossless: median | frozen steps: median | MB/min/sensor | "
+          "encode frames/s per core | "
           "I/P frames only: λ vs lossless median | min | max |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for codec in dict.fromkeys(r["codec"] for r in rows):
         sel = [r for r in rows if r["codec"] == codec]
         lam = np.array([r["lambda"] / r["lambda_base"] - 1 for r in sel])
@@ -305,6 +313,7 @@ def summarise(rows: list[dict[str, object]]) -> None:
         om = np.array([r["omega"] / r["omega_base"] - 1 for r in sel])
         frozen = np.array([r["frozen"] for r in sel])
         size = np.array([r["mb_per_min"] for r in sel])
+        fps = np.array([r["encode_fps"] for r in sel])
         ref = np.array([r["lambda_ref"] / r["lambda_ref_base"] - 1 for r in sel])
         ref_cells = (
             f"{np.nanmedian(ref):+.3f} | {np.nanmin(ref):+.3f} | {np.nanmax(ref):+.3f}"
@@ -315,7 +324,8 @@ def summarise(rows: list[dict[str, object]]) -> None:
             f"| {codec} | {np.nanmedian(lam):+.3f} | {np.nanmin(lam):+.3f} | "
             f"{np.nanmax(lam):+.3f} | {np.nanmedian(truth):+.3f} | {np.nanmedian(om):+.4f} | "
             f"{np.nanmedian(frozen):.3f} | "
-            f"{np.nanmedian(size) if np.isfinite(size).any() else math.nan:.1f} | {ref_cells} |"
+            f"{np.nanmedian(size) if np.isfinite(size).any() else math.nan:.1f} | "
+            f"{np.nanmedian(fps) if np.isfinite(fps).any() else math.nan:.0f} | {ref_cells} |"
         )
 
 

@@ -11,6 +11,12 @@ names, and run its module-level code outside pytest's control):
 pytest's ``pythonpath`` (pyproject.toml) holds the repository root and ``tests/``,
 so these import as ``from helpers import ...`` and
 ``from benchmarks.synthetic_tables import ...``.
+
+Tests marked ``slow`` (the end-to-end runs, tens of seconds each) run first, so
+that under ``pytest -n 2 --dist worksteal`` (``make test``) the other worker takes
+the many short tests meanwhile and no long test starts last, alone, on an
+otherwise idle machine. Their module-scoped fixtures serve slow tests only (keep it
+so), so moving them costs no extra fixture set-up.
 """
 
 from __future__ import annotations
@@ -34,7 +40,7 @@ def _imports_of_test_modules(path: Path) -> list[str]:
 
 
 def pytest_collection_modifyitems(session: pytest.Session, config, items) -> None:
-    """Refuse to run when a test module imports another test module."""
+    """Refuse to run when a test module imports another test module; ``slow`` tests first."""
     files = {Path(str(item.fspath)) for item in items}
     offences = [
         f"{path.name} imports {name}"
@@ -47,3 +53,5 @@ def pytest_collection_modifyitems(session: pytest.Session, config, items) -> Non
             "test modules must not import each other; move shared code to tests/helpers.py: "
             + "; ".join(offences)
         )
+    # stable: the slow tests keep their order, and so do the others (module by module)
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)

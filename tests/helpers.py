@@ -1,4 +1,5 @@
-"""Shared test helpers: synthetic GelSight marker images with known marker positions.
+"""Shared test helpers: synthetic GelSight marker images with known marker positions,
+Chromium for the browser checks, and fewer random draws for the experiments.
 
 Test modules import these (``from helpers import grid, render_blobs``; ``tests/`` is on
 pytest's ``pythonpath``) instead of importing each other. The synthetic feature
@@ -10,7 +11,10 @@ from __future__ import annotations
 import os
 
 import numpy as np
+import pytest
 from scipy.special import erf
+
+from liquidtouch.experiments import data_efficiency, transfer
 
 
 def render_blobs(positions: np.ndarray, shape=(160, 200), radius=4.5, gain=1.0, noise=0.0, seed=0):
@@ -19,9 +23,17 @@ def render_blobs(positions: np.ndarray, shape=(160, 200), radius=4.5, gain=1.0, 
     yy, xx = np.mgrid[0:height, 0:width].astype(float)
     light = gain * (150 + 60 * xx / width + 20 * np.sin(yy / 40))
     ink = np.zeros(shape)
+    # beyond radius + 6 px, erf((r - radius) / 0.9) is exactly 1.0 in float64 and the ink
+    # exactly 0: each disc is drawn in its window only (the same image, 25 -> 1.5 ms a frame)
+    reach = radius + 6.0
     for x, y in positions:
-        r = np.hypot(xx - x, yy - y)
-        ink = np.maximum(ink, 0.5 * (1 - erf((r - radius) / 0.9)))
+        if np.isfinite(x) and np.isfinite(y):
+            cols = slice(max(int(np.floor(x - reach)), 0), max(int(np.ceil(x + reach)) + 1, 0))
+            rows = slice(max(int(np.floor(y - reach)), 0), max(int(np.ceil(y + reach)) + 1, 0))
+        else:
+            cols = rows = slice(None)
+        r = np.hypot(xx[rows, cols] - x, yy[rows, cols] - y)
+        ink[rows, cols] = np.maximum(ink[rows, cols], 0.5 * (1 - erf((r - radius) / 0.9)))
     image = light * (1 - 0.75 * ink)
     if noise:
         image = image + np.random.default_rng(seed).normal(0, noise, shape)
@@ -52,3 +64,18 @@ def chromium_or_skip() -> str:
             pytest.fail("CI is set but chromium is not installed (.ci/run installs it)")
         pytest.skip("chromium is not installed (apt-get install chromium) and CI is not set")
     return path
+
+
+def fewer_experiment_draws(patch: pytest.MonkeyPatch) -> None:
+    """Experiments 6 and 7 with fewer random draws (their curves' sizes and repeats).
+
+    The data-efficiency and transfer curves average many GPR fits over random
+    subsets (~40 CPU-s of a run on the synthetic tables); a test whose claim is
+    not about those averages (the report's layout, an experiment that cannot
+    run, the pipeline end to end) runs them on fewer draws, set through ``patch``:
+    seconds, not a minute.
+    """
+    patch.setattr(data_efficiency, "SIZES", (6, 10, 20))
+    patch.setattr(data_efficiency, "REPEATS", 1)
+    patch.setattr(transfer, "SIZES", (5, 15))
+    patch.setattr(transfer, "REPEATS", 2)

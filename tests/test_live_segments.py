@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from liquidtouch.live.estimator import LiveEstimator
-from liquidtouch.ring_down import chosen_ring_down, free_decay, trial_segments
+from liquidtouch.ring_down import chosen_ring_down, free_decay, ring_down_reason, trial_segments
 from liquidtouch.signal import tactile_signal
 from liquidtouch.sim.protocol_scene import ProtocolTimings, protocol_scene
 from liquidtouch.tracking.tracks import MarkerTracks
@@ -117,10 +117,14 @@ def test_a_stream_that_begins_inside_the_ring_down() -> None:
     start = timings.events()["pushed"] + 1.0  # the camera started late
     scene = protocol_scene("mirin", height_mm=25, seed=1, camera_start_s=start)
     updates = _stream(scene)
-    early = [u for u in updates if not u.final and u.elapsed_s <= 2.0 + 0.3 + 0.3]
+    # the stream is all ring-down: its first answer by 2 s of stream (was 2.5 s when the
+    # stream's first stretch was judged from its largest excursion), and within 1 %
+    early = [u for u in updates if not u.final and u.elapsed_s <= 2.0]
     omegas = [u.angular_frequency for u in early if math.isfinite(u.angular_frequency)]
     assert omegas, "no ω within 2 s of ring-down"
-    assert omegas[-1] == pytest.approx(scene.true_angular_frequency, rel=0.01)
+    for omega in omegas:
+        assert omega == pytest.approx(scene.true_angular_frequency, rel=0.01)
+    assert all(u.segment == 1 for u in updates if math.isfinite(u.angular_frequency))
     final = updates[-1]
     assert final.decay_rate == pytest.approx(scene.true_decay_rate, rel=0.05)
 
@@ -159,3 +163,40 @@ def test_ctrl_c_gives_one_final_update() -> None:
     assert len(finals) == 1 and updates[-1].final
     assert finals[0].stopped_because == "interrupted"
     assert finals[0].angular_frequency == pytest.approx(12.0, rel=0.01)
+
+
+def test_the_ring_down_check_refuses_what_is_not_a_free_decay() -> None:
+    """A free decay passes; a slosh stopped short (the lowering), a grasp's step at the end
+    of a still stretch and a still gel's low-passed noise do not."""
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 3.0, 1 / 25)
+    decay = np.exp(-0.6 * t) * np.cos(14.0 * t)
+    noise = 0.01 * rng.standard_normal(t.size)
+    assert ring_down_reason(t, decay + noise)[0] == ""
+    for stop_s in (0.6, 1.5, 2.0):  # the weight went off the fingers
+        stopped = decay * (t < stop_s) + noise
+        assert ring_down_reason(t, stopped)[0].startswith("not a free decay"), stop_s
+    step = 1 / (1 + np.exp(-(t - 2.4) / 0.1)) + noise  # a grasp squeezing the gel
+    assert ring_down_reason(t, step)[0]
+    still = np.convolve(rng.standard_normal(t.size + 8), np.ones(9) / 9, "valid")
+    assert ring_down_reason(t, 0.01 * still)[0]
+
+
+@pytest.mark.timeout(600)
+def test_a_late_camera_on_a_fast_decay_gives_no_wrong_number() -> None:
+    """Olive oil, 1.5× push, the camera started 2.1 s after it (``benchmarks/segmentation.py``
+    seed 0): a 0.6 s stretch before the lowering was taken for a ring-down and answered
+    λ ≈ 0, ω −78 %; now the ring-down the stream begins in is found, or none."""
+    timings = ProtocolTimings(
+        grasp_s=0.571, lift_s=1.657, push_s=5.750, push_distance_mm=22.06, hold_s=12.69,
+        lower_after_s=0.654, release_after_s=0.445,
+    )  # fmt: skip
+    scene = protocol_scene(
+        "olive-oil", height_mm=33.71, seed=980835, timings=timings, camera_start_s=8.127
+    )
+    final = _stream(scene)[-1]
+    right = final.decay_rate == pytest.approx(
+        scene.true_decay_rate, rel=0.05
+    ) and final.angular_frequency == pytest.approx(scene.true_angular_frequency, rel=0.01)
+    assert right or final.message.startswith("no ring-down found"), final.message
+    assert all(r["end_s"] - r["start_s"] >= 2.0 for r in final.segments)

@@ -15,7 +15,7 @@ import re
 from pathlib import Path
 
 import pytest
-from helpers import chromium_or_skip
+from helpers import chromium_or_skip, fewer_experiment_draws
 
 from benchmarks.experiment_tables import experiment_features
 from benchmarks.report_browser import check_report
@@ -28,18 +28,14 @@ def browser() -> str:
 
 @pytest.fixture(scope="module")
 def report_html(tmp_path_factory) -> Path:
-    from liquidtouch.experiments import data_efficiency, transfer
     from liquidtouch.experiments.provenance import provenance
     from liquidtouch.experiments.report import write_report
     from liquidtouch.experiments.reproduce import failure_note, run_experiments
 
     out = tmp_path_factory.mktemp("browser_report")
     features = experiment_features()
-    with pytest.MonkeyPatch.context() as patch:  # fewer random draws: seconds, not minutes
-        patch.setattr(data_efficiency, "SIZES", (6, 10, 20))
-        patch.setattr(data_efficiency, "REPEATS", 1)
-        patch.setattr(transfer, "SIZES", (5, 15))
-        patch.setattr(transfer, "REPEATS", 2)
+    with pytest.MonkeyPatch.context() as patch:
+        fewer_experiment_draws(patch)  # seconds, not minutes
         results = run_experiments(features, out)
     _, html = write_report(
         results,

@@ -18,13 +18,15 @@ for ``extract``, ``features`` and ``live``:
    ``PEAK_S``: the push and the liquid's lag) to ``GUARD_S`` before the next transient
    (or the end of the signal), the candidate is a ring-down when it is a decaying
    oscillation in the slosh band (:func:`ring_down_reason`: the single-mode fit finds an
-   oscillation above the noise, ω ≥ ``MIN_OMEGA_OVER_LAMBDA`` λ, and ``MIN_LOBES``
-   half-cycles stand above ``LOBE_FRACTION`` of its peak) — not "the largest excursion".
+   oscillation above the noise, ω ≥ ``MIN_OMEGA_OVER_LAMBDA`` λ, ``MIN_LOBES``
+   half-cycles stand above ``LOBE_FRACTION`` of its peak, and the signal follows the
+   fitted free decay) — not "the largest excursion".
    The transient it follows is the **push**; a transient after a ring-down is a
    **release**; the others are **transients** (grasp, lift).
 3. **A signal that begins inside a ring-down** (a camera started late, a recording cut
    after the push) is a ring-down from its first samples (after the filters' edge,
-   ``EDGE_S``) when that stretch is a decaying oscillation.
+   ``EDGE_S``) when that stretch is a decaying oscillation; else the stretch before the
+   first transient is judged from its own largest excursion (a push not told apart).
 4. **Known events** (``events``: the protocol's times on the signal's clock, as
    :func:`~liquidtouch.acquire.protocol.run_trial` logs them): the push and the end of
    the hold are taken from them (no guessing); the ring-down runs from the largest
@@ -101,6 +103,20 @@ MIN_LOBES = 3
 LOBE_FRACTION = 0.05
 #: least candidate judged [s]: shorter, it is not (yet) a ring-down
 MIN_CANDIDATE_S = 0.5
+#: a free decay's envelope follows its fit: over each period where either stands above
+#: ENVELOPE_FLOOR of the largest, the signal's RMS (less the fit's drift) is within this
+#: factor of the fitted oscillation's (a lowering or release that stops the slosh: the
+#: signal drops to the noise where the fit still rings — ratio ≤ 0.2 on slosh stopped
+#: after 1.5-2 s of a 3 s window; a two-mode beat or amplitude-dependent damping stays
+#: within 3)
+ENVELOPE_RATIO = 3.0
+ENVELOPE_FLOOR = 0.1
+#: ... explains at least this fraction of the signal's variance (less its drift): a ring-down
+#: on simulated protocols ≥ 0.99, the slosh's end at the lowering and release 0.8
+MIN_FIT_R2 = 0.9
+#: ... and decays: the second half of the window holds at most this many times the RMS of the
+#: first (a free decay's is smaller; the margin is for a two-mode beat)
+MAX_LATE_GROWTH = 1.5
 
 #: ``classify(t, u, start_s, end_s, closed) -> reason`` ("" for a ring-down)
 Classifier = Callable[[np.ndarray, np.ndarray, float, float, bool], str]
@@ -229,7 +245,11 @@ def ring_down_reason(t: np.ndarray, u: np.ndarray) -> tuple[str, object | None]:
     (least squares, as a quick check) finds an oscillation above the noise that is not
     overdamped (``fit_oscillation``'s own check), with ω ≥ ``MIN_OMEGA_OVER_LAMBDA`` λ,
     and at least ``MIN_LOBES`` half-cycles (between zero crossings of the detrended
-    signal) reach ``LOBE_FRACTION`` of the largest.
+    signal) reach ``LOBE_FRACTION`` of the largest; the window spans ``MIN_LOBES``
+    half-cycles of the fitted ω; the fit explains ``MIN_FIT_R2`` of the signal, the
+    signal decays (``MAX_LATE_GROWTH``) and its envelope follows the fit's period by
+    period (``ENVELOPE_RATIO``). A stretch that passes is a free decay, not a transient,
+    a lowering or the noise of a still gel.
     """
     if len(t) < 8 or t[-1] - t[0] < MIN_CANDIDATE_S:
         return "too short to judge", None
@@ -252,7 +272,50 @@ def ring_down_reason(t: np.ndarray, u: np.ndarray) -> tuple[str, object | None]:
     big = max(lobes, default=0.0)
     if sum(lobe >= LOBE_FRACTION * big for lobe in lobes) < MIN_LOBES:
         return f"not a free decay: fewer than {MIN_LOBES} half-cycles", fit
-    return "", fit
+    if fit.angular_frequency * (t[-1] - t[0]) < MIN_LOBES * math.pi:
+        return (
+            f"not a free decay: {t[-1] - t[0]:.2g} s is less than {MIN_LOBES} half-cycles "
+            f"of the fitted ω {fit.angular_frequency:.3g} rad/s"
+        ), fit
+    return _envelope_reason(t, u, fit), fit
+
+
+def _envelope_reason(t: np.ndarray, u: np.ndarray, fit) -> str:
+    """ "" when the signal follows the fitted free decay (``MIN_FIT_R2``), decays
+    (``MAX_LATE_GROWTH``) and its envelope follows the fit's (``ENVELOPE_RATIO``)."""
+    slow, fast, drift = fit.modes(t)
+    observed, model = u - drift, slow + fast
+    r2 = 1 - float(np.mean((observed - model) ** 2)) / max(float(np.var(observed)), 1e-300)
+    if r2 < MIN_FIT_R2:
+        return (
+            f"not a free decay: the fit explains {r2:.0%} of the signal "
+            f"(a ring-down's ≥ {MIN_FIT_R2:.0%})"
+        )
+    half = t < t[0] + (t[-1] - t[0]) / 2
+    growth = np.sqrt(np.mean(observed[~half] ** 2) / max(np.mean(observed[half] ** 2), 1e-300))
+    if growth > MAX_LATE_GROWTH:
+        return f"not a free decay: its second half is {growth:.2g}× as large as its first"
+    period_s = 2 * math.pi / fit.angular_frequency
+    chunk = np.floor((t - t[0]) / period_s).astype(int)
+    least = max(3, 0.5 * period_s / float(np.median(np.diff(t))))  # a partial last period
+    rms = np.array(
+        [
+            [np.sqrt(np.mean(observed[chunk == k] ** 2)), np.sqrt(np.mean(model[chunk == k] ** 2))]
+            for k in np.unique(chunk)
+            if np.sum(chunk == k) >= least
+        ]
+    )
+    if not rms.size:
+        return ""
+    judged = rms.max(axis=1) >= ENVELOPE_FLOOR * rms.max()
+    ratio = rms[judged, 0] / np.maximum(rms[judged, 1], 1e-12)
+    worst = float(ratio[np.argmax(np.abs(np.log(np.maximum(ratio, 1e-12))))])
+    if not 1 / ENVELOPE_RATIO <= worst <= ENVELOPE_RATIO:
+        return (
+            f"not a free decay: over a period the signal is {worst:.2g}× the fitted "
+            f"oscillation (a free decay follows its fit within {ENVELOPE_RATIO:g}×)"
+        )
+    return ""
 
 
 def _default_classifier(t: np.ndarray, u: np.ndarray) -> Classifier:
@@ -297,11 +360,19 @@ def trial_segments(
     closed = bool(transients)
     end = first_end - GUARD_S if closed else first_end
     start = t0 + EDGE_S
-    if end - start >= MIN_CANDIDATE_S:  # from its largest excursion (a push not told apart)
-        inside = (t >= start) & (t <= end)
-        distance = np.abs(excursion(t, u)[1])
-        start = float(t[np.flatnonzero(inside)[np.argmax(distance[inside])]])
+    # a stream that begins inside a ring-down: the free decay from its first trusted sample
     reason = classify(t, u, start, end, closed) if end - start >= MIN_CANDIDATE_S else "short"
+    if reason and end - start >= MIN_CANDIDATE_S:
+        # else from the stretch's largest excursion (a push not told apart), found on the
+        # stretch's own signal (up to its end, every channel): over the whole stream the
+        # high-pass spreads the lowering's step back into it and u's PCA is the lowering's
+        upto = t <= end
+        distance = _excursions(t[upto], x[upto])
+        inside = t[upto] >= start
+        peak = float(t[np.flatnonzero(inside)[np.argmax(distance[inside])]])
+        if end - peak >= MIN_CANDIDATE_S and peak - start > EDGE_S:
+            start = peak
+            reason = classify(t, u, start, end, closed)
     if reason:
         segments.append(Segment("rest", t0, first_end, closed))
     else:

@@ -42,7 +42,7 @@ from liquidtouch.live.ring_downs import RingDown, copy_segment, mark_segment, si
 from liquidtouch.live.stopping import check_until_std
 from liquidtouch.live.tracks import GrowingTracks
 from liquidtouch.live.updates import LiveUpdate
-from liquidtouch.ring_down import Segment, ring_down_reason, trial_segments
+from liquidtouch.ring_down import GUARD_S, Segment, ring_down_reason, trial_segments
 from liquidtouch.segment import MIN_FREE_DECAY_S
 from liquidtouch.signal import DEFAULT_LOWPASS_HZ, check_signal_options
 
@@ -54,6 +54,12 @@ REFRESH_S = 0.25
 MAX_TIMED_FRAMES = 216_000
 #: a candidate's verdict is reused for one starting within this much of it [s]
 VERDICT_MATCH_S = 0.3
+#: a ring-down closed by a transient is fitted as final once this much trusted signal
+#: follows the transient's onset [s]: the onset found first, at the edge of the trusted
+#: signal, is up to ~0.4 s late (its rise is still filtering in), and a final fit up to
+#: it took in the transient's start (simulated protocols: a stretch of rest "closed"
+#: with part of the push)
+SETTLE_S = 1.0
 #: what the final update keeps of the last streamed one when the final refit fails
 KEPT_FIELDS = (
     "decay_rate", "decay_rate_std", "angular_frequency", "angular_frequency_std",
@@ -195,8 +201,8 @@ class LiveEstimator:
         """Wait for a running refresh, fit every ring-down not yet final as offline; the final
         update.
 
-        Its λ, ω are those of the ring-down that stands (the last final one of at least
-        2 s, else the longest; every one is in ``segments``); "no ring-down found" when
+        Its λ, ω are those of the ring-down that stands (the last final one: each lasted
+        at least ``MIN_FREE_DECAY_S``; every one is in ``segments``); "no ring-down found" when
         there is none, never another stretch's numbers. A stream stopped by ``until_std``
         keeps the last streamed estimate — the one whose std met the thresholds (a refit
         of a short record, edge included, can be far worse) — and so does one whose refit
@@ -214,7 +220,7 @@ class LiveEstimator:
             update = self._run_refresh(tracks, frames, elapsed, due, final=True)
             self._take_result()
             if self.finals:
-                standing = self._standing()
+                standing = self.finals[-1]
                 update = dataclasses.replace(standing.update, frames=frames, elapsed_s=elapsed)
                 update.events = self._events_on(update)
             else:
@@ -269,6 +275,7 @@ class LiveEstimator:
             return [Segment("rest", float(t[0]), float(t[-1]), False, reason="no push yet")]
 
         def classify(tt, uu, start: float, end: float, closed: bool) -> str:
+            closed = closed or final  # the stream's last candidate is judged on all of it
             for s0, was_closed, verdict in self.verdicts:
                 if abs(s0 - start) < VERDICT_MATCH_S and was_closed == closed:
                     return verdict
@@ -277,6 +284,10 @@ class LiveEstimator:
                 reason = ring_down_reason(*_within(window.t, window.u, start, end))[0]
             except LiquidTouchError as exc:
                 reason = str(exc)
+            except np.linalg.LinAlgError as exc:
+                # the PCA of a still stretch's window (synthetic frames, exactly still markers)
+                # can fail to converge: that stretch is no ring-down
+                reason = f"no signal: {exc}"
             if closed or not reason:  # a ring-down stays one while open; judged again closed
                 self.verdicts.append((start, closed, reason))
             return reason
@@ -308,6 +319,8 @@ class LiveEstimator:
             if seg.kind != "ring-down" or seg.start_s <= max(last_end, cut_s):
                 continue
             window_from = signal_start_s(segments, i)
+            if seg.closed and not final and t[trusted][-1] < seg.end_s + GUARD_S + SETTLE_S:
+                continue  # its closing transient's onset may still move earlier
             if seg.closed or final:
                 self._finalize(tracks, seg, window_from, full, frames, elapsed_s, due_s)
                 last_end = seg.end_s
@@ -319,7 +332,7 @@ class LiveEstimator:
             update = self._stream_fit(tracks, *current, frames, elapsed_s, due_s)
         reportable = update is not None and math.isfinite(update.angular_frequency)
         if self.finals and not reportable:
-            standing = self._standing()
+            standing = self.finals[-1]
             kept = dataclasses.replace(standing.update, frames=frames, elapsed_s=elapsed_s)
             kept.final, kept.phase = False, "ended"
             if update is not None:
@@ -353,15 +366,14 @@ class LiveEstimator:
         zero = update.segment_start_s if math.isfinite(update.segment_start_s) else math.nan
         return {name: t_s - zero for name, t_s in events.items()} if math.isfinite(zero) else {}
 
-    def _standing(self) -> RingDown:
-        """The final ring-down estimate that stands: the last of at least 2 s, else the longest."""
-        long_enough = [r for r in self.finals if r.end_s - r.start_s >= MIN_FREE_DECAY_S]
-        if long_enough:
-            return long_enough[-1]
-        return max(self.finals, key=lambda r: r.end_s - r.start_s)
-
     def _finalize(self, tracks, seg: Segment, window_from: float, full, frames, elapsed_s, due_s):
         """Fit a ring-down whose hold ended (or the stream's last) as offline: final, kept."""
+        if seg.end_s - seg.start_s < MIN_FREE_DECAY_S:
+            # as offline ("record at least 2 s after the push"): a final λ needs 2 s of decay,
+            # and a stretch of still gel or a step cut this short can pass for one
+            self.verdicts.append((seg.start_s, True, "shorter than a final fit needs"))
+            logger.info("candidate at %.2f s is too short to be final", seg.start_s)
+            return
         settings = self.fit_settings
         index = len(self.finals) + 1
         if not math.isfinite(window_from) and seg.end_s >= full.t[-1] - 1e-9 and not self.events:
