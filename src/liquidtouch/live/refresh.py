@@ -44,7 +44,7 @@ from liquidtouch.tracking.tracks import MarkerTracks
 
 #: signal within this much of the newest sample is not trusted while streaming [s]: the
 #: zero-phase Butterworth's edge transient lasts about one period of its cut-off (3 Hz:
-#: 0.33 s; the default 5 Hz: 0.2 s, so this is conservative)
+#: 0.33 s; the default 4 Hz: 0.25 s)
 EDGE_S = 0.3
 #: least free decay fitted [s]: a few samples and most of a slosh period; whether the fit is
 #: good enough is then decided from its std, not from time
