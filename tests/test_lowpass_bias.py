@@ -52,9 +52,12 @@ def test_default_fit_of_a_broad_line_released_by_a_step(decay_rate):
     assert fit.decay_rate == pytest.approx(decay_rate, rel=0.02)
 
 
-def test_default_cutoff_clears_the_broadest_line_and_bridges_a_dropped_frame():
+def test_default_cutoff_clears_the_broadest_line_and_keeps_the_bridged_gaps():
     # the line's upper half-power side for the broadest liquid (λ ≈ 4.5 1/s) lies below
     # the cut-off, which itself lies below the Nyquist frequency of a 15 fps stream
     assert (OMEGA + 4.5) / (2 * np.pi) < DEFAULT_LOWPASS_HZ < 0.5 * 15.0
-    # a single dropped frame at 25 fps (a 0.08 s step) is still interpolated, not a gap
-    assert max_bridged_gap_s(DEFAULT_LOWPASS_HZ, FPS) >= 2.0 / FPS
+    # the stretches bridged across dropped frames stay those of the slosh's 3 Hz (0.17 s),
+    # however far above it the cut-off lies; a lower cut-off bridges longer ones
+    assert max_bridged_gap_s(DEFAULT_LOWPASS_HZ, FPS) == pytest.approx(1 / 6)
+    assert max_bridged_gap_s(8.0, FPS) == pytest.approx(1 / 6)
+    assert max_bridged_gap_s(2.0, FPS) == pytest.approx(1 / 4)

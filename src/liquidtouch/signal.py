@@ -14,9 +14,9 @@
    interpolated. Markers cut by the image border in the first frame are not
    used either (their centroid sees only part of the blob). **Frames that never
    came** (a camera stall, dropped frames) are not invented: a clock sample
-   inside a stretch without frames longer than half the low-pass cut-off's
-   period (:func:`max_bridged_gap_s`: the low-passed motion is then sampled
-   below its Nyquist rate; 0.125 s at the default 4 Hz) is *not observed*; shorter
+   inside a stretch without frames longer than half the period of the low-pass
+   cut-off, at most 3 Hz (:func:`max_bridged_gap_s`: the low-passed slosh is then
+   sampled below its Nyquist rate; 0.17 s) is *not observed*; shorter
    stretches (a dropped frame or a few) are interpolated.
 3. **Low-pass**: zero-phase Butterworth (``sosfiltfilt``), :data:`DEFAULT_LOWPASS_HZ`
    (4 Hz) by default, run on each contiguous stretch of observed samples on its own
@@ -68,6 +68,9 @@ __all__ = [
 #: spread through video grew (1.7 % at 4 Hz, 4.8 % at 5 Hz, 3.1 % at 3 Hz). Measured by
 #: ``benchmarks/lowpass_bias.py`` and ``push_invariance.py``; RESULTS.md "# low-pass bias".
 DEFAULT_LOWPASS_HZ = 4.0
+#: the fastest slosh the signal is for [Hz]: the catalogue's containers slosh at 1.9-2.6 Hz
+#: (``_core.containers``); the stretches bridged across dropped frames keep it (Nyquist)
+SLOSH_MAX_HZ = 3.0
 #: fewest usable markers (over all sensors) a signal is built from
 MIN_SELECTED = 2
 #: without a low-pass, a stretch without frames longer than this many frame periods is a gap
@@ -84,13 +87,17 @@ AR_FIT = 38
 def max_bridged_gap_s(lowpass_hz: float | None, fps: float) -> float:
     """Longest stretch without frames [s] that is interpolated rather than left out.
 
-    Half the period of the low-pass cut-off, ``1 / (2 f_c)``: the filtered motion
-    holds nothing faster than ``f_c``, so samples that far apart still catch it
-    (Nyquist); a longer stretch lost motion that no interpolation can recover.
-    At least :data:`GAP_PERIODS` frame periods; that alone without a low-pass.
+    Half the period of the low-pass cut-off, ``1 / (2 f_c)``, with ``f_c`` at most
+    :data:`SLOSH_MAX_HZ`: the filtered slosh holds nothing faster, so samples that far
+    apart still catch it (Nyquist); a longer stretch lost motion that no interpolation
+    can recover. A cut-off above the slosh (the default) passes noise there, not motion,
+    so it does not shorten the stretches bridged (0.17 s). At least :data:`GAP_PERIODS`
+    frame periods; that alone without a low-pass.
     """
     least = GAP_PERIODS / fps
-    return least if lowpass_hz is None else max(least, 0.5 / float(lowpass_hz))
+    if lowpass_hz is None:
+        return least
+    return max(least, 0.5 / min(float(lowpass_hz), SLOSH_MAX_HZ))
 
 
 def observed_samples(t_frames: np.ndarray, t_clock: np.ndarray, max_gap_s: float) -> np.ndarray:
