@@ -90,8 +90,9 @@ def max_bridged_gap_s(lowpass_hz: float | None, fps: float) -> float:
     Half the period of the low-pass cut-off, ``1 / (2 f_c)``, with ``f_c`` at most
     :data:`SLOSH_MAX_HZ`: the filtered slosh holds nothing faster, so samples that far
     apart still catch it (Nyquist); a longer stretch lost motion that no interpolation
-    can recover. A cut-off above the slosh (the default) passes noise there, not motion,
-    so it does not shorten the stretches bridged (0.17 s). At least :data:`GAP_PERIODS`
+    can recover. A cut-off above the slosh (the default) passes the tail of a broad line
+    and noise there, which interpolation need not keep, so it does not shorten the
+    stretches bridged (0.17 s). At least :data:`GAP_PERIODS`
     frame periods; that alone without a low-pass.
     """
     least = GAP_PERIODS / fps
