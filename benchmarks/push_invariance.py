@@ -6,7 +6,8 @@ everything else fixed by the seed. Each signal is fitted with the paper's model
 (``model="two-mode"``: paper loss, two modes) and with ``model="amplitude"``
 (:mod:`liquidtouch.fit.amplitude`), both on the free decay as ``extract`` does.
 
-- force level (the bulk): total lateral gel force, 3 Hz zero-phase low-pass, 30 Hz;
+- force level (the bulk): total lateral gel force, the signal's zero-phase low-pass
+  (``signal.DEFAULT_LOWPASS_HZ``), 30 Hz;
 - ``--video``: a subset through the whole chain (simulate → render → extract);
 - ``--classify``: all liquids at drawn pushes, λ vs truth and an SVM classifier
   (``models.classifier.LiquidClassifier``, as ``liquidtouch classify``) trained
@@ -28,12 +29,12 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.signal import butter, sosfiltfilt
 
 from liquidtouch._core.progress import progress_bar
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.fit_settings import FitSettings
 from liquidtouch.models.physics_prior import stokes_viscosity_feature
+from liquidtouch.signal import DEFAULT_LOWPASS_HZ, lowpass
 from liquidtouch.sim.trial import simulate_trial
 
 DEFAULT_PUSH_MM = 15.0
@@ -50,9 +51,9 @@ FIGURE = Path("benchmarks/results/push_invariance.png")
 
 
 def force_signal(trial) -> tuple[np.ndarray, np.ndarray]:
-    """The gel force as the tactile chain would see it: 3 Hz low-pass, 30 Hz samples."""
-    sos = butter(4, 3.0, fs=1.0 / (trial.t_s[1] - trial.t_s[0]), output="sos")
-    return trial.t_s[::8], sosfiltfilt(sos, trial.slosh_force_n())[::8]
+    """The gel force as the tactile chain would see it: its low-pass, 30 Hz samples."""
+    fps = 1.0 / (trial.t_s[1] - trial.t_s[0])
+    return trial.t_s[::8], lowpass(trial.slosh_force_n(), fps, DEFAULT_LOWPASS_HZ)[::8]
 
 
 def video_signal(trial, root: Path) -> tuple[np.ndarray, np.ndarray]:

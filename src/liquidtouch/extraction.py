@@ -26,6 +26,7 @@ from liquidtouch.io.frames import iter_frames, video_info
 from liquidtouch.io.sources import resolve_sources, select_sensors
 from liquidtouch.io.trial_tracks import stored_tracks
 from liquidtouch.signal import (
+    DEFAULT_LOWPASS_HZ,
     TactileSignal,
     check_signal_options,
     tactile_signal,
@@ -121,7 +122,7 @@ def track_sources(
 def extract(
     paths: PathLike | Sequence[PathLike],
     *,
-    lowpass_hz: float | None = 3.0,
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     fps: float | None = None,
     progress: bool = False,
@@ -156,7 +157,7 @@ def extract(
 def extract_signal(
     paths: PathLike | Sequence[PathLike],
     *,
-    lowpass_hz: float | None = 3.0,
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     fps: float | None = None,
     progress: bool = False,
@@ -170,7 +171,7 @@ def extract_signal(
 def extract_trial(
     trial_dir: PathLike,
     *,
-    lowpass_hz: float | None = 3.0,
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     fit_settings: FitSettings | None = None,
     sensors: Sequence[str] | None = None,

@@ -444,9 +444,9 @@ def free_decay(
     as a ring-down, the largest excursion to the end, as before.
 
     Raises :class:`SignalError` for a malformed signal (see :func:`free_decay_start`)
-    or when less than ``MIN_FREE_DECAY_S`` follows the largest excursion: "no push
-    found" when that excursion does not stand out of the noise before it
-    (:func:`push_snr` below ``MIN_PUSH_SNR``), else "record longer after the push".
+    "no push found" when the largest excursion does not stand out of the noise before
+    it (:func:`push_snr` below ``MIN_PUSH_SNR``), and "record longer after the push"
+    when less than ``MIN_FREE_DECAY_S`` follows it.
     """
     t, u = check_signal(t, u)
     ring = chosen_ring_down(trial_segments(t, u, events)) if len(t) > 30 else None
@@ -454,14 +454,16 @@ def free_decay(
         keep = (t >= ring.start_s) & (t <= ring.end_s)
         return t[keep], u[keep]
     start = free_decay_start(t, u)
+    # judged however long the rest is: a still recording's noise otherwise reaches the
+    # fit, which calls it overdamped, whenever its largest excursion is early
+    snr = push_snr(t, u, start)
+    if snr < MIN_PUSH_SNR:
+        raise SignalError(
+            f"no push found: the largest excursion of u (at {t[start]:.2f} s) is only "
+            f"{snr:.1f}× the noise level before it (a push stands out at least "
+            f"{MIN_PUSH_SNR:g}×); was the container pushed, and do the videos show it?"
+        )
     if t[-1] - t[start] < MIN_FREE_DECAY_S:
-        snr = push_snr(t, u, start)
-        if snr < MIN_PUSH_SNR:
-            raise SignalError(
-                f"no push found: the largest excursion of u (at {t[start]:.2f} s) is only "
-                f"{snr:.1f}× the noise level before it (a push stands out at least "
-                f"{MIN_PUSH_SNR:g}×); was the container pushed, and do the videos show it?"
-            )
         raise SignalError(
             f"the free decay after the push lasts only {t[-1] - t[start]:.2g} s "
             f"(peak at {t[start]:.2f} s of {t[-1]:.2f} s); record at least "

@@ -14,13 +14,13 @@
    interpolated. Markers cut by the image border in the first frame are not
    used either (their centroid sees only part of the blob). **Frames that never
    came** (a camera stall, dropped frames) are not invented: a clock sample
-   inside a stretch without frames longer than half the low-pass cut-off's
-   period (:func:`max_bridged_gap_s`: the low-passed motion is then sampled
-   below its Nyquist rate; 0.17 s at 3 Hz) is *not observed*; shorter stretches
-   (a dropped frame or a few) are interpolated.
-3. **Low-pass**: zero-phase Butterworth (``sosfiltfilt``), 3 Hz by default, run
-   on each contiguous stretch of observed samples on its own (a stretch too short
-   to filter is dropped too), so no filter output mixes in a gap; an end of a
+   inside a stretch without frames longer than half the period of the low-pass
+   cut-off, at most 3 Hz (:func:`max_bridged_gap_s`: the low-passed slosh is then
+   sampled below its Nyquist rate; 0.17 s) is *not observed*; shorter
+   stretches (a dropped frame or a few) are interpolated.
+3. **Low-pass**: zero-phase Butterworth (``sosfiltfilt``), :data:`DEFAULT_LOWPASS_HZ`
+   (4 Hz) by default, run on each contiguous stretch of observed samples on its own
+   (a stretch too short to filter is dropped too), so no filter output mixes in a gap; an end of a
    stretch at a gap is continued by linear prediction for the filter's settling
    (:func:`~liquidtouch.linear_prediction.predict_edges`), and the continuation dropped.
 4. **Selection**: the ``n_markers`` markers (across all sensors) with the
@@ -52,6 +52,7 @@ from liquidtouch.linear_prediction import AR_ORDER, predict_edges
 from liquidtouch.tracking.tracks import MarkerTracks
 
 __all__ = [
+    "DEFAULT_LOWPASS_HZ",
     "TactileSignal",
     "check_signal_options",
     "first_component",
@@ -60,6 +61,17 @@ __all__ = [
     "tactile_signal",
 ]
 
+#: the low-pass cut-off [Hz] unless one is asked for, by the API and the command line alike.
+#: Not 3 Hz: a broad slosh line (detergent: ω ≈ 14.5 rad/s, λ 3-6 1/s) reaches into a 3 Hz
+#: roll-off, and the filter's response at the release biased a one-mode fit's λ 5-9 % low
+#: (noise-free) and the default fit's 5-15 % low (0.02 px marker noise); at 4 Hz both are
+#: within 2 % up to λ 4.5/s. Higher is not better: 5 Hz let in more noise, and the push
+#: spread through video grew (1.7 % at 4 Hz, 4.8 % at 5 Hz, 3.1 % at 3 Hz). Measured by
+#: ``benchmarks/lowpass_bias.py`` and ``push_invariance.py``; RESULTS.md "# low-pass bias".
+DEFAULT_LOWPASS_HZ = 4.0
+#: the fastest slosh the signal is for [Hz]: the catalogue's containers slosh at 1.9-2.6 Hz
+#: (``_core.containers``); the stretches bridged across dropped frames keep it (Nyquist)
+SLOSH_MAX_HZ = 3.0
 #: fewest usable markers (over all sensors) a signal is built from
 MIN_SELECTED = 2
 #: without a low-pass, a stretch without frames longer than this many frame periods is a gap
@@ -72,13 +84,18 @@ EDGE_PERIODS = 3.0
 def max_bridged_gap_s(lowpass_hz: float | None, fps: float) -> float:
     """Longest stretch without frames [s] that is interpolated rather than left out.
 
-    Half the period of the low-pass cut-off, ``1 / (2 f_c)``: the filtered motion
-    holds nothing faster than ``f_c``, so samples that far apart still catch it
-    (Nyquist); a longer stretch lost motion that no interpolation can recover.
-    At least :data:`GAP_PERIODS` frame periods; that alone without a low-pass.
+    Half the period of the low-pass cut-off, ``1 / (2 f_c)``, with ``f_c`` at most
+    :data:`SLOSH_MAX_HZ`: the filtered slosh holds nothing faster, so samples that far
+    apart still catch it (Nyquist); a longer stretch lost motion that no interpolation
+    can recover. A cut-off above the slosh (the default) passes the tail of a broad line
+    and noise there, which interpolation need not keep, so it does not shorten the
+    stretches bridged (0.17 s). At least :data:`GAP_PERIODS`
+    frame periods; that alone without a low-pass.
     """
     least = GAP_PERIODS / fps
-    return least if lowpass_hz is None else max(least, 0.5 / float(lowpass_hz))
+    if lowpass_hz is None:
+        return least
+    return max(least, 0.5 / min(float(lowpass_hz), SLOSH_MAX_HZ))
 
 
 def observed_samples(t_frames: np.ndarray, t_clock: np.ndarray, max_gap_s: float) -> np.ndarray:
@@ -149,7 +166,7 @@ class TactileSignal:
     weights: np.ndarray
     fps: float
     motion: np.ndarray
-    lowpass_hz: float | None = 3.0
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ
     gap_share: float = 0.0
 
     def __repr__(self) -> str:
@@ -275,7 +292,9 @@ def _cut_by_border(tracks: MarkerTracks) -> np.ndarray:
     return (x < margin) | (y < margin) | (x > width - 1 - margin) | (y > height - 1 - margin)
 
 
-def lowpass(x: np.ndarray, fps: float, cutoff_hz: float = 3.0, order: int = 4) -> np.ndarray:
+def lowpass(
+    x: np.ndarray, fps: float, cutoff_hz: float = DEFAULT_LOWPASS_HZ, order: int = 4
+) -> np.ndarray:
     """Zero-phase Butterworth low-pass of ``x`` along axis 0 (``sosfiltfilt``)."""
     from scipy.signal import butter, sosfiltfilt
 
@@ -321,7 +340,7 @@ def first_component(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
 def tactile_signal(
     tracks: Sequence[MarkerTracks],
     *,
-    lowpass_hz: float | None = 3.0,
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     max_lost_fraction: float = 0.05,
     max_gap_s: float = 0.25,
@@ -394,7 +413,7 @@ def tactile_signal(
 
 
 def check_signal_options(
-    lowpass_hz: float | None = 3.0,
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     max_lost_fraction: float = 0.05,
     max_gap_s: float = 0.25,

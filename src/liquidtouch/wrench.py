@@ -20,7 +20,7 @@ from liquidtouch.errors import SignalError
 from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.fit_settings import AUTO, FitSettings
 from liquidtouch.io.dataset import WRENCH_NAME, read_trial_meta, read_wrench_csv
-from liquidtouch.signal import first_component, lowpass
+from liquidtouch.signal import DEFAULT_LOWPASS_HZ, first_component, lowpass
 
 if TYPE_CHECKING:
     from liquidtouch.fit_settings import FitSettings
@@ -30,7 +30,11 @@ WRENCH_FPS = 30.0
 
 
 def wrench_signal(
-    t_s: np.ndarray, force_n: np.ndarray, *, lowpass_hz: float = 3.0, fps: float = WRENCH_FPS
+    t_s: np.ndarray,
+    force_n: np.ndarray,
+    *,
+    lowpass_hz: float = DEFAULT_LOWPASS_HZ,
+    fps: float = WRENCH_FPS,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """``(t [s], u [N], explained variance)`` of the wrist forces, on a uniform ``fps`` clock.
 
@@ -51,7 +55,7 @@ def wrench_signal(
 def wrench_features(
     trial_dir: str | Path,
     *,
-    lowpass_hz: float = 3.0,
+    lowpass_hz: float = DEFAULT_LOWPASS_HZ,
     fit_settings: FitSettings | None = None,
     best_effort: bool = False,
 ) -> dict[str, float]:

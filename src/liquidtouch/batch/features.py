@@ -36,7 +36,7 @@ from liquidtouch.io.dataset import (
     trial_path,
 )
 from liquidtouch.io.tables import FEATURE_COLUMNS
-from liquidtouch.signal import check_signal_options
+from liquidtouch.signal import DEFAULT_LOWPASS_HZ, check_signal_options
 from liquidtouch.wrench import wrench_features
 
 __all__ = [
@@ -89,7 +89,7 @@ CACHE_DIR = Path(".cache") / "features"
 def feature_settings(
     source: str = "gelsight",
     *,
-    lowpass_hz: float | None = 3.0,
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     sensors: list[str] | tuple[str, ...] | None = None,
     fit_settings: object = None,
@@ -257,7 +257,7 @@ def extract_features(
     source: str = "gelsight",
     progress: bool = True,
     on_trial: Callable[[str, dict[str, object]], None] | None = None,
-    lowpass_hz: float | None = 3.0,
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     sensors: list[str] | tuple[str, ...] | None = None,
     fit_settings: object = None,

@@ -20,6 +20,7 @@ from liquidtouch.io.dataset import MANIFEST_NAME, META_NAME
 from liquidtouch.io.frames import VIDEO_SUFFIXES
 from liquidtouch.io.tables import feature_matrix, read_table
 from liquidtouch.models.feature_rows import error_messages, failed_rows
+from liquidtouch.signal import DEFAULT_LOWPASS_HZ
 
 
 def read_prediction_input(
@@ -27,7 +28,7 @@ def read_prediction_input(
     *,
     jobs: int = 1,
     dask_address: str | None = None,
-    lowpass_hz: float | None = 3.0,
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     sensors: Sequence[str] | None = None,
     fit_settings: FitSettings | None = None,

@@ -4,7 +4,8 @@ A command takes e.g. ``loss: options.Loss = options.DEFAULT_LOSS``: the flags an
 the help text live here only, so ``fit``, ``extract``, ``features`` and
 ``predict`` offer the same fit options, and every ``--out``/``--jobs`` has the
 same short flag. Choices are enums, so ``--help`` lists them and typer refuses
-anything else. Nothing heavy is imported (``--help`` stays fast); the choice
+anything else. Nothing heavy is imported (``--help`` stays fast; ``liquidtouch.signal``,
+for its one default cut-off, brings only numpy); the choice
 lists and defaults equal the library's (``tests/test_cli_consistency.py`` checks).
 
 Units in help texts are written in words or upper-case brackets ("[Hz]"): rich reads
@@ -21,6 +22,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from liquidtouch.fit.choices import DEFAULT_MODEL
+from liquidtouch.signal import DEFAULT_LOWPASS_HZ as DEFAULT_LOWPASS_HZ  # the one default
 
 if TYPE_CHECKING:
     from liquidtouch.fit_settings import FitSettings
@@ -134,7 +136,6 @@ Plot = Annotated[
 
 # -- signal: video -> u(t) ---------------------------------------------------------------------
 
-DEFAULT_LOWPASS_HZ = 3.0
 DEFAULT_MARKERS = 16
 
 Lowpass = Annotated[

@@ -44,7 +44,7 @@ from liquidtouch.live.tracks import GrowingTracks
 from liquidtouch.live.updates import LiveUpdate
 from liquidtouch.ring_down import GUARD_S, Segment, ring_down_reason, trial_segments
 from liquidtouch.segment import MIN_FREE_DECAY_S
-from liquidtouch.signal import check_signal_options
+from liquidtouch.signal import DEFAULT_LOWPASS_HZ, check_signal_options
 
 logger = logging.getLogger(__name__)
 
@@ -107,7 +107,7 @@ class LiveEstimator:
         *,
         model: object | None = None,
         until_std: Mapping[str, float] | None = None,
-        lowpass_hz: float | None = 3.0,
+        lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
         n_markers: int = 16,
         fit_settings: FitSettings | None = None,
         refresh_s: float = REFRESH_S,

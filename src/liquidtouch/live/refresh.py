@@ -39,11 +39,12 @@ from liquidtouch.fit.choices import AUTO as AUTO_MODEL
 from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.fit_settings import AUTO, FitSettings
 from liquidtouch.segment import MIN_PUSH_SNR, free_decay_start, push_snr
-from liquidtouch.signal import TactileSignal, tactile_signal
+from liquidtouch.signal import DEFAULT_LOWPASS_HZ, TactileSignal, tactile_signal
 from liquidtouch.tracking.tracks import MarkerTracks
 
 #: signal within this much of the newest sample is not trusted while streaming [s]: the
-#: zero-phase 3 Hz Butterworth's edge transient lasts about one period of its cut-off
+#: zero-phase Butterworth's edge transient lasts about one period of its cut-off (3 Hz:
+#: 0.33 s; the default 4 Hz: 0.25 s)
 EDGE_S = 0.3
 #: least free decay fitted [s]: a few samples and most of a slosh period; whether the fit is
 #: good enough is then decided from its std, not from time
@@ -107,7 +108,7 @@ def fit_options(settings: FitSettings, final: bool) -> dict[str, object]:
 def refresh(
     tracks: Sequence[MarkerTracks],
     *,
-    lowpass_hz: float | None = 3.0,
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     fit_settings: FitSettings | None = None,
     final: bool = False,
@@ -204,7 +205,7 @@ def window_tracks(
 def shared_signal(
     tracks: Sequence[MarkerTracks],
     *,
-    lowpass_hz: float | None = 3.0,
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     from_s: float = -math.inf,
     to_s: float = math.inf,

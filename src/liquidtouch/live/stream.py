@@ -29,6 +29,7 @@ from liquidtouch.live.stopping import parse_until_std, stop_reached
 from liquidtouch.live.updates import LiveUpdate
 from liquidtouch.models.kernel_limits import single_threaded_blas
 from liquidtouch.models.modelfile import load_model
+from liquidtouch.signal import DEFAULT_LOWPASS_HZ
 
 PathLike = str | os.PathLike[str]
 #: ``on_frame(frame, positions (N, 2) [px], reference (N, 2) [px])`` after each tracked frame
@@ -51,7 +52,7 @@ def live_updates(
     max_duration_s: float | None = None,
     sensors: Sequence[str] | None = None,
     fps: float | None = None,
-    lowpass_hz: float | None = 3.0,
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     fit_settings: FitSettings | None = None,
     refresh_s: float = REFRESH_S,
