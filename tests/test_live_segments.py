@@ -180,6 +180,11 @@ def test_the_ring_down_check_refuses_what_is_not_a_free_decay() -> None:
     assert ring_down_reason(t, step)[0]
     still = np.convolve(rng.standard_normal(t.size + 8), np.ones(9) / 9, "valid")
     assert ring_down_reason(t, 0.01 * still)[0]
+    # the 4 Hz low-pass ringing after a release (rig, README order: λ ×13, ω +72 % stood)
+    ringing = np.exp(-7.0 * t) * np.cos(25.0 * t) + noise
+    assert "above the slosh band" in ring_down_reason(t, ringing)[0]
+    detergent = np.exp(-4.5 * t) * np.cos(14.5 * t) + 0.1 * noise  # the broadest slosh line
+    assert ring_down_reason(t, detergent)[0] == ""
 
 
 @pytest.mark.timeout(600)

@@ -58,6 +58,7 @@ from liquidtouch.segment import (
     highpass,
     push_snr,
 )
+from liquidtouch.signal import SLOSH_MAX_HZ
 
 __all__ = [
     "GUARD_S",
@@ -241,15 +242,16 @@ def _peak_s(t: np.ndarray, a: np.ndarray, lo: float, hi: float, before: float) -
 def ring_down_reason(t: np.ndarray, u: np.ndarray) -> tuple[str, object | None]:
     """Whether ``(t, u)`` is a free decay: ``("", fit)``, else ``(why not, fit or None)``.
 
-    A ring-down is a decaying oscillation in the slosh band: the single-mode fit
-    (least squares, as a quick check) finds an oscillation above the noise that is not
-    overdamped (``fit_oscillation``'s own check), with ω ≥ ``MIN_OMEGA_OVER_LAMBDA`` λ,
-    and at least ``MIN_LOBES`` half-cycles (between zero crossings of the detrended
-    signal) reach ``LOBE_FRACTION`` of the largest; the window spans ``MIN_LOBES``
-    half-cycles of the fitted ω; the fit explains ``MIN_FIT_R2`` of the signal, the
-    signal decays (``MAX_LATE_GROWTH``) and its envelope follows the fit's period by
-    period (``ENVELOPE_RATIO``). A stretch that passes is a free decay, not a transient,
-    a lowering or the noise of a still gel.
+    A ring-down is a decaying oscillation in the slosh band: the single-mode fit (least
+    squares, as a quick check) finds an oscillation above the noise that is not
+    overdamped (``fit_oscillation``'s own check), with ω ≥ ``MIN_OMEGA_OVER_LAMBDA`` λ
+    and ω/2π ≤ :data:`~liquidtouch.signal.SLOSH_MAX_HZ` (faster is the low-pass's own
+    ringing after a step), and at least ``MIN_LOBES`` half-cycles (between zero
+    crossings of the detrended signal) reach ``LOBE_FRACTION`` of the largest; the
+    window spans ``MIN_LOBES`` half-cycles of the fitted ω; the fit explains
+    ``MIN_FIT_R2`` of the signal, the signal decays (``MAX_LATE_GROWTH``) and its
+    envelope follows the fit's period by period (``ENVELOPE_RATIO``). A stretch that
+    passes is a free decay, not a transient, a lowering or the noise of a still gel.
     """
     if len(t) < 8 or t[-1] - t[0] < MIN_CANDIDATE_S:
         return "too short to judge", None
@@ -263,6 +265,12 @@ def ring_down_reason(t: np.ndarray, u: np.ndarray) -> tuple[str, object | None]:
         return (
             f"not a free decay: λ {fit.decay_rate:.3g}/s, ω {fit.angular_frequency:.3g} rad/s "
             f"(a ring-down has ω ≥ {MIN_OMEGA_OVER_LAMBDA:g} λ)"
+        ), fit
+    if fit.angular_frequency > 2 * math.pi * SLOSH_MAX_HZ:
+        # the low-pass's own ringing after a step (a release) decays at its cut-off
+        return (
+            f"not a free decay: ω {fit.angular_frequency:.3g} rad/s is above the slosh band "
+            f"(≤ {SLOSH_MAX_HZ:g} Hz)"
         ), fit
     x = (t - t[0]) / max(t[-1] - t[0], 1e-12)
     design = np.vander(x, 3)
