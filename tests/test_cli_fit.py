@@ -109,7 +109,7 @@ def _rows(f) -> str:
         ("", "not a readable CSV"),
         ("t,u\n" + _rows(lambda t: 0 * t + 1.0), "flat"),
         ("t,u\n" + _rows(lambda t: np.cos(9 * t))[:200], "too short"),
-        ("t,u\n" + _rows(lambda t: np.random.default_rng(0).normal(size=t.size)), "noise only"),
+        ("t,u\n" + _rows(lambda t: np.random.default_rng(0).normal(size=t.size)), "no push found"),
         ("t,u\n" + _rows(lambda t: np.exp(-t / 0.7)), "overdamped"),
         ("t,u\n1,1\n0,2\n" + _rows(lambda t: np.cos(9 * t)), "increase strictly"),
     ],
