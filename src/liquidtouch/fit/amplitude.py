@@ -132,18 +132,28 @@ def curve(
     return basis(tau, x, theta, exponent, second) @ theta[n_nonlinear(second) :]
 
 
+def _first_mode(
+    theta: np.ndarray, tau: np.ndarray, x: np.ndarray, exponent: float, second: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The design matrix, the amplitude-damped mode, ``q = e^{−p λ0 τ}``, ``G = 1 + g (1 − q)``."""
+    k = n_nonlinear(second)
+    rate, _, gain = theta[:N_NONLINEAR]
+    a, b = theta[k : k + 2]
+    design = basis(tau, x, theta, exponent, second)
+    mode = a * design[:, 0] + b * design[:, 1]
+    q = np.exp(-exponent * rate * tau)
+    return design, mode, q, 1.0 + gain * (1.0 - q)
+
+
 def jacobian(
     theta: np.ndarray, tau: np.ndarray, x: np.ndarray, exponent: float, second: bool = False
 ) -> np.ndarray:
     """Analytic Jacobian ``d curve / d theta``, shape ``(n, theta.size)``."""
     k = n_nonlinear(second)
-    rate, _, gain = theta[:N_NONLINEAR]
+    gain = theta[2]
     a, b = theta[k : k + 2]
-    design = basis(tau, x, theta, exponent, second)
+    design, mode, q, grown = _first_mode(theta, tau, x, exponent, second)
     ec, es = design[:, 0], design[:, 1]
-    mode = a * ec + b * es
-    q = np.exp(-exponent * rate * tau)
-    grown = 1.0 + gain * (1.0 - q)
     jac = np.empty((tau.size, theta.size))
     # ln E = −λ0 τ − ln(1 + g (1 − q)) / p,  q = e^{−p λ0 τ}
     jac[:, 0] = mode * (-tau - gain * tau * q / grown)
@@ -162,13 +172,8 @@ def exponent_derivative(
     theta: np.ndarray, tau: np.ndarray, x: np.ndarray, exponent: float, second: bool = False
 ) -> np.ndarray:
     """``d curve / d p``: ``ln E = −λ0 τ − ln G / p`` with ``G = 1 + g (1 − e^{−p λ0 τ})``."""
-    k = n_nonlinear(second)
     rate, _, gain = theta[:N_NONLINEAR]
-    a, b = theta[k : k + 2]
-    design = basis(tau, x, theta, exponent, second)
-    mode = a * design[:, 0] + b * design[:, 1]
-    q = np.exp(-exponent * rate * tau)
-    grown = 1.0 + gain * (1.0 - q)
+    _, mode, q, grown = _first_mode(theta, tau, x, exponent, second)
     return mode * (np.log(grown) / exponent**2 - gain * rate * tau * q / (exponent * grown))
 
 
