@@ -18,6 +18,7 @@ from liquidtouch.errors import DeviceError
 from liquidtouch.protocols import arm, gcl
 from liquidtouch.sim.rig.arm_server import ArmServer
 from liquidtouch.sim.rig.gcl_server import GclServer
+from liquidtouch.sim.rig.rig import RigGripper
 from liquidtouch.sim.rig.state import Rig
 
 
@@ -154,7 +155,7 @@ def test_the_simulated_gripper_refuses_numbers_python_would_take() -> None:
     assert gcl.parse_args("1" * 40) is None and gcl.parse_args("1,") is None
     assert gcl.parse_args("25.00,59,-1.5e2,.5") == [25.0, 59.0, -150.0, 0.5]
     rig = Rig("water", height_mm=25.0, gripper_time_scale=0.01)
-    with GclServer(rig) as server:
+    with GclServer(RigGripper(rig)) as server:  # as `rig serve` runs it
         with socket.create_connection(("127.0.0.1", server.port), timeout=5.0) as sock:
             sock.sendall(b"MOVE(1_0_0, 5_0)\n")
             reply = sock.recv(4096).decode()
