@@ -7,7 +7,7 @@ everything else fixed by the seed. Each signal is fitted with the paper's model
 (:mod:`liquidtouch.fit.amplitude`), both on the free decay as ``extract`` does.
 
 - force level (the bulk): total lateral gel force, the signal's zero-phase low-pass
-  (``signal.DEFAULT_LOWPASS_HZ``), 30 Hz;
+  (``lowpass_filter.DEFAULT_LOWPASS_HZ``), 30 Hz;
 - ``--video``: a subset through the whole chain (simulate → render → extract);
 - ``--classify``: all liquids at drawn pushes, λ vs truth and an SVM classifier
   (``models.classifier.LiquidClassifier``, as ``liquidtouch classify``) trained
@@ -33,8 +33,8 @@ import numpy as np
 from liquidtouch._core.progress import progress_bar
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.fit_settings import FitSettings
+from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ, lowpass
 from liquidtouch.models.physics_prior import stokes_viscosity_feature
-from liquidtouch.signal import DEFAULT_LOWPASS_HZ, lowpass
 from liquidtouch.sim.trial import simulate_trial
 
 DEFAULT_PUSH_MM = 15.0

@@ -8,7 +8,8 @@ import pytest
 from liquidtouch.clock import uniform_clock
 from liquidtouch.errors import MarkerError, SignalError
 from liquidtouch.fit.oscillation import fit_oscillation
-from liquidtouch.signal import lowpass, tactile_signal
+from liquidtouch.lowpass_filter import lowpass
+from liquidtouch.signal import tactile_signal
 from liquidtouch.tracking.tracks import MarkerTracks
 
 LAM, OMEGA = 0.6, 2 * np.pi * 1.3

@@ -12,7 +12,8 @@ import pytest
 from liquidtouch.cli.format import gap_warning
 from liquidtouch.errors import SwallowedRingDownError
 from liquidtouch.fit_settings import FitSettings, ring_down_swallowed
-from liquidtouch.signal import interpolate_frames, lowpass, lowpass_observed, tactile_signal
+from liquidtouch.lowpass_filter import lowpass, lowpass_observed
+from liquidtouch.signal import interpolate_frames, tactile_signal
 from liquidtouch.sim.gelsight import sensor_scene
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial

@@ -25,12 +25,8 @@ from liquidtouch.io.dataset import trial_sensor_starts
 from liquidtouch.io.frames import iter_frames, video_info
 from liquidtouch.io.sources import resolve_sources, select_sensors
 from liquidtouch.io.trial_tracks import stored_tracks
-from liquidtouch.signal import (
-    DEFAULT_LOWPASS_HZ,
-    TactileSignal,
-    check_signal_options,
-    tactile_signal,
-)
+from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ
+from liquidtouch.signal import TactileSignal, check_signal_options, tactile_signal
 from liquidtouch.tracking.tracks import MarkerTracks, track_markers
 
 __all__ = [

@@ -20,7 +20,8 @@ from liquidtouch.errors import SignalError
 from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.fit_settings import AUTO, FitSettings
 from liquidtouch.io.dataset import WRENCH_NAME, read_trial_meta, read_wrench_csv
-from liquidtouch.signal import DEFAULT_LOWPASS_HZ, first_component, lowpass
+from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ, lowpass
+from liquidtouch.signal import first_component
 
 if TYPE_CHECKING:
     from liquidtouch.fit_settings import FitSettings

@@ -36,7 +36,8 @@ from liquidtouch.io.dataset import (
     trial_path,
 )
 from liquidtouch.io.tables import FEATURE_COLUMNS
-from liquidtouch.signal import DEFAULT_LOWPASS_HZ, check_signal_options
+from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ
+from liquidtouch.signal import check_signal_options
 from liquidtouch.wrench import wrench_features
 
 __all__ = [

@@ -19,8 +19,8 @@ from liquidtouch.fit_settings import FitSettings
 from liquidtouch.io.dataset import MANIFEST_NAME, META_NAME
 from liquidtouch.io.frames import VIDEO_SUFFIXES
 from liquidtouch.io.tables import feature_matrix, read_table
+from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ
 from liquidtouch.models.feature_rows import error_messages, failed_rows
-from liquidtouch.signal import DEFAULT_LOWPASS_HZ
 
 
 def read_prediction_input(

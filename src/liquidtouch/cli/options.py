@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from liquidtouch.fit.choices import DEFAULT_MODEL
-from liquidtouch.signal import DEFAULT_LOWPASS_HZ as DEFAULT_LOWPASS_HZ  # the one default
+from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ as DEFAULT_LOWPASS_HZ  # the one default
 
 if TYPE_CHECKING:
     from liquidtouch.fit_settings import FitSettings

@@ -42,10 +42,11 @@ from liquidtouch.live.ring_downs import RingDown, copy_segment, mark_segment, si
 from liquidtouch.live.stopping import check_until_std
 from liquidtouch.live.tracks import GrowingTracks
 from liquidtouch.live.updates import LiveUpdate
+from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ
 from liquidtouch.ring_down import GUARD_S, Segment, trial_segments
 from liquidtouch.ring_down_check import ring_down_reason
 from liquidtouch.segment import MIN_FREE_DECAY_S
-from liquidtouch.signal import DEFAULT_LOWPASS_HZ, check_signal_options
+from liquidtouch.signal import check_signal_options
 
 logger = logging.getLogger(__name__)
 

@@ -38,8 +38,9 @@ from liquidtouch.errors import LiquidTouchError, NoOscillationError
 from liquidtouch.fit.choices import AUTO as AUTO_MODEL
 from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.fit_settings import AUTO, FitSettings
+from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ
 from liquidtouch.segment import MIN_PUSH_SNR, free_decay_start, push_snr
-from liquidtouch.signal import DEFAULT_LOWPASS_HZ, TactileSignal, tactile_signal
+from liquidtouch.signal import TactileSignal, tactile_signal
 from liquidtouch.tracking.tracks import MarkerTracks
 
 #: signal within this much of the newest sample is not trusted while streaming [s]: the

@@ -27,9 +27,9 @@ from liquidtouch.live.estimator import MAX_TIMED_FRAMES, REFRESH_S, LiveEstimato
 from liquidtouch.live.sources import LiveFrame, is_recording, open_frames
 from liquidtouch.live.stopping import parse_until_std, stop_reached
 from liquidtouch.live.updates import LiveUpdate
+from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ
 from liquidtouch.models.kernel_limits import single_threaded_blas
 from liquidtouch.models.modelfile import load_model
-from liquidtouch.signal import DEFAULT_LOWPASS_HZ
 
 PathLike = str | os.PathLike[str]
 #: ``on_frame(frame, positions (N, 2) [px], reference (N, 2) [px])`` after each tracked frame
