@@ -33,12 +33,17 @@ from liquidtouch.live.properties import (
 )
 from liquidtouch.live.refresh import (
     EDGE_S,
-    MIN_WINDOW_S,
     Refreshed,
-    fit_ring_down,
     shared_signal,
 )
-from liquidtouch.live.ring_downs import RingDown, copy_segment, mark_segment, signal_start_s
+from liquidtouch.live.ring_downs import (
+    RingDown,
+    copy_segment,
+    final_fit,
+    mark_segment,
+    signal_start_s,
+    streaming_fit,
+)
 from liquidtouch.live.stopping import check_until_std
 from liquidtouch.live.tracks import GrowingTracks
 from liquidtouch.live.updates import LiveUpdate
@@ -72,15 +77,6 @@ KEPT_FIELDS = (
 def _within(t: np.ndarray, u: np.ndarray, start: float, end: float):
     keep = (t >= start) & (t <= end)
     return t[keep], u[keep]
-
-
-def _whole_stream_fit(settings: FitSettings, full) -> Refreshed:
-    """The stream's only ring-down, to its end: exactly ``extract``'s fit of the signal."""
-    try:
-        fit = settings.fit(full.t, full.u)
-    except LiquidTouchError as exc:
-        return Refreshed(full.t, full.u, "decay", math.nan, message=str(exc))
-    return Refreshed(full.t, full.u, "decay", float(fit.t0), fit)
 
 
 class LiveEstimator:
@@ -376,24 +372,11 @@ class LiveEstimator:
             self.verdicts.append((seg.start_s, True, "shorter than a final fit needs"))
             logger.info("candidate at %.2f s is too short to be final", seg.start_s)
             return
-        settings = self.fit_settings
         index = len(self.finals) + 1
-        if not math.isfinite(window_from) and seg.end_s >= full.t[-1] - 1e-9 and not self.events:
-            # the stream's only ring-down, to its end: exactly extract's fit
-            sig = full
-            result = _whole_stream_fit(settings, full)
-            if math.isnan(result.decay_start_s):
-                result.decay_start_s = seg.start_s
-        else:
-            to_s = seg.end_s if seg.closed else math.inf
-            try:
-                sig = shared_signal(tracks, **self.options, from_s=window_from, to_s=to_s)
-                fit, message, _ = fit_ring_down(
-                    sig.t, sig.u, seg.start_s, seg.end_s, settings, final=True
-                )
-            except LiquidTouchError as exc:
-                sig, fit, message = full, None, str(exc)
-            result = Refreshed(sig.t, sig.u, "decay", seg.start_s, fit, message)
+        result = final_fit(
+            tracks, seg, window_from, full, self.options, self.fit_settings,
+            protocol_events=bool(self.events),
+        )  # fmt: skip
         if result.fit is None:  # not a ring-down after all: never a number of another stretch
             self.verdicts.append((seg.start_s, True, result.message or "no fit"))
             logger.info("candidate at %.2f s is not a ring-down: %s", seg.start_s, result.message)
@@ -414,25 +397,12 @@ class LiveEstimator:
         """The streaming estimate of the open ring-down."""
         if not (math.isfinite(self.open_start_s) and abs(seg.start_s - self.open_start_s) < 0.5):
             self.open_start_s, self.warm_start = seg.start_s, None  # a new ring-down
-        start = self.open_start_s
-        try:
-            sig = shared_signal(tracks, **self.options, from_s=window_from)
-        except LiquidTouchError as exc:
-            return self._emit(
-                Refreshed(np.zeros(0), np.zeros(0), "push", start, message=str(exc)),
-                frames, elapsed_s, due_s, final=False,
-            )  # fmt: skip
-        end = float(sig.t[-1]) - EDGE_S
-        if end - start < MIN_WINDOW_S:
-            result = Refreshed(sig.t, sig.u, "push", start, message="the push is under way")
-        else:
-            fit, message, no_osc = fit_ring_down(
-                sig.t, sig.u, start, end, self.fit_settings, final=False,
-                warm_start=self.warm_start,
-            )  # fmt: skip
-            if fit is not None:
-                self.warm_start = (fit.decay_rate, fit.angular_frequency)
-            result = Refreshed(sig.t, sig.u, "decay", start, fit, message, no_osc)
+        result = streaming_fit(
+            tracks, self.open_start_s, window_from, self.options, self.fit_settings,
+            self.warm_start,
+        )  # fmt: skip
+        if result.fit is not None:
+            self.warm_start = (result.fit.decay_rate, result.fit.angular_frequency)
         update = self._emit(result, frames, elapsed_s, due_s, final=False)
         mark_segment(update, len(self.finals) + 1, seg, final=False)
         return update

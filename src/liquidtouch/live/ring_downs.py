@@ -1,16 +1,30 @@
 """The stream's ring-downs: where each one's signal starts, which segment an update
-comes from, and the final estimate of a ring-down whose hold ended (never replaced)."""
+comes from, the fits of one ring-down (streaming while it is open, final as offline once
+its hold ended) and its final estimate (never replaced)."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
-from liquidtouch.live.refresh import EDGE_S
+import numpy as np
+
+from liquidtouch.errors import LiquidTouchError
+from liquidtouch.fit_settings import FitSettings
+from liquidtouch.live.refresh import EDGE_S, MIN_WINDOW_S, Refreshed, fit_ring_down, shared_signal
 from liquidtouch.live.updates import LiveUpdate
 from liquidtouch.ring_down import Segment
+from liquidtouch.signal import TactileSignal
 
-__all__ = ["RingDown", "copy_segment", "mark_segment", "signal_start_s"]
+__all__ = [
+    "RingDown",
+    "copy_segment",
+    "final_fit",
+    "mark_segment",
+    "signal_start_s",
+    "streaming_fit",
+]
 
 
 @dataclass
@@ -61,3 +75,58 @@ def mark_segment(update: LiveUpdate, index: int, seg: Segment, *, final: bool) -
     update.segment = index
     update.segment_start_s, update.segment_end_s = seg.start_s, seg.end_s
     update.segment_final = final
+
+
+def final_fit(
+    tracks: list,
+    seg: Segment,
+    window_from: float,
+    full: TactileSignal,
+    options: Mapping[str, object],
+    settings: FitSettings,
+    *,
+    protocol_events: bool,
+) -> Refreshed:
+    """The final fit of a ring-down whose hold ended (or the stream's last), as offline.
+
+    The stream's only ring-down, to its end and without protocol events, gets exactly
+    ``extract``'s fit of the whole signal ``full``; any other is fitted on its own window
+    (from ``window_from`` [s] to the segment's end). ``Refreshed.fit`` is ``None`` when it
+    is not a ring-down after all (the message says why).
+    """
+    if not math.isfinite(window_from) and seg.end_s >= full.t[-1] - 1e-9 and not protocol_events:
+        try:
+            fit = settings.fit(full.t, full.u)
+        except LiquidTouchError as exc:
+            return Refreshed(full.t, full.u, "decay", seg.start_s, message=str(exc))
+        return Refreshed(full.t, full.u, "decay", float(fit.t0), fit)
+    to_s = seg.end_s if seg.closed else math.inf
+    try:
+        sig = shared_signal(tracks, **options, from_s=window_from, to_s=to_s)
+        fit, message, _ = fit_ring_down(sig.t, sig.u, seg.start_s, seg.end_s, settings, final=True)
+    except LiquidTouchError as exc:
+        sig, fit, message = full, None, str(exc)
+    return Refreshed(sig.t, sig.u, "decay", seg.start_s, fit, message)
+
+
+def streaming_fit(
+    tracks: list,
+    start_s: float,
+    window_from: float,
+    options: Mapping[str, object],
+    settings: FitSettings,
+    warm_start: tuple[float, float] | None,
+) -> Refreshed:
+    """The streaming estimate of the open ring-down starting at ``start_s`` [s]: its signal
+    from ``window_from`` [s] to the trusted edge, fitted from ``warm_start`` (λ, ω)."""
+    try:
+        sig = shared_signal(tracks, **options, from_s=window_from)
+    except LiquidTouchError as exc:
+        return Refreshed(np.zeros(0), np.zeros(0), "push", start_s, message=str(exc))
+    end = float(sig.t[-1]) - EDGE_S
+    if end - start_s < MIN_WINDOW_S:
+        return Refreshed(sig.t, sig.u, "push", start_s, message="the push is under way")
+    fit, message, no_osc = fit_ring_down(
+        sig.t, sig.u, start_s, end, settings, final=False, warm_start=warm_start
+    )
+    return Refreshed(sig.t, sig.u, "decay", start_s, fit, message, no_osc)
