@@ -187,11 +187,11 @@ def interpolate_frames(
     steps = np.diff(t_frames)
     dropped = np.flatnonzero(np.rint(steps / np.median(steps)) > 1)
     breaks = np.flatnonzero(steps > bridged_s) + 1
+    k = np.searchsorted(t_frames, t_out, side="right") - 1  # the step each time is in
     for run in np.split(np.arange(t_frames.size), breaks):
         inside_run = dropped[(dropped >= run[0]) & (dropped < run[-1])]
         if run.size < 4 or inside_run.size == 0:
             continue
-        k = np.searchsorted(t_frames, t_out, side="right") - 1  # the step each time is in
         across = np.isin(k, inside_run) & (t_out < t_frames[-1])
         if across.any():
             spline = CubicSpline(t_frames[run], flat[run], axis=0)
