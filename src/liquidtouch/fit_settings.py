@@ -15,7 +15,7 @@ import numpy as np
 
 from liquidtouch._core.checks import as_number
 from liquidtouch.errors import NoOscillationError, SignalError, SwallowedRingDownError
-from liquidtouch.fit.choices import DEFAULT_MODEL, LOSSES, MODELS, NOISE_MODELS
+from liquidtouch.fit.choices import DEFAULT_MODEL, DEFAULT_NOISE, LOSSES, MODELS, NOISE_MODELS
 from liquidtouch.fit.oscillation import GAP_STEPS, MIN_DURATION_S, fit_oscillation, validate_signal
 from liquidtouch.ring_down import free_decay
 
@@ -50,7 +50,7 @@ class FitSettings:
     loss: str = "paper"
     model: str = DEFAULT_MODEL
     band_hz: tuple[float, float] = (0.3, 5.0)
-    noise: str = "white"
+    noise: str = DEFAULT_NOISE
     start: float | str = AUTO
 
     def __post_init__(self) -> None:

@@ -70,7 +70,9 @@ def ring_down_reason(t: np.ndarray, u: np.ndarray) -> tuple[str, object | None]:
     if len(t) < 8 or t[-1] - t[0] < MIN_CANDIDATE_S:
         return "too short to judge", None
     try:
-        fit = fit_oscillation(t, u, model="single-mode", loss="ls", min_duration_s=MIN_CANDIDATE_S)
+        fit = fit_oscillation(
+            t, u, model="single-mode", loss="ls", noise="white", min_duration_s=MIN_CANDIDATE_S
+        )
     except NoOscillationError as exc:
         return str(exc), None
     except LiquidTouchError as exc:

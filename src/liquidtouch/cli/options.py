@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from liquidtouch.fit.choices import DEFAULT_MODEL
+from liquidtouch.fit import choices as fit_choices
 from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ as DEFAULT_LOWPASS_HZ  # the one default
 
 if TYPE_CHECKING:
@@ -53,6 +53,7 @@ class NoiseChoice(StrEnum):
 
     white = "white"
     correlated = "correlated"
+    jackknife = "jackknife"
 
 
 class RegressorChoice(StrEnum):
@@ -174,10 +175,10 @@ Sensor = Annotated[
 # -- oscillation fit ---------------------------------------------------------------------------
 
 DEFAULT_LOSS = LossChoice.paper
-DEFAULT_FIT_MODEL = FitModelChoice(DEFAULT_MODEL)
+DEFAULT_FIT_MODEL = FitModelChoice(fit_choices.DEFAULT_MODEL)
 DEFAULT_BAND_LOW_HZ = 0.3
 DEFAULT_BAND_HIGH_HZ = 5.0
-DEFAULT_NOISE = NoiseChoice.white
+DEFAULT_NOISE = NoiseChoice(fit_choices.DEFAULT_NOISE)
 DEFAULT_START = "auto"
 """``--start`` when not given (the option's default is None: ``fit --example`` differs)."""
 
@@ -234,7 +235,8 @@ Noise = Annotated[
     NoiseChoice,
     typer.Option(
         "--noise",
-        help="Noise assumption of the standard errors: white, or correlated (low-passed).",
+        help="Standard errors: jackknife (correlated noise and a blocked jackknife of the "
+        "window, the calibrated default), correlated (low-passed noise), or white.",
     ),
 ]
 Start = Annotated[

@@ -225,6 +225,17 @@ class AmplitudeState(FitState):
             return np.column_stack([jac, d_exp])
         return jac
 
+    def theta_jacobian(self) -> np.ndarray:
+        return jacobian(self.theta, self.tau, self.x, self.exponent, self.second)
+
+    def free_parameters(self) -> np.ndarray:
+        """Indices of ``theta`` a solve moves: all but g when it is held (p is not in theta)."""
+        free = np.arange(self.theta.size)
+        return np.delete(free, 2) if self.gain_fixed else free
+
+    def reported_mode(self) -> int:
+        return 0  # the amplitude-damped mode is the slosh
+
     def amplitudes_phases(self) -> tuple[np.ndarray, np.ndarray]:
         k = n_nonlinear(self.second)
         lin = self.theta[k : k + 2 * self.n_modes]

@@ -20,5 +20,10 @@ MODELS = (AUTO, "two-mode", "single-mode", "amplitude", "amplitude-two-mode")
 AUTO_CANDIDATES = ("single-mode", "amplitude", "two-mode", "amplitude-two-mode")
 #: the model fitted unless one is asked for, by the API and the command line alike
 DEFAULT_MODEL = AUTO
-#: noise assumptions of the standard errors
-NOISE_MODELS = ("white", "correlated")
+#: noise assumptions of the standard errors: white noise and the model right; noise that was
+#: low-pass filtered (Newey–West); that plus the blocked jackknife of the window, for a model
+#: that is not exactly right (:mod:`liquidtouch.fit.jackknife`)
+NOISE_MODELS = ("white", "correlated", "jackknife")
+#: the standard errors reported unless others are asked for, by the API and the command line
+#: alike: the only ones whose coverage of the truth was measured to be right
+DEFAULT_NOISE = "jackknife"

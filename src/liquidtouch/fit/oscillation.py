@@ -31,9 +31,14 @@ with a common variance (white noise, model correct). For the paper's weighted
 loss the weights ``W`` are fixed numbers, so the sandwich
 ``(JᵀWJ)⁻¹ (σ² JᵀW²J) (JᵀWJ)⁻¹`` is used — the covariance of the weighted
 estimator under the same white-noise assumption (it reduces to ``σ² (JᵀJ)⁻¹``
-for least squares). With ``noise="correlated"`` the middle term is a
+for least squares) (``noise="white"``). With ``noise="correlated"`` the middle term is a
 Newey–West (Bartlett-kernel) estimate from the residuals, for signals whose
-noise was low-pass filtered; white-noise errors are then too small.
+noise was low-pass filtered; white-noise errors are then too small. Both assume the
+model is right; ``noise="jackknife"`` (the default, :data:`~liquidtouch.fit.choices.DEFAULT_NOISE`)
+reports for λ and ω the larger of that and the blocked jackknife of the window
+(:mod:`liquidtouch.fit.jackknife`: how much they move when a fifth of the window is
+left out), the one of the three whose coverage of the truth was measured right
+(``benchmarks/fit_std.py``).
 
 Model selection
 ---------------
@@ -77,10 +82,12 @@ from liquidtouch.fit.choices import (
     AUTO,
     AUTO_CANDIDATES,
     DEFAULT_MODEL,
+    DEFAULT_NOISE,
     LOSSES,
     MODELS,
     NOISE_MODELS,
 )
+from liquidtouch.fit.jackknife import jackknife_std
 from liquidtouch.fit.result import OscillationFit
 from liquidtouch.fit.selection import Selection, select_model
 from liquidtouch.fit.solve import FitState, optimise_single_mode, optimise_two_mode
@@ -194,7 +201,7 @@ def fit_oscillation(
     model: str = DEFAULT_MODEL,
     band_hz: tuple[float, float] = (0.3, 5.0),
     delta_rel: float = DEFAULT_DELTA_REL,
-    noise: str = "white",
+    noise: str = DEFAULT_NOISE,
     check_oscillation: bool = True,
     min_duration_s: float = MIN_DURATION_S,
     warm_start: tuple[float, float] | None = None,
@@ -219,8 +226,9 @@ def fit_oscillation(
         Frequency band [Hz] for both modes (high is clipped below Nyquist).
     delta_rel : float
         ``δ`` of the paper's loss relative to the detrended signal's mean power.
-    noise : ``"white"`` | ``"correlated"``
-        Noise assumption for the standard errors.
+    noise : ``"jackknife"`` | ``"correlated"`` | ``"white"``
+        Noise assumption for the standard errors (default
+        :data:`~liquidtouch.fit.choices.DEFAULT_NOISE`; module docstring, Uncertainty).
     check_oscillation : bool
         Refuse a signal with no oscillation above the noise, or an overdamped one
         (``NoOscillationError``). ``False`` gives the best-effort fit anyway (the
@@ -298,8 +306,16 @@ def fit_oscillation(
         chosen = without_gain(single, candidates["amplitude"].exponent)
     fit = _build_result(chosen, weights, noise, loss, delta_n * scale**2, t, mean, scale)
     fit = replace(fit, **_selection_fields(selection, model), gap_share=gap_share(t))
+    if noise == "jackknife":  # the larger: conservative when the model is right
+        decay_jk, freq_jk = jackknife_std(chosen)
+        if math.isfinite(decay_jk):
+            fit = replace(
+                fit,
+                decay_rate_std=max(fit.decay_rate_std, decay_jk),
+                angular_frequency_std=max(fit.angular_frequency_std, freq_jk),
+            )
     if isinstance(chosen, AmplitudeState):
-        gain_std = chosen.damping_gain_std(weights, correlated=noise == "correlated", scale=scale)
+        gain_std = chosen.damping_gain_std(weights, correlated=noise != "white", scale=scale)
         fit = replace(
             fit,
             model=COMBINED if chosen.second else "amplitude",
@@ -347,16 +363,14 @@ def _build_result(
     mean: float,
     scale: float,
 ) -> OscillationFit:
-    std = state.standard_errors(weights, correlated=noise == "correlated")
+    std = state.standard_errors(weights, correlated=noise != "white")
     amps, phases = state.amplitudes_phases()
     rates, freqs = state.rates, state.freqs
     d0, d1, d2 = state.drift()
     length = t[-1] - t[0]
     two = state.n_modes == 2
     nan = math.nan
-    if two and not isinstance(state, AmplitudeState) and state.slow_mode_energy_share() < 1.0:
-        # the slosh is the mode that carries the motion; the less damped one is a sliver
-        # (a short, heavily damped ring-down): report the dominant mode, the other second
+    if state.reported_mode() == 1:  # report the slosh first, the other mode second
         amps, phases, rates, freqs = amps[::-1], phases[::-1], rates[::-1], freqs[::-1]
         std = [std[2], std[3], std[0], std[1]]
     return OscillationFit(

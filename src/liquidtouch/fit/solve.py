@@ -61,6 +61,19 @@ class FitState:
         """``d û / d theta`` at the samples, shape ``(n, n_params)``."""
         return om.jacobian(self.theta, self.tau, self.x, self.n_modes)
 
+    def theta_jacobian(self) -> np.ndarray:
+        """``d û / d theta`` for every entry of ``theta`` (held ones too), ``(n, theta.size)``."""
+        return self.model_jacobian()
+
+    def free_parameters(self) -> np.ndarray:
+        """Indices of ``theta`` the solve moves (all here)."""
+        return np.arange(self.theta.size)
+
+    def reported_mode(self) -> int:
+        """Which mode is the slosh (0 or 1): the less damped one, unless it is a sliver
+        next to the other (a short, heavily damped ring-down)."""
+        return int(self.n_modes == 2 and self.slow_mode_energy_share() < 1.0)
+
     def residual(self) -> np.ndarray:
         """Unweighted residual ``u - û``."""
         return self.u - self.model_curve()
