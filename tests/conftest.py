@@ -15,12 +15,13 @@ pytest's ``pythonpath`` (pyproject.toml) holds the repository root and ``tests/`
 so these import as ``from helpers import ...`` and
 ``from benchmarks.synthetic_tables import ...``.
 
-Tests marked ``slow`` (the end-to-end runs, tens of seconds each) run first (after
-the tests of ``synthetic_report``, whose one build starts at once), so that under
-``pytest -n 2 --dist worksteal`` (``make test``) the other worker takes the many
-short tests meanwhile and no long test starts last, alone, on an otherwise idle
-machine. Their module-scoped fixtures serve slow tests only (keep it
-so), so moving them costs no extra fixture set-up.
+Tests marked ``slow(seconds=...)`` (the end-to-end runs, seconds to minutes each) and
+the tests of ``synthetic_report`` (a long build) start the two halves of the test list,
+dealt so that each half holds about as many of their seconds: under
+``pytest -n 2 --dist worksteal`` (``make test``) each worker begins with its share of
+the long tests, the short ones follow, and no long test starts last, alone, on an
+otherwise idle machine. A module's slow tests stay together, and their module-scoped
+fixtures serve slow tests only (keep it so), so moving them costs no extra set-up.
 """
 
 from __future__ import annotations
@@ -48,8 +49,9 @@ def _imports_of_test_modules(path: Path) -> list[str]:
     return [n for n in names if n.split(".")[-1].startswith("test_")]
 
 
+@pytest.hookimpl(trylast=True)  # after -k/-m deselection: the order of the tests that run
 def pytest_collection_modifyitems(session: pytest.Session, config, items) -> None:
-    """Refuse to run when a test module imports another test module; long set-ups first."""
+    """Refuse to run when a test module imports another test module; long tests spread."""
     files = {Path(str(item.fspath)) for item in items}
     offences = [
         f"{path.name} imports {name}"
@@ -62,21 +64,48 @@ def pytest_collection_modifyitems(session: pytest.Session, config, items) -> Non
             "test modules must not import each other; move shared code to tests/helpers.py: "
             + "; ".join(offences)
         )
-    # stable: the tests of the report built once per run (conftest's synthetic_report), then
-    # the slow tests, then the others, each in collection order (module by module)
-    items.sort(key=_start_rank)
+    items[:] = _long_tests_spread(items)
 
 
-def _start_rank(item: pytest.Item) -> int:
-    """0 for the tests that read ``synthetic_report``, 1 for ``slow`` ones, 2 for the rest.
+#: rough time [s] of the synthetic report's one build (``synthetic_report``)
+REPORT_BUILD_S = 55.0
 
-    The report's tests go first, so that its one build starts at once on one worker and
-    is finished before the other worker, if it takes some of them over, would have to
-    wait for it.
+
+def _long_tests_spread(items: list[pytest.Item]) -> list[pytest.Item]:
+    """The tests in an order that starts each half with about half of the long tests.
+
+    ``--dist worksteal`` hands the first half of the list to one worker and the second half
+    to the other, and later moves tests from the end of a worker's queue to the other.
+    The long tests (``slow(seconds=...)``, and the tests of ``synthetic_report``, whose
+    build is long) are grouped by module, so that a module-scoped fixture is set up on
+    one worker only; the groups are dealt, longest first, to the half with less so far
+    (longest processing time first), and each half begins with its groups. The short
+    tests fill the rest of each half, in collection order. Without xdist this is just
+    an order.
     """
-    if "synthetic_report" in getattr(item, "fixturenames", ()):
-        return 0
-    return 1 if item.get_closest_marker("slow") is not None else 2
+    groups: dict[str, list[pytest.Item]] = {}
+    seconds: dict[str, float] = {}
+    short = []
+    for item in items:
+        marker = item.get_closest_marker("slow")
+        if "synthetic_report" in getattr(item, "fixturenames", ()):
+            key = "synthetic_report"
+            seconds[key] = REPORT_BUILD_S
+        elif marker is not None:
+            key = str(item.fspath)
+            seconds[key] = seconds.get(key, 0.0) + float(marker.kwargs.get("seconds", 10.0))
+        else:
+            short.append(item)
+            continue
+        groups.setdefault(key, []).append(item)
+    halves: tuple[list[pytest.Item], list[pytest.Item]] = ([], [])
+    loads = [0.0, 0.0]
+    for key in sorted(groups, key=lambda k: -seconds[k]):
+        lighter = 0 if loads[0] <= loads[1] else 1
+        halves[lighter].extend(groups[key])
+        loads[lighter] += seconds[key]
+    fill = max(len(items) // 2 - len(halves[0]), 0)  # worksteal's first share: len // 2
+    return [*halves[0], *short[:fill], *halves[1], *short[fill:]]
 
 
 @pytest.fixture(scope="session")
