@@ -86,7 +86,9 @@ def fewer_experiment_draws(patch: pytest.MonkeyPatch) -> None:
     patch.setattr(transfer, "REPEATS", 2)
 
 
-def built_once(tmp_path_factory: pytest.TempPathFactory, name: str, build: Callable[[Path], None]):
+def built_once(
+    tmp_path_factory: pytest.TempPathFactory, name: str, build: Callable[[Path], None]
+) -> Path:
     """Directory ``name``, filled by ``build(directory)`` once per test run, shared by workers.
 
     ``--dist worksteal`` may split a module between the two workers, and each would then
