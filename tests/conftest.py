@@ -16,12 +16,13 @@ so these import as ``from helpers import ...`` and
 ``from benchmarks.synthetic_tables import ...``.
 
 Tests marked ``slow(seconds=...)`` (the end-to-end runs, seconds to minutes each) and
-the tests of ``synthetic_report`` (a long build) start the two halves of the test list,
-dealt so that each half holds about as many of their seconds: under
-``pytest -n 2 --dist worksteal`` (``make test``) each worker begins with its share of
-the long tests, the short ones follow, and no long test starts last, alone, on an
-otherwise idle machine. A module's slow tests stay together, and their module-scoped
-fixtures serve slow tests only (keep it so), so moving them costs no extra set-up.
+the tests of ``synthetic_report`` (a long build) start the two halves of the test list
+(``_long_tests_spread``): under ``pytest -n 2 --dist worksteal`` (``make test``) each
+worker begins with its share of the long tests, the short ones follow, and no long test
+starts last, alone, on an otherwise idle machine. The ``exclusive`` ones (a pool, a rig
+in real time) share one worker, so that they never run beside each other. A module's
+slow tests stay together, and their module-scoped fixtures serve slow tests only (keep
+it so), so moving them costs no extra set-up.
 """
 
 from __future__ import annotations
@@ -72,19 +73,22 @@ REPORT_BUILD_S = 55.0
 
 
 def _long_tests_spread(items: list[pytest.Item]) -> list[pytest.Item]:
-    """The tests in an order that starts each half with about half of the long tests.
+    """The tests in an order that starts each half with its share of the long tests.
 
     ``--dist worksteal`` hands the first half of the list to one worker and the second half
     to the other, and later moves tests from the end of a worker's queue to the other.
     The long tests (``slow(seconds=...)``, and the tests of ``synthetic_report``, whose
     build is long) are grouped by module, so that a module-scoped fixture is set up on
-    one worker only; the groups are dealt, longest first, to the half with less so far
-    (longest processing time first), and each half begins with its groups. The short
-    tests fill the rest of each half, in collection order. Without xdist this is just
-    an order.
+    one worker only. The ``exclusive`` ones (a pool of workers, or a rig or cameras in
+    real time) all go to the first half, one after the other, so that no two of them
+    share the two cores at once (a starved real-time rig drops frames); the other long
+    groups are dealt, longest first, to the half with fewer seconds so far. Each half
+    begins with its long groups, longest first; the short tests fill the rest of each
+    half, in collection order. Without xdist this is just an order.
     """
     groups: dict[str, list[pytest.Item]] = {}
     seconds: dict[str, float] = {}
+    exclusive: set[str] = set()
     short = []
     for item in items:
         marker = item.get_closest_marker("slow")
@@ -94,16 +98,19 @@ def _long_tests_spread(items: list[pytest.Item]) -> list[pytest.Item]:
         elif marker is not None:
             key = str(item.fspath)
             seconds[key] = seconds.get(key, 0.0) + float(marker.kwargs.get("seconds", 10.0))
+            if marker.kwargs.get("exclusive", False):
+                exclusive.add(key)
         else:
             short.append(item)
             continue
         groups.setdefault(key, []).append(item)
     halves: tuple[list[pytest.Item], list[pytest.Item]] = ([], [])
     loads = [0.0, 0.0]
-    for key in sorted(groups, key=lambda k: -seconds[k]):
-        lighter = 0 if loads[0] <= loads[1] else 1
-        halves[lighter].extend(groups[key])
-        loads[lighter] += seconds[key]
+    # the exclusive groups first (all to the first half), then the others by length
+    for key in sorted(groups, key=lambda k: (k not in exclusive, -seconds[k])):
+        half = 0 if key in exclusive or loads[0] <= loads[1] else 1
+        halves[half].extend(groups[key])
+        loads[half] += seconds[key]
     fill = max(len(items) // 2 - len(halves[0]), 0)  # worksteal's first share: len // 2
     return [*halves[0], *short[:fill], *halves[1], *short[fill:]]
 

@@ -215,7 +215,7 @@ def test_seeded_specs_change_trial_seeds_only() -> None:
     assert [s.seed for s in seeded_specs("sugar", quick=True, seed=3)] == [s.seed for s in other]
 
 
-@pytest.mark.slow(seconds=100)
+@pytest.mark.slow(seconds=100, exclusive=True)  # a pool of two workers
 def test_reproduce_end_to_end_through_videos(tmp_path, monkeypatch) -> None:
     """The quick reproduction at a few trials per group: videos → … → report, then reused."""
     from typer.testing import CliRunner

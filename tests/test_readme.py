@@ -164,7 +164,7 @@ def test_every_mentioned_command_exists(capsys: pytest.CaptureFixture[str]) -> N
     assert not missing, "README mentions commands that do not exist:\n" + "\n".join(sorted(missing))
 
 
-@pytest.mark.slow(seconds=55)
+@pytest.mark.slow(seconds=55, exclusive=True)  # features -j 2
 def test_the_readme_tour_runs_as_written(tmp_path: Path) -> None:
     blocks = runnable_blocks(readme_text())
     expected = list(TOUR_FILES)
