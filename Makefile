@@ -20,7 +20,7 @@ demo: $(STAMP)
 	$(BIN)/liquidtouch demo
 
 # --dist worksteal: a worker that runs dry takes half of the other's queue, and the
-# slow tests start first (tests/conftest.py), so no long test runs alone at the end
+# long tests start both workers' queues (tests/conftest.py), so none runs alone at the end
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .

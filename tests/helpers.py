@@ -1,5 +1,6 @@
 """Shared test helpers: synthetic GelSight marker images with known marker positions,
-Chromium for the browser checks, and fewer random draws for the experiments.
+Chromium for the browser checks, fewer random draws for the experiments, and a
+directory built once per test run however many xdist workers need it.
 
 Test modules import these (``from helpers import grid, render_blobs``; ``tests/`` is on
 pytest's ``pythonpath``) instead of importing each other. The synthetic feature
@@ -8,7 +9,11 @@ tables live in ``benchmarks/synthetic_tables.py`` (shared with the benchmarks).
 
 from __future__ import annotations
 
+import fcntl
 import os
+import shutil
+from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -79,3 +84,29 @@ def fewer_experiment_draws(patch: pytest.MonkeyPatch) -> None:
     patch.setattr(data_efficiency, "REPEATS", 1)
     patch.setattr(transfer, "SIZES", (5, 15))
     patch.setattr(transfer, "REPEATS", 2)
+
+
+def built_once(
+    tmp_path_factory: pytest.TempPathFactory, name: str, build: Callable[[Path], None]
+) -> Path:
+    """Directory ``name``, filled by ``build(directory)`` once per test run, shared by workers.
+
+    ``--dist worksteal`` may split a module between the two workers, and each would then
+    set up the module's fixtures again (the synthetic report: ~55 CPU-s). Here the first
+    worker to need the directory builds it under an exclusive lock in the run's temporary
+    root (common to the workers); the other waits on the lock, then reads the finished
+    directory. A build that raises leaves no ``.complete`` mark, so a later caller tries
+    again (and fails the same way). Tests must only read the directory.
+    """
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent  # the run's root, above popen-gw0, popen-gw1
+    directory = root / name
+    with open(root / f"{name}.lock", "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+        if not (directory / ".complete").is_file():
+            shutil.rmtree(directory, ignore_errors=True)  # a failed build's leftovers
+            directory.mkdir()
+            build(directory)
+            (directory / ".complete").touch()
+    return directory

@@ -18,7 +18,6 @@ import pytest
 from helpers import fewer_experiment_draws
 
 from benchmarks.experiment_tables import FAILED, NO_OSCILLATION, experiment_features
-from liquidtouch.experiments.report import write_report
 from liquidtouch.experiments.reproduce import failure_note, run_experiments
 
 
@@ -28,13 +27,10 @@ def features() -> dict[str, dict[str, pd.DataFrame]]:
 
 
 @pytest.fixture(scope="module")
-def report(features, tmp_path_factory) -> tuple[Path, pd.DataFrame]:
-    out = tmp_path_factory.mktemp("report")
-    results = run_experiments(features, out)
-    provenance = {"liquidtouch": "test", "git commit": "none (test)"}
-    write_report(results, out, title="test", preamble=failure_note(features), provenance=provenance)
-    summary = pd.read_csv(out / "summary.csv", keep_default_na=False, na_values=[""])
-    return out, summary
+def report(synthetic_report: Path) -> tuple[Path, pd.DataFrame]:
+    """The report of the seven experiments on ``features`` (conftest: built once per run)."""
+    summary = pd.read_csv(synthetic_report / "summary.csv", keep_default_na=False, na_values=[""])
+    return synthetic_report, summary
 
 
 def _row(summary: pd.DataFrame, experiment: str, metric: str) -> pd.Series:
@@ -219,7 +215,7 @@ def test_seeded_specs_change_trial_seeds_only() -> None:
     assert [s.seed for s in seeded_specs("sugar", quick=True, seed=3)] == [s.seed for s in other]
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=100, exclusive=True)  # a pool of two workers
 def test_reproduce_end_to_end_through_videos(tmp_path, monkeypatch) -> None:
     """The quick reproduction at a few trials per group: videos → … → report, then reused."""
     from typer.testing import CliRunner

@@ -34,7 +34,7 @@ CLEAN_CASES = [  # (liquid, sugar concentration g/100 g water, nominal fill heig
 ]
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=4)
 @pytest.mark.parametrize(("liquid", "conc", "height_mm"), CLEAN_CASES)
 def test_video_chain_recovers_true_decay_rate_and_frequency(
     tmp_path: Path, liquid: str, conc: float | None, height_mm: float

@@ -122,7 +122,7 @@ def mini_trials(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return trials
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=5)
 @pytest.mark.parametrize(
     ("videos", "folders"), [("video_even", "png_fps"), ("video", "png_timestamps")]
 )

@@ -50,7 +50,7 @@ def _cut(trial_dir, out, start_s: float) -> list:
     return folders
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=4)
 @pytest.mark.timeout(400)
 @pytest.mark.parametrize("sensor", ["mini", "default"])
 @pytest.mark.parametrize("codec", ["h264", "lossless"])

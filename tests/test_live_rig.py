@@ -29,7 +29,7 @@ from benchmarks.rig_live import (
 )
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=45, exclusive=True)  # the rig in real time
 @pytest.mark.timeout(300)
 def test_live_first_then_run_trial_and_live_started_in_the_push(tmp_path) -> None:
     with rig_serving() as endpoints:
@@ -46,7 +46,7 @@ def test_live_first_then_run_trial_and_live_started_in_the_push(tmp_path) -> Non
         assert run["segment_final"] and run["segments"] >= 1, run
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=60, exclusive=True)  # the rig in real time
 @pytest.mark.timeout(400)
 def test_run_trial_serve_end_to_end_in_chromium(tmp_path) -> None:
     """``run-trial --live --serve`` on the rig (mirin) with a classifier trained on water,

@@ -17,8 +17,11 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 import pytest
+
+from liquidtouch.cli import main
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 BIN = Path(sys.executable).parent  # the venv's bin: liquidtouch, python
@@ -52,6 +55,14 @@ TOUR_FILES = [
 PREAMBLE = f"""
 liquidtouch() {{ timeout {COMMAND_TIMEOUT_S} {shlex.quote(str(BIN / "liquidtouch"))} "$@"; }}
 """
+
+
+class Help(NamedTuple):
+    """Exit status and output of a ``--help``."""
+
+    returncode: int
+    stdout: str
+    stderr: str
 
 
 def readme_text() -> str:
@@ -112,14 +123,13 @@ def _env() -> dict[str, str]:
     return env
 
 
-def _help(args: list[str]) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [str(BIN / "liquidtouch"), *args, "--help"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        env=_env(),
-    )
+def _help(args: list[str], capsys: pytest.CaptureFixture[str]) -> Help:
+    """``liquidtouch ARGS --help`` in this process (the command line's own ``main``: the
+    same commands as the console script, without a Python start-up per command)."""
+    capsys.readouterr()
+    status = main([*args, "--help"])
+    out, err = capsys.readouterr()
+    return Help(status, out, err)
 
 
 def test_the_readme_marks_runnable_blocks() -> None:
@@ -132,14 +142,14 @@ def test_the_readme_marks_runnable_blocks() -> None:
         )
 
 
-def test_every_mentioned_command_exists() -> None:
+def test_every_mentioned_command_exists(capsys: pytest.CaptureFixture[str]) -> None:
     mentions = mentioned_commands(readme_text())
     assert ("simulate", "trial") in mentions and ("features",) in {m[:1] for m in mentions}
-    helps: dict[tuple[str, ...], subprocess.CompletedProcess[str]] = {}
+    helps: dict[tuple[str, ...], Help] = {}
 
-    def help_of(command: tuple[str, ...]) -> subprocess.CompletedProcess[str]:
+    def help_of(command: tuple[str, ...]) -> Help:
         if command not in helps:
-            helps[command] = _help(list(command))
+            helps[command] = _help(list(command), capsys)
         return helps[command]
 
     missing = set()
@@ -154,7 +164,7 @@ def test_every_mentioned_command_exists() -> None:
     assert not missing, "README mentions commands that do not exist:\n" + "\n".join(sorted(missing))
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=55, exclusive=True)  # features -j 2
 def test_the_readme_tour_runs_as_written(tmp_path: Path) -> None:
     blocks = runnable_blocks(readme_text())
     expected = list(TOUR_FILES)

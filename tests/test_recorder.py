@@ -270,7 +270,7 @@ def test_cli_ctrl_c_leaves_no_trial(tmp_path) -> None:
     assert _leftovers(tmp_path, "t") == []
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=15, exclusive=True)  # cameras in real time
 def test_recording_a_replayed_trial_gives_the_same_fit(tmp_path) -> None:
     """A simulated GelSight Mini trial, its videos replayed as cameras in real time and
     recorded as FFV1 and as PNG at once: every frame kept with its time, and extraction

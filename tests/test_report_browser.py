@@ -1,12 +1,13 @@
 """The report as a reader sees it: report.html opened in headless Chromium.
 
-A small report (the seven experiments on the synthetic tables of
-``benchmarks.experiment_tables``, with fewer random draws) is rendered to a
-screenshot and to its DOM by ``benchmarks.report_browser``: every image is an
-embedded PNG that decodes, the page is not blank, the headline table is there
-and no text says "wt%". Without Chromium the tests skip locally, and fail
-when the environment variable ``CI`` is set (CI must not skip them silently;
-``.ci/run`` installs Debian's ``chromium``).
+The report of the seven experiments on the synthetic tables of
+``benchmarks.experiment_tables`` (conftest's ``synthetic_report``, built once per
+run and also checked by ``test_experiments.py``) is rendered to a screenshot and
+to its DOM by ``benchmarks.report_browser``: every image is an embedded PNG that
+decodes, the page is not blank, the headline table is there and no text says "wt%".
+Without Chromium the tests skip locally, and fail when the environment variable
+``CI`` is set (CI must not skip them silently; ``.ci/run`` installs Debian's
+``chromium``).
 """
 
 from __future__ import annotations
@@ -15,9 +16,8 @@ import re
 from pathlib import Path
 
 import pytest
-from helpers import chromium_or_skip, fewer_experiment_draws
+from helpers import chromium_or_skip
 
-from benchmarks.experiment_tables import experiment_features
 from benchmarks.report_browser import check_report
 
 
@@ -27,28 +27,14 @@ def browser() -> str:
 
 
 @pytest.fixture(scope="module")
-def report_html(tmp_path_factory) -> Path:
-    from liquidtouch.experiments.provenance import provenance
-    from liquidtouch.experiments.report import write_report
-    from liquidtouch.experiments.reproduce import failure_note, run_experiments
-
-    out = tmp_path_factory.mktemp("browser_report")
-    features = experiment_features()
-    with pytest.MonkeyPatch.context() as patch:
-        fewer_experiment_draws(patch)  # seconds, not minutes
-        results = run_experiments(features, out)
-    _, html = write_report(
-        results,
-        out,
-        title="liquidtouch: browser check",
-        preamble=failure_note(features),
-        provenance=provenance(**{"base seed": 0}),
-    )
-    return html
+def report_html(synthetic_report: Path) -> Path:
+    return synthetic_report / "report.html"  # conftest: shared with test_experiments.py
 
 
-def test_report_renders_with_all_images_and_the_headline_table(browser, report_html) -> None:
-    png = report_html.with_name("screenshot.png")
+def test_report_renders_with_all_images_and_the_headline_table(
+    browser, report_html, tmp_path
+) -> None:
+    png = tmp_path / "screenshot.png"  # not beside the shared report
     check = check_report(report_html, png, browser=browser)
     assert check.problems == [], check.problems
     assert check.images == check.images_loaded == 8  # one figure per experiment

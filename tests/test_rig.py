@@ -279,7 +279,7 @@ def _read_json_line(proc: subprocess.Popen, timeout_s: float) -> dict:
     raise AssertionError("rig serve printed no endpoints in time")
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=15, exclusive=True)  # the rig in real time
 @pytest.mark.timeout(120)
 def test_end_to_end_on_loopback(tmp_path, capsys):
     """rig serve (subprocess) → run-trial (WSG-50 GCL, rig arm, two MJPEG streams) → extract.
