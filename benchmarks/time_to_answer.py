@@ -44,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from liquidtouch.live.calibration import COVERAGE_KS, coverage, nominal_coverage
+from liquidtouch.live.uncertainty import DECAY_REL_STD_FLOOR, FREQ_REL_STD_FLOOR
 
 TEST_LIQUIDS = ("water", "olive-oil", "corn-oil", "mirin", "detergent", "sugar-water")
 TRAIN_SUGAR = (40.0, 100.0, 160.0)
@@ -56,8 +57,11 @@ TIME_BINS = ((0.0, 1.0), (1.0, 2.0), (2.0, 4.0), (4.0, 6.0), (6.0, math.inf))
 REPORT_STD = {"height_mm": 1.0, "log10_viscosity_cst": 0.1}
 #: liquids a sugar-water-only model is judged on
 OTHER_LIQUIDS = ("olive-oil", "corn-oil", "mirin")
-#: columns of the per-refresh rows
+#: columns of the per-refresh rows (the λ, ω std as the property models get them)
 ROW_COLUMNS = ("t_s", "decay_rate", "decay_rate_std", "angular_frequency", "angular_frequency_std")
+#: the saved rows' std: what the models get, without the streamed std's floors (earlier
+#: files held the std with them: stripped on loading)
+ROW_STD = "without-floors"
 
 
 def simulate(root: Path, name: str, liquid: str, height_mm: float, conc, seed: int, dur: float):
@@ -183,19 +187,24 @@ def main() -> None:
         if args.save is not None:
             args.save.write_text(json.dumps(data))
     took = time.perf_counter() - began
-    train, tests = data["train"], data["tests"]
-    for test in tests:
-        test["rows"] = np.asarray(test["rows"], float)
-    per_liquid = len(tests) // len(TEST_LIQUIDS)
+    train, streams = data["train"], data["tests"]
+    for test in streams:
+        test["rows"] = np.asarray(test["rows"], float).reshape(-1, len(ROW_COLUMNS))
+        if data.get("row_std") != ROW_STD:
+            strip_floors(test["rows"])
+    # a stream whose ring-down check never passed has no fit at all: no answer (time inf)
+    tests = [t for t in streams if len(t["rows"])]
+    per_liquid = len(streams) // len(TEST_LIQUIDS)
     print(
-        f"{len(train)} training trials, {len(tests)} test trials ({per_liquid} per liquid), "
-        f"{data['duration']:g} s each, GelSight Mini; {took:.0f} s"
+        f"{len(train)} training trials, {len(streams)} test trials ({per_liquid} per liquid), "
+        f"{data['duration']:g} s each, GelSight Mini; {took:.0f} s; streams without any fit: "
+        + (", ".join(t["liquid"] for t in streams if not len(t["rows"])) or "none")
     )
     models = train_models(train)
     for test in tests:
         test["pred"] = {kind: predictions(model, test["rows"]) for kind, model in models.items()}
     report_calibration(models)
-    report_time_to_answer(tests)
+    report_time_to_answer(streams)
     report_coverage(tests)
     report_sugar_only(tests)
     report_latency(tests)
@@ -233,7 +242,20 @@ def simulate_all(args) -> dict:
                         }
                     )
                     advance()
-    return {"duration": args.duration, "train": train, "tests": tests}
+    return {"duration": args.duration, "row_std": ROW_STD, "train": train, "tests": tests}
+
+
+def strip_floors(rows: np.ndarray) -> None:
+    """Streamed rows saved with the floors in their std (all but the final): without them."""
+    for col, floor in ((1, DECAY_REL_STD_FLOOR), (3, FREQ_REL_STD_FLOOR)):
+        std = rows[:-1, col + 1]
+        rows[:-1, col + 1] = np.sqrt(np.maximum(std**2 - (rows[:-1, col] * floor) ** 2, 0.0))
+
+
+def displayed_std(rows: np.ndarray, col: int) -> np.ndarray:
+    """The streamed λ (``col`` 1) or ω (3) std the stream shows: the floor added back."""
+    floor = DECAY_REL_STD_FLOOR if col == 1 else FREQ_REL_STD_FLOOR
+    return np.hypot(rows[:, col + 1], rows[:, col] * floor)
 
 
 def train_models(train: list[dict]) -> dict:
@@ -312,6 +334,10 @@ def report_time_to_answer(tests: list[dict]) -> None:
             cells = {t: [] for t in (*TARGETS, "both")}
             record, errs = [], {t: [] for t in TARGETS}
             for test in (t for t in tests if t["liquid"] == liquid):
+                if not len(test["rows"]):  # no fit: never answered
+                    for c in cells.values():
+                        c.append(math.inf)
+                    continue
                 t_s, ok_all = test["rows"][:, 0], None
                 for target in TARGETS:
                     mean, _ = reported(test, kind, target)
@@ -324,7 +350,7 @@ def report_time_to_answer(tests: list[dict]) -> None:
                 record.append(t_s[-1])
             line = " ".join(f"{quantiles(cells[c]):>13s}" for c in (*TARGETS, "both"))
             print(
-                f"{liquid:12s} {len(record):2d} {line} {np.median(record):7.2f} "
+                f"{liquid:12s} {len(cells['both']):2d} {line} {np.median(record):7.2f} "
                 f"{np.mean(errs[TARGETS[0]]):8.2f} {np.mean(errs[TARGETS[1]]):8.3f}"
             )
     print("(offline |Δh| |Δμ|: mean absolute error of the final estimate)")
@@ -371,8 +397,11 @@ def report_coverage(tests: list[dict]) -> None:
     for col, name in ((1, "λ (of the final λ)"), (3, "ω (of the final ω)")):
         rows = []
         for test in tests:
-            r = test["rows"]
-            rows += [(t, v, s, r[-1, col]) for t, v, s in r[:-1, [0, col, col + 1]]]
+            r, shown = test["rows"], displayed_std(test["rows"], col)
+            rows += [
+                (t, v, s, r[-1, col])
+                for t, v, s in zip(r[:-1, 0], r[:-1, col], shown[:-1], strict=True)
+            ]
         cells = [_coverage_cells(rows, lo, hi) for lo, hi in TIME_BINS]
         print(f"{'streamed ' + name:30s} " + " ".join(cells))
 
