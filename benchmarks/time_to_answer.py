@@ -8,14 +8,18 @@ One run, on simulated trials (GelSight Mini videos, 320 × 240 at 25 fps):
    fill heights 16-40 mm — extracted offline as ``liquidtouch extract`` does,
    and a GPR and a physics-GPR trained on it as ``liquidtouch train`` does
    (targets ``height_mm``, ``log10_viscosity_cst``; cross-conformal calibration,
-   10 folds with ``train``'s default groups), plus a GPR trained on the
-   sugar-water trials alone (``sugar-only``, judged on olive oil, corn oil and mirin);
+   10 folds with ``train``'s default groups), plus two GPRs trained on sugar water
+   alone, judged on olive oil, corn oil and mirin: on that set's sugar-water trials
+   (``sugar-only``, 3 concentrations) and on the paper's sugar design (``sugar-paper``:
+   its 9 training concentrations 0-160 at the same heights, simulated as well — the
+   README's advice of 8-9 levels of what the model must interpolate);
 2. ``--trials`` test trials per liquid (random heights 18-38 mm; sugar water at a
    random concentration 20-140) streamed through
    :func:`liquidtouch.live.live_updates` (``realtime=False``); every refresh's
    λ, ω and their streamed std (recorded whether or not the λ/ω gates show them)
    go through each model as the stream does
-   (:func:`~liquidtouch.live.properties.predict_with_fit_std`); a property is
+   (:func:`~liquidtouch.live.properties.predict_with_fit_std`; the std without its
+   floors, :mod:`liquidtouch.live.uncertainty`); a property is
    reported once its std is at most ``--report-std`` (``--until-std``'s rule);
 3. tables: the ring-down time [s] until height is within 1 mm and log10 ν within
    0.1 of the truth and stays there (median, 90th percentile per liquid; ``inf``:
@@ -45,6 +49,7 @@ import numpy as np
 
 from liquidtouch.live.calibration import COVERAGE_KS, coverage, nominal_coverage
 from liquidtouch.live.uncertainty import DECAY_REL_STD_FLOOR, FREQ_REL_STD_FLOOR
+from liquidtouch.sim.presets import TRAIN_CONCENTRATIONS
 
 TEST_LIQUIDS = ("water", "olive-oil", "corn-oil", "mirin", "detergent", "sugar-water")
 TRAIN_SUGAR = (40.0, 100.0, 160.0)
@@ -76,19 +81,23 @@ def simulate(root: Path, name: str, liquid: str, height_mm: float, conc, seed: i
 
 
 def training_set(root: Path, n_heights: int, duration_s: float, advance) -> list[dict]:
-    """One record per training trial: offline fit (λ, ω, std, κ) and labels."""
+    """One record per training trial: offline fit (λ, ω, std, κ), labels and the training
+    set it belongs to (``all``: every liquid; ``sugar-paper``: the paper's sugar design)."""
     from liquidtouch.extraction import extract
 
-    entries = [(liq, None) for liq in TEST_LIQUIDS if liq != "sugar-water"]
-    entries += [("sugar-water", c) for c in TRAIN_SUGAR]
+    entries = [("all", liq, None) for liq in TEST_LIQUIDS if liq != "sugar-water"]
+    entries += [("all", "sugar-water", c) for c in TRAIN_SUGAR]
+    entries += [("sugar-paper", "sugar-water", float(c)) for c in TRAIN_CONCENTRATIONS]
     out = []
-    for i, (liquid, conc) in enumerate(entries):
+    for i, (which, liquid, conc) in enumerate(entries):
         for j, h in enumerate(np.linspace(16.0, 40.0, n_heights)):
             directory, labels = simulate(
                 root, f"train_{i}_{j}", liquid, float(h), conc, 1000 + 37 * i + j, duration_s
             )
+            fit = fit_record(extract(directory).fit)
             out.append(
-                {"liquid": liquid, "fit": fit_record(extract(directory).fit), **labels_of(labels)}
+                {"set": which, "liquid": liquid, "sugar_concentration": conc, "fit": fit}
+                | labels_of(labels)
             )
             advance()
     return out
@@ -104,8 +113,16 @@ def labels_of(labels: dict) -> dict:
     return {t: float(labels[t]) for t in TARGETS}
 
 
-def train_matrix(train: list[dict], liquids=None) -> tuple[np.ndarray, dict]:
-    rows = [r for r in train if liquids is None or r["liquid"] in liquids]
+def train_rows(train: list[dict], which: str = "all", liquids=None) -> list[dict]:
+    """The training records of set ``which`` (of ``liquids``: all when ``None``)."""
+    return [
+        r
+        for r in train
+        if r.get("set", "all") == which and (liquids is None or r["liquid"] in liquids)
+    ]
+
+
+def train_matrix(rows: list[dict]) -> tuple[np.ndarray, dict]:
     X = np.array([(r["fit"]["decay_rate"], r["fit"]["angular_frequency"]) for r in rows])
     return X, {t: np.array([r[t] for r in rows]) for t in TARGETS}
 
@@ -188,6 +205,9 @@ def main() -> None:
             args.save.write_text(json.dumps(data))
     took = time.perf_counter() - began
     train, streams = data["train"], data["tests"]
+    sugar = [r for r in train if r["liquid"] == "sugar-water"]
+    for k, r in enumerate(sugar):  # files before the paper's sugar design: 3 concentrations
+        r.setdefault("sugar_concentration", TRAIN_SUGAR[k * len(TRAIN_SUGAR) // len(sugar)])
     for test in streams:
         test["rows"] = np.asarray(test["rows"], float).reshape(-1, len(ROW_COLUMNS))
         if data.get("row_std") != ROW_STD:
@@ -206,7 +226,7 @@ def main() -> None:
     report_calibration(models)
     report_time_to_answer(streams)
     report_coverage(tests)
-    report_sugar_only(tests)
+    report_sugar_only(tests, tuple(k for k in ("sugar-only", "sugar-paper") if k in models))
     report_latency(tests)
     args.out.mkdir(parents=True, exist_ok=True)
     print(f"figure: {plot(tests, args.out / 'time_to_answer.png')}")
@@ -217,7 +237,8 @@ def simulate_all(args) -> dict:
     from liquidtouch.extraction import extract
 
     rng = np.random.default_rng(args.seed)
-    n_train = (len(TEST_LIQUIDS) - 1 + len(TRAIN_SUGAR)) * args.train_heights
+    n_train = len(TEST_LIQUIDS) - 1 + len(TRAIN_SUGAR) + len(TRAIN_CONCENTRATIONS)
+    n_train *= args.train_heights
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         with progress_bar("training trials", n_train) as advance:
@@ -259,28 +280,28 @@ def displayed_std(rows: np.ndarray, col: int) -> np.ndarray:
 
 
 def train_models(train: list[dict]) -> dict:
-    """A GPR and a physics-GPR on every training trial, a GPR on the sugar-water ones; each
-    calibrated as ``train`` does (10 folds, the default groups of a table of the trials'
-    liquid and fill height)."""
+    """A GPR and a physics-GPR on every training trial of set ``all``, a GPR on its
+    sugar-water trials (``sugar-only``) and one on the paper's sugar design
+    (``sugar-paper``, when simulated); each calibrated as ``train`` does (10 folds, the
+    default groups of a table of the trials' liquid, fill height and sugar concentration)."""
     import pandas as pd
 
     from liquidtouch.models.conformal import default_groups
     from liquidtouch.models.training import train_regression
 
-    def groups(liquids) -> np.ndarray | None:
-        rows = [r for r in train if liquids is None or r["liquid"] in liquids]
-        table = pd.DataFrame({k: [r[k] for r in rows] for k in ("liquid", "height_mm")})
-        return default_groups(table)
+    def model(rows: list[dict], kind: str):
+        columns = ("liquid", "height_mm", "sugar_concentration")
+        table = pd.DataFrame({k: [r.get(k) for r in rows] for k in columns})
+        X, y = train_matrix(rows)
+        return train_regression(
+            X, y, kind, calibration_folds=10, calibration_groups=default_groups(table)
+        )
 
-    X, y = train_matrix(train)
-    models = {
-        kind: train_regression(X, y, kind, calibration_folds=10, calibration_groups=groups(None))
-        for kind in KINDS
-    }
-    Xs, ys = train_matrix(train, ("sugar-water",))
-    models["sugar-only"] = train_regression(
-        Xs, ys, "gpr", calibration_folds=10, calibration_groups=groups(("sugar-water",))
-    )
+    models = {kind: model(train_rows(train), kind) for kind in KINDS}
+    models["sugar-only"] = model(train_rows(train, liquids=("sugar-water",)), "gpr")
+    paper = train_rows(train, "sugar-paper")
+    if paper:
+        models["sugar-paper"] = model(paper, "gpr")
     return models
 
 
@@ -305,19 +326,23 @@ def reported(test: dict, kind: str, target: str) -> tuple[np.ndarray, np.ndarray
     return mean, std
 
 
-def report_sugar_only(tests: list[dict]) -> None:
-    print("\nsugar-water-only GPR on the other liquids, final (offline) estimate: ±1σ ±2σ n, rms z")
-    for target in TARGETS:
-        final = [
-            (0.0, t["pred"]["sugar-only"][target][-1, 0], t["pred"]["sugar-only"][target][-1, 1],
-             t["truth"][target])
-            for t in tests if t["liquid"] in OTHER_LIQUIDS
-        ]  # fmt: skip
-        _, mean, std, truth = np.array(final).T
-        z_rms = math.sqrt(np.nanmean(((mean - truth) / std) ** 2))
-        mae = np.nanmean(np.abs(mean - truth))
-        cells = _coverage_cells(final, 0.0, math.inf)
-        print(f"  {target:22s} {cells} rms z {z_rms:5.2f}  MAE {mae:.3g}")
+def report_sugar_only(tests: list[dict], kinds: tuple[str, ...]) -> None:
+    print(
+        "\nsugar-water-only GPR on the other liquids, final (offline) estimate: ±1σ ±2σ rms-z n; "
+        "sugar-only: the 3 training concentrations × the training heights; sugar-paper: the "
+        "paper's 9 concentrations (0-160) × the training heights"
+    )
+    for kind in kinds:
+        for target in TARGETS:
+            final = [
+                (0.0, t["pred"][kind][target][-1, 0], t["pred"][kind][target][-1, 1],
+                 t["truth"][target])
+                for t in tests if t["liquid"] in OTHER_LIQUIDS
+            ]  # fmt: skip
+            _, mean, _, truth = np.array(final).T
+            mae = np.nanmean(np.abs(mean - truth))
+            cells = _coverage_cells(final, 0.0, math.inf)
+            print(f"  {kind:12s} {target:22s} {cells}  MAE {mae:.3g}")
 
 
 def report_time_to_answer(tests: list[dict]) -> None:
