@@ -23,13 +23,6 @@ bandwidth is chosen by cross-validation (:func:`fit_local_scale`: the Gaussian
 log-likelihood of each row's score under the ρ learnt without its group); "no
 local factor" (ρ constant) is one of the candidates, so a table whose errors are
 homogeneous keeps one scale.
-
-The kernel's distance is taken in (λ, ω) or in (ln λ, ω) (``log_decay``), also chosen
-by that cross-validation. The liquids are told apart by λ, which spans decades (water
-0.1 1/s, the oils ~1, detergent ~4): in linear λ, water, dilute sugar water and mirin lie
-within one bandwidth of each other, so water's std took the larger errors of its
-neighbours (simulated benchmark, 4 Hz low-pass, seed 23: water's calibrated log10 ν std
-0.13 against errors of 0.06-0.07, z 0.54-0.64).
 """
 
 from __future__ import annotations
@@ -42,15 +35,7 @@ import numpy as np
 
 from liquidtouch.errors import TableError
 
-__all__ = [
-    "BANDWIDTHS",
-    "LOG_CHI2_BIAS",
-    "LOG_DECAY_CHOICES",
-    "PRIOR_WEIGHT",
-    "LocalScale",
-    "fit_local_scale",
-    "kernel_features",
-]
+__all__ = ["BANDWIDTHS", "LOG_CHI2_BIAS", "PRIOR_WEIGHT", "LocalScale", "fit_local_scale"]
 
 #: candidate kernel bandwidths [standardised feature units]; the CV picks one or none
 BANDWIDTHS = (0.25, 0.5, 1.0, 2.0)
@@ -60,10 +45,6 @@ PRIOR_WEIGHT = 1.0
 LOG_CHI2_BIAS = math.log(2.0) + 0.5772156649015329
 #: scores are floored at this before the logarithm (an exact prediction must not give −∞)
 MIN_SCORE = 1e-3
-#: kernel spaces the CV chooses from: (λ, ω) and (ln λ, ω) (``LocalScale.log_decay``)
-LOG_DECAY_CHOICES = (False, True)
-#: λ is floored at this [1/s] before its logarithm (a propagation row's λ − σλ may be ~0)
-MIN_LOG_DECAY_RATE = 1e-6
 
 
 @dataclass(frozen=True)
@@ -72,7 +53,7 @@ class LocalScale:
 
     ``points`` (n, 2): training (λ [1/s], ω [rad/s]); ``z2`` (n,): their squared
     out-of-fold scores (floored at ``MIN_SCORE²``); ``centre``/``spread``: the
-    standardisation of the kernel's features — (λ, ω), or (ln λ, ω) with ``log_decay``;
+    standardisation of the features;
     ``bandwidth`` h and ``prior_weight`` n0.
     """
 
@@ -82,7 +63,6 @@ class LocalScale:
     spread: tuple[float, float]
     bandwidth: float
     prior_weight: float = PRIOR_WEIGHT
-    log_decay: bool = False
 
     def __post_init__(self) -> None:
         points = np.asarray(self.points, dtype=float)
@@ -109,8 +89,8 @@ class LocalScale:
 
     def _weights(self, X: np.ndarray) -> np.ndarray:
         centre, spread = np.asarray(self.centre), np.asarray(self.spread)
-        Z = (kernel_features(self.points, self.log_decay) - centre) / spread
-        Q = (kernel_features(X, self.log_decay) - centre) / spread
+        Z = (np.asarray(self.points) - centre) / spread
+        Q = (np.asarray(X, dtype=float).reshape(-1, 2) - centre) / spread
         d2 = ((Q[:, None, :] - Z[None, :, :]) ** 2).sum(axis=-1)
         return np.exp(-0.5 * d2 / self.bandwidth**2)
 
@@ -128,7 +108,6 @@ class LocalScale:
             "spread": list(self.spread),
             "bandwidth": self.bandwidth,
             "prior_weight": self.prior_weight,
-            "log_decay": self.log_decay,
         }
 
     @classmethod
@@ -141,16 +120,7 @@ class LocalScale:
             spread=(float(state["spread"][0]), float(state["spread"][1])),
             bandwidth=float(state["bandwidth"]),
             prior_weight=float(state.get("prior_weight", PRIOR_WEIGHT)),
-            log_decay=bool(state.get("log_decay", False)),
         )
-
-
-def kernel_features(X: Any, log_decay: bool) -> np.ndarray:
-    """(n, 2) features of the kernel's distance: (λ, ω), or (ln λ, ω) with ``log_decay``."""
-    Z = np.array(X, dtype=float).reshape(-1, 2)
-    if log_decay:
-        Z[:, 0] = np.log(np.maximum(Z[:, 0], MIN_LOG_DECAY_RATE))
-    return Z
 
 
 def _log_z2(z2: np.ndarray) -> np.ndarray:
@@ -167,11 +137,11 @@ def fit_local_scale(
 ) -> tuple[LocalScale | None, np.ndarray]:
     """The cross-validated :class:`LocalScale` of out-of-fold ``scores`` (n,) at ``X`` (n, 2).
 
-    Each candidate — a bandwidth in (λ, ω) or in (ln λ, ω), or "none": ρ constant — is
-    judged by the mean Gaussian log-likelihood of every row's score under the ρ smoothed
-    from the rows outside its ``groups`` value (every row its own group when ``None``);
-    the best is returned with those held-out ρ of the rows (n,), by which the conformal
-    scores are divided (all ones for "none", returned as ``None``).
+    Each candidate bandwidth (and "none": ρ constant) is judged by the mean Gaussian
+    log-likelihood of every row's score under the ρ smoothed from the rows outside its
+    ``groups`` value (every row its own group when ``None``); the best is returned with
+    those held-out ρ of the rows (n,), by which the conformal scores are divided
+    (all ones for "none", returned as ``None``).
     """
     X = np.asarray(X, dtype=float)
     z2 = np.maximum(np.asarray(scores, dtype=float) ** 2, MIN_SCORE**2)
@@ -179,6 +149,8 @@ def fit_local_scale(
     n = z2.shape[0]
     groups = np.arange(n) if groups is None else np.asarray(groups)
     others = groups[:, None] != groups[None, :]
+    centre, spread = X.mean(axis=0), X.std(axis=0)
+    spread = np.where(spread > 0, spread, 1.0)
 
     def loglik(log_rho2: np.ndarray) -> float:
         return float(np.mean(-0.5 * z2 / np.exp(log_rho2) - 0.5 * log_rho2))
@@ -187,23 +159,18 @@ def fit_local_scale(
     mean_others = np.where(kept > 0, (others @ ell) / np.maximum(kept, 1), ell.mean())
     flat = mean_others + LOG_CHI2_BIAS
     best_ll, best = loglik(flat), None
-    for log_decay in LOG_DECAY_CHOICES:
-        Z = kernel_features(X, log_decay)
-        centre, spread = Z.mean(axis=0), Z.std(axis=0)
-        spread = np.where(spread > 0, spread, 1.0)
-        for h in bandwidths:
-            scale = LocalScale(
-                tuple((float(a), float(b)) for a, b in X),
-                tuple(float(v) for v in z2),
-                (float(centre[0]), float(centre[1])),
-                (float(spread[0]), float(spread[1])),
-                float(h),
-                log_decay=log_decay,
-            )
-            log_rho2 = _smoothed(scale._weights(X) * others, ell, mean_others, PRIOR_WEIGHT)
-            ll = loglik(log_rho2)
-            if ll > best_ll:
-                best_ll, best = ll, (scale, np.exp(0.5 * log_rho2))
+    for h in bandwidths:
+        scale = LocalScale(
+            tuple((float(a), float(b)) for a, b in X),
+            tuple(float(v) for v in z2),
+            (float(centre[0]), float(centre[1])),
+            (float(spread[0]), float(spread[1])),
+            float(h),
+        )
+        log_rho2 = _smoothed(scale._weights(X) * others, ell, mean_others, PRIOR_WEIGHT)
+        ll = loglik(log_rho2)
+        if ll > best_ll:
+            best_ll, best = ll, (scale, np.exp(0.5 * log_rho2))
     if best is None:
         return None, np.ones(n)
     return best

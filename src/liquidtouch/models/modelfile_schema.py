@@ -165,7 +165,6 @@ class LocalScaleState(_Strict):
     spread: list[PositiveFloat] = Field(min_length=2, max_length=2)
     bandwidth: PositiveFloat
     prior_weight: PositiveFloat
-    log_decay: bool = False
 
     @model_validator(mode="after")
     def _rows(self) -> LocalScaleState:
