@@ -8,14 +8,18 @@ One run, on simulated trials (GelSight Mini videos, 320 × 240 at 25 fps):
    fill heights 16-40 mm — extracted offline as ``liquidtouch extract`` does,
    and a GPR and a physics-GPR trained on it as ``liquidtouch train`` does
    (targets ``height_mm``, ``log10_viscosity_cst``; cross-conformal calibration,
-   10 folds with ``train``'s default groups), plus a GPR trained on the
-   sugar-water trials alone (``sugar-only``, judged on olive oil, corn oil and mirin);
+   10 folds with ``train``'s default groups), plus two GPRs trained on sugar water
+   alone, judged on olive oil, corn oil and mirin: on that set's sugar-water trials
+   (``sugar-only``, 3 concentrations) and on the paper's sugar design (``sugar-paper``:
+   its 9 training concentrations 0-160 at the same heights, simulated as well — the
+   README's advice of 8-9 levels of what the model must interpolate);
 2. ``--trials`` test trials per liquid (random heights 18-38 mm; sugar water at a
    random concentration 20-140) streamed through
    :func:`liquidtouch.live.live_updates` (``realtime=False``); every refresh's
    λ, ω and their streamed std (recorded whether or not the λ/ω gates show them)
    go through each model as the stream does
-   (:func:`~liquidtouch.live.properties.predict_with_fit_std`); a property is
+   (:func:`~liquidtouch.live.properties.predict_with_fit_std`; the std without its
+   floors, :mod:`liquidtouch.live.uncertainty`); a property is
    reported once its std is at most ``--report-std`` (``--until-std``'s rule);
 3. tables: the ring-down time [s] until height is within 1 mm and log10 ν within
    0.1 of the truth and stays there (median, 90th percentile per liquid; ``inf``:
@@ -36,28 +40,32 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+from time_to_answer_tables import (
+    KINDS,
+    TARGETS,
+    TEST_LIQUIDS,
+    plot,
+    report_calibration,
+    report_coverage,
+    report_latency,
+    report_sugar_only,
+    report_time_to_answer,
+)
 
-from liquidtouch.live.calibration import COVERAGE_KS, coverage, nominal_coverage
+from liquidtouch.live.uncertainty import DECAY_REL_STD_FLOOR, FREQ_REL_STD_FLOOR
+from liquidtouch.sim.presets import TRAIN_CONCENTRATIONS
 
-TEST_LIQUIDS = ("water", "olive-oil", "corn-oil", "mirin", "detergent", "sugar-water")
 TRAIN_SUGAR = (40.0, 100.0, 160.0)
-TARGETS = ("height_mm", "log10_viscosity_cst")
-TOLERANCE = {"height_mm": 1.0, "log10_viscosity_cst": 0.1}
-KINDS = ("gpr", "physics-gpr")
-#: ring-down time bins of the coverage table [s]
-TIME_BINS = ((0.0, 1.0), (1.0, 2.0), (2.0, 4.0), (4.0, 6.0), (6.0, math.inf))
-#: a property is reported once its std is at most this (the stream's --until-std)
-REPORT_STD = {"height_mm": 1.0, "log10_viscosity_cst": 0.1}
-#: liquids a sugar-water-only model is judged on
-OTHER_LIQUIDS = ("olive-oil", "corn-oil", "mirin")
-#: columns of the per-refresh rows
+#: columns of the per-refresh rows (the λ, ω std as the property models get them)
 ROW_COLUMNS = ("t_s", "decay_rate", "decay_rate_std", "angular_frequency", "angular_frequency_std")
+#: the saved rows' std: what the models get, without the streamed std's floors (earlier
+#: files held the std with them: stripped on loading)
+ROW_STD = "without-floors"
 
 
 def simulate(root: Path, name: str, liquid: str, height_mm: float, conc, seed: int, dur: float):
@@ -72,19 +80,23 @@ def simulate(root: Path, name: str, liquid: str, height_mm: float, conc, seed: i
 
 
 def training_set(root: Path, n_heights: int, duration_s: float, advance) -> list[dict]:
-    """One record per training trial: offline fit (λ, ω, std, κ) and labels."""
+    """One record per training trial: offline fit (λ, ω, std, κ), labels and the training
+    set it belongs to (``all``: every liquid; ``sugar-paper``: the paper's sugar design)."""
     from liquidtouch.extraction import extract
 
-    entries = [(liq, None) for liq in TEST_LIQUIDS if liq != "sugar-water"]
-    entries += [("sugar-water", c) for c in TRAIN_SUGAR]
+    entries = [("all", liq, None) for liq in TEST_LIQUIDS if liq != "sugar-water"]
+    entries += [("all", "sugar-water", c) for c in TRAIN_SUGAR]
+    entries += [("sugar-paper", "sugar-water", float(c)) for c in TRAIN_CONCENTRATIONS]
     out = []
-    for i, (liquid, conc) in enumerate(entries):
+    for i, (which, liquid, conc) in enumerate(entries):
         for j, h in enumerate(np.linspace(16.0, 40.0, n_heights)):
             directory, labels = simulate(
                 root, f"train_{i}_{j}", liquid, float(h), conc, 1000 + 37 * i + j, duration_s
             )
+            fit = fit_record(extract(directory).fit)
             out.append(
-                {"liquid": liquid, "fit": fit_record(extract(directory).fit), **labels_of(labels)}
+                {"set": which, "liquid": liquid, "sugar_concentration": conc, "fit": fit}
+                | labels_of(labels)
             )
             advance()
     return out
@@ -100,8 +112,16 @@ def labels_of(labels: dict) -> dict:
     return {t: float(labels[t]) for t in TARGETS}
 
 
-def train_matrix(train: list[dict], liquids=None) -> tuple[np.ndarray, dict]:
-    rows = [r for r in train if liquids is None or r["liquid"] in liquids]
+def train_rows(train: list[dict], which: str = "all", liquids=None) -> list[dict]:
+    """The training records of set ``which`` (of ``liquids``: all when ``None``)."""
+    return [
+        r
+        for r in train
+        if r.get("set", "all") == which and (liquids is None or r["liquid"] in liquids)
+    ]
+
+
+def train_matrix(rows: list[dict]) -> tuple[np.ndarray, dict]:
     X = np.array([(r["fit"]["decay_rate"], r["fit"]["angular_frequency"]) for r in rows])
     return X, {t: np.array([r[t] for r in rows]) for t in TARGETS}
 
@@ -150,20 +170,6 @@ def predictions(model, rows: np.ndarray) -> dict[str, np.ndarray]:
     return out
 
 
-def time_to_answer(t_s: np.ndarray, ok: np.ndarray) -> float:
-    """Ring-down time [s] from which every update (the last included) is ``ok``; inf if never."""
-    if not ok[-1]:
-        return math.inf
-    bad = np.flatnonzero(~ok)
-    return float(t_s[bad[-1] + 1] if bad.size else t_s[0])
-
-
-def quantiles(values: list[float]) -> str:
-    v = np.asarray(values, float)
-    med, p90 = np.percentile(v, 50, method="lower"), np.percentile(v, 90, method="higher")
-    return f"{med:6.2f} {p90:6.2f}"
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--trials", type=int, default=4, help="test trials per liquid")
@@ -183,21 +189,29 @@ def main() -> None:
         if args.save is not None:
             args.save.write_text(json.dumps(data))
     took = time.perf_counter() - began
-    train, tests = data["train"], data["tests"]
-    for test in tests:
-        test["rows"] = np.asarray(test["rows"], float)
-    per_liquid = len(tests) // len(TEST_LIQUIDS)
+    train, streams = data["train"], data["tests"]
+    sugar = [r for r in train if r["liquid"] == "sugar-water"]
+    for k, r in enumerate(sugar):  # files before the paper's sugar design: 3 concentrations
+        r.setdefault("sugar_concentration", TRAIN_SUGAR[k * len(TRAIN_SUGAR) // len(sugar)])
+    for test in streams:
+        test["rows"] = np.asarray(test["rows"], float).reshape(-1, len(ROW_COLUMNS))
+        if data.get("row_std") != ROW_STD:
+            strip_floors(test["rows"])
+    # a stream whose ring-down check never passed has no fit at all: no answer (time inf)
+    tests = [t for t in streams if len(t["rows"])]
+    per_liquid = len(streams) // len(TEST_LIQUIDS)
     print(
-        f"{len(train)} training trials, {len(tests)} test trials ({per_liquid} per liquid), "
-        f"{data['duration']:g} s each, GelSight Mini; {took:.0f} s"
+        f"{len(train)} training trials, {len(streams)} test trials ({per_liquid} per liquid), "
+        f"{data['duration']:g} s each, GelSight Mini; {took:.0f} s; streams without any fit: "
+        + (", ".join(t["liquid"] for t in streams if not len(t["rows"])) or "none")
     )
     models = train_models(train)
     for test in tests:
         test["pred"] = {kind: predictions(model, test["rows"]) for kind, model in models.items()}
     report_calibration(models)
-    report_time_to_answer(tests)
+    report_time_to_answer(streams)
     report_coverage(tests)
-    report_sugar_only(tests)
+    report_sugar_only(tests, tuple(k for k in ("sugar-only", "sugar-paper") if k in models))
     report_latency(tests)
     args.out.mkdir(parents=True, exist_ok=True)
     print(f"figure: {plot(tests, args.out / 'time_to_answer.png')}")
@@ -208,7 +222,8 @@ def simulate_all(args) -> dict:
     from liquidtouch.extraction import extract
 
     rng = np.random.default_rng(args.seed)
-    n_train = (len(TEST_LIQUIDS) - 1 + len(TRAIN_SUGAR)) * args.train_heights
+    n_train = len(TEST_LIQUIDS) - 1 + len(TRAIN_SUGAR) + len(TRAIN_CONCENTRATIONS)
+    n_train *= args.train_heights
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         with progress_bar("training trials", n_train) as advance:
@@ -233,205 +248,40 @@ def simulate_all(args) -> dict:
                         }
                     )
                     advance()
-    return {"duration": args.duration, "train": train, "tests": tests}
+    return {"duration": args.duration, "row_std": ROW_STD, "train": train, "tests": tests}
+
+
+def strip_floors(rows: np.ndarray) -> None:
+    """Streamed rows saved with the floors in their std (all but the final): without them."""
+    for col, floor in ((1, DECAY_REL_STD_FLOOR), (3, FREQ_REL_STD_FLOOR)):
+        std = rows[:-1, col + 1]
+        rows[:-1, col + 1] = np.sqrt(np.maximum(std**2 - (rows[:-1, col] * floor) ** 2, 0.0))
 
 
 def train_models(train: list[dict]) -> dict:
-    """A GPR and a physics-GPR on every training trial, a GPR on the sugar-water ones; each
-    calibrated as ``train`` does (10 folds, the default groups of a table of the trials'
-    liquid and fill height)."""
+    """A GPR and a physics-GPR on every training trial of set ``all``, a GPR on its
+    sugar-water trials (``sugar-only``) and one on the paper's sugar design
+    (``sugar-paper``, when simulated); each calibrated as ``train`` does (10 folds, the
+    default groups of a table of the trials' liquid, fill height and sugar concentration)."""
     import pandas as pd
 
     from liquidtouch.models.conformal import default_groups
     from liquidtouch.models.training import train_regression
 
-    def groups(liquids) -> np.ndarray | None:
-        rows = [r for r in train if liquids is None or r["liquid"] in liquids]
-        table = pd.DataFrame({k: [r[k] for r in rows] for k in ("liquid", "height_mm")})
-        return default_groups(table)
-
-    X, y = train_matrix(train)
-    models = {
-        kind: train_regression(X, y, kind, calibration_folds=10, calibration_groups=groups(None))
-        for kind in KINDS
-    }
-    Xs, ys = train_matrix(train, ("sugar-water",))
-    models["sugar-only"] = train_regression(
-        Xs, ys, "gpr", calibration_folds=10, calibration_groups=groups(("sugar-water",))
-    )
-    return models
-
-
-def report_calibration(models: dict) -> None:
-    print(
-        "\ncalibration (10-fold cross-conformal on the training rows): std scale, ±1σ/±2σ in-sample"
-    )
-    for kind, model in models.items():
-        for target, cal in model.calibration.items():
-            print(
-                f"  {kind:12s} {target:22s} n={cal.n:3d} scale {cal.std_scale:5.2f} "
-                f"{cal.coverage_of(1):4.0%} {cal.coverage_of(2):4.0%}"
-            )
-
-
-def reported(test: dict, kind: str, target: str) -> tuple[np.ndarray, np.ndarray]:
-    """(mean, std) per refresh, NaN where not reported (std above REPORT_STD); final always."""
-    mean, std = test["pred"][kind][target].T.copy()
-    hide = ~(std <= REPORT_STD[target])
-    hide[-1] = False
-    mean[hide], std[hide] = np.nan, np.nan
-    return mean, std
-
-
-def report_sugar_only(tests: list[dict]) -> None:
-    print("\nsugar-water-only GPR on the other liquids, final (offline) estimate: ±1σ ±2σ n, rms z")
-    for target in TARGETS:
-        final = [
-            (0.0, t["pred"]["sugar-only"][target][-1, 0], t["pred"]["sugar-only"][target][-1, 1],
-             t["truth"][target])
-            for t in tests if t["liquid"] in OTHER_LIQUIDS
-        ]  # fmt: skip
-        _, mean, std, truth = np.array(final).T
-        z_rms = math.sqrt(np.nanmean(((mean - truth) / std) ** 2))
-        mae = np.nanmean(np.abs(mean - truth))
-        cells = _coverage_cells(final, 0.0, math.inf)
-        print(f"  {target:22s} {cells} rms z {z_rms:5.2f}  MAE {mae:.3g}")
-
-
-def report_time_to_answer(tests: list[dict]) -> None:
-    gate = ", ".join(f"{t} std ≤ {v:g}" for t, v in REPORT_STD.items())
-    print(
-        "\nring-down time [s] until within tolerance for good (height 1 mm, log10 ν 0.1); "
-        f"median p90; reported once {gate}; 'record' = the offline estimate on the full record"
-    )
-    for kind in KINDS:
-        print(f"\n{kind}")
-        head = f"{'liquid':12s} {'n':>2s} {'height':>13s} {'log10 ν':>13s} {'both':>13s}"
-        print(f"{head} {'record':>7s} {'offline |Δh| |Δμ|':>18s}")
-        for liquid in TEST_LIQUIDS:
-            cells = {t: [] for t in (*TARGETS, "both")}
-            record, errs = [], {t: [] for t in TARGETS}
-            for test in (t for t in tests if t["liquid"] == liquid):
-                t_s, ok_all = test["rows"][:, 0], None
-                for target in TARGETS:
-                    mean, _ = reported(test, kind, target)
-                    with np.errstate(invalid="ignore"):
-                        ok = np.abs(mean - test["truth"][target]) <= TOLERANCE[target]
-                    cells[target].append(time_to_answer(t_s, ok))
-                    ok_all = ok if ok_all is None else ok_all & ok
-                    errs[target].append(abs(mean[-1] - test["truth"][target]))
-                cells["both"].append(time_to_answer(t_s, ok_all))
-                record.append(t_s[-1])
-            line = " ".join(f"{quantiles(cells[c]):>13s}" for c in (*TARGETS, "both"))
-            print(
-                f"{liquid:12s} {len(record):2d} {line} {np.median(record):7.2f} "
-                f"{np.mean(errs[TARGETS[0]]):8.2f} {np.mean(errs[TARGETS[1]]):8.3f}"
-            )
-    print("(offline |Δh| |Δμ|: mean absolute error of the final estimate)")
-
-
-def _coverage_cells(z_rows: list[tuple[float, float, float, float]], lo: float, hi: float) -> str:
-    rows = np.array([r for r in z_rows if lo <= r[0] < hi]).reshape(-1, 4)
-    rows = rows[np.isfinite(rows[:, 1]) & np.isfinite(rows[:, 2])]
-    if not len(rows):
-        return f"{'-':>20s}"
-    cov = coverage(rows[:, 1], rows[:, 2], rows[:, 3])
-    z_rms = math.sqrt(np.mean(((rows[:, 1] - rows[:, 3]) / rows[:, 2]) ** 2))
-    return f"{cov[1.0]:4.0%} {cov[2.0]:4.0%} {z_rms:4.2f} {len(rows):4d}"
-
-
-def report_coverage(tests: list[dict]) -> None:
-    bins = [f"{lo:g}-{hi:g} s" if math.isfinite(hi) else f"≥{lo:g} s" for lo, hi in TIME_BINS]
-    nominal = ", ".join(f"±{k:g}σ {nominal_coverage(k):.0%}" for k in COVERAGE_KS)
-    for title, gated in (("every refresh", False), ("reported values only", True)):
-        print(
-            f"\ncoverage of the truth, {title} (±1σ ±2σ rms-z n; nominal {nominal}, rms z 1), "
-            "by ring-down time; final: the offline estimate"
+    def model(rows: list[dict], kind: str):
+        columns = ("liquid", "height_mm", "sugar_concentration")
+        table = pd.DataFrame({k: [r.get(k) for r in rows] for k in columns})
+        X, y = train_matrix(rows)
+        return train_regression(
+            X, y, kind, calibration_folds=10, calibration_groups=default_groups(table)
         )
-        head = " ".join(f"{b:>20s}" for b in [*bins, "final"])
-        print(f"{'model / target':30s} {head}")
-        for kind in KINDS:
-            for target in TARGETS:
-                stream, final = [], []
-                for test in tests:
-                    t_s = test["rows"][:, 0]
-                    if gated:
-                        mean, std = reported(test, kind, target)
-                    else:
-                        mean, std = test["pred"][kind][target].T
-                    truth = test["truth"][target]
-                    stream += [
-                        (t, m, s, truth)
-                        for t, m, s in zip(t_s[:-1], mean[:-1], std[:-1], strict=True)
-                    ]
-                    final.append((0.0, mean[-1], std[-1], truth))
-                cells = [_coverage_cells(stream, lo, hi) for lo, hi in TIME_BINS]
-                cells.append(_coverage_cells(final, 0.0, math.inf))
-                print(f"{kind + ' ' + target:30s} " + " ".join(cells))
-    for col, name in ((1, "λ (of the final λ)"), (3, "ω (of the final ω)")):
-        rows = []
-        for test in tests:
-            r = test["rows"]
-            rows += [(t, v, s, r[-1, col]) for t, v, s in r[:-1, [0, col, col + 1]]]
-        cells = [_coverage_cells(rows, lo, hi) for lo, hi in TIME_BINS]
-        print(f"{'streamed ' + name:30s} " + " ".join(cells))
 
-
-def report_latency(tests: list[dict]) -> None:
-    med = [t["timing"]["latency_ms_median"] for t in tests]
-    p95 = [t["timing"]["latency_ms_p95"] for t in tests]
-    worst = max(t["timing"]["latency_ms_max"] for t in tests)
-    budget = 1e3 / 50.0  # two Mini sensors at 25 fps
-    print(
-        f"\nper-frame add_frame latency [ms] (refreshes in the call), over {len(tests)} streams: "
-        f"median {np.median(med):.2f}, p95 {np.median(p95):.2f}, max {worst:.1f}; "
-        f"frame budget (2 × 25 fps) {budget:.0f} ms, median / budget {np.median(med) / budget:.2f}"
-    )
-
-
-def plot(tests: list[dict], path: Path) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from liquidtouch.io.figures import save_figure
-
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7))
-    colours = dict(zip(TEST_LIQUIDS, plt.cm.tab10.colors, strict=False))
-    centres = [lo + (min(hi, lo + 2.0) - lo) / 2 for lo, hi in TIME_BINS]
-    for col, target in enumerate(TARGETS):
-        ax = axes[0, col]
-        for test in tests:
-            t_s, mean = test["rows"][:, 0], test["pred"]["gpr"][target][:, 0]
-            ax.plot(t_s, np.abs(mean - test["truth"][target]), color=colours[test["liquid"]])
-        ax.axhline(TOLERANCE[target], color="k", ls="--", lw=1)
-        ax.set(yscale="log", xlabel="ring-down time [s]", ylabel=f"GPR |error| of {target}")
-        ax = axes[1, col]
-        for kind, style in zip(KINDS, ("-", ":"), strict=True):
-            for k in COVERAGE_KS:
-                fractions = []
-                for lo, hi in TIME_BINS:
-                    rows = [
-                        (m, s, test["truth"][target])
-                        for test in tests
-                        for tt, (m, s) in zip(
-                            test["rows"][:-1, 0], test["pred"][kind][target][:-1], strict=True
-                        )
-                        if lo <= tt < hi
-                    ]
-                    arr = np.array(rows).reshape(-1, 3)
-                    arr = arr[np.isfinite(arr).all(axis=1)]
-                    fractions.append(coverage(arr[:, 0], arr[:, 1], arr[:, 2], (k,))[k])
-                ax.plot(centres, fractions, style, marker="o", label=f"{kind} ±{k:g}σ")
-        for k in COVERAGE_KS:
-            ax.axhline(nominal_coverage(k), color="grey", lw=0.8)
-        ax.set(xlabel="ring-down time [s] (bin)", ylabel=f"coverage of {target}", ylim=(0, 1))
-    for liquid, colour in colours.items():
-        axes[0, 0].plot([], [], color=colour, label=liquid)
-    axes[0, 0].legend(fontsize=7)
-    axes[1, 0].legend(fontsize=7)
-    return save_figure(fig, path, tight=True)
+    models = {kind: model(train_rows(train), kind) for kind in KINDS}
+    models["sugar-only"] = model(train_rows(train, liquids=("sugar-water",)), "gpr")
+    paper = train_rows(train, "sugar-paper")
+    if paper:
+        models["sugar-paper"] = model(paper, "gpr")
+    return models
 
 
 if __name__ == "__main__":

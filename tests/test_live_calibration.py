@@ -58,6 +58,11 @@ def test_short_window_std_covers_the_known_miscalibration() -> None:
     # ω: a floor of 0.15 % on long windows, several times more on the first 0.8 s of decay
     assert streamed_frequency_std(14.0, math.nan, 10.0) == pytest.approx(0.021, rel=1e-2)
     assert 0.1 * 14.0 > streamed_frequency_std(14.0, 0.0, 0.8) > 3 * 0.021
+    # a property model gets them without the floors (its calibrated std holds them)
+    assert streamed_decay_rate_std(0.2, 0.004, 50.0, floor=False) == pytest.approx(0.004)
+    assert streamed_frequency_std(14.0, 0.003, 50.0, floor=False) == pytest.approx(0.003)
+    short = streamed_decay_rate_std(0.2735, 0.0033, 1.06, floor=False)
+    assert std > short > 0.10 * 0.2735  # the window's terms stay
 
 
 @pytest.fixture(scope="module")

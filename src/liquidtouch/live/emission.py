@@ -13,8 +13,9 @@ std. Properties do not wait for these gates: a regression model's targets are
 predicted from every fit, the λ and ω std propagated and added to the model's
 calibrated std (:mod:`liquidtouch.live.properties`), and a target with an
 ``until_std`` threshold is reported once its std meets it (so a height that
-depends on ω answers before λ's std is below 10 %). A classifier's probabilities
-wait until λ and ω are both reported.
+depends on ω answers before λ's std is below 10 %); a regression model gets the streamed
+std without its floors (:mod:`liquidtouch.live.uncertainty`: its calibrated std holds
+them). A classifier's probabilities wait until λ and ω are both reported.
 """
 
 from __future__ import annotations
@@ -80,6 +81,15 @@ def emitted_update(
             update.decay_rate, update.decay_rate_std = lam, lam_std
         features = (lam, lam_std, omega, omega_std)
         if model_kind == "regression":
+            if not final:  # the floors are in the model's calibrated std already
+                features = (
+                    lam,
+                    streamed_decay_rate_std(lam, fit.decay_rate_std, fit.duration_s, floor=False),
+                    omega,
+                    streamed_frequency_std(
+                        omega, fit.angular_frequency_std, fit.duration_s, floor=False
+                    ),
+                )
             # no λ/ω gate: a property is as good as its own propagated std says (a
             # height that hangs on ω answers before λ is known to 10 %); a target
             # with an until_std threshold is reported once its std meets it

@@ -37,6 +37,20 @@ a failed final fit), streamed ω was 0.2-0.9 % from the final ω against a claim
 values that brought every bin's RMS z nearest 1 (λ 0.96-1.34, ω 0.89-1.16, grid search).
 Held-out seed 23: per liquid ω RMS z 0.2-1.4 and λ ≤ 1.3, except detergent (ω 4-8,
 λ 2.8-3.7: its final fit of a < 1 s ring-down differs from the streamed one).
+
+**What a property model gets** (``floor=False``): the fit's std and the window terms, not
+the floors. The floors are the scatter of the final fit's λ and ω about the stream's
+when both see the whole record (the final fit's choice of model, its longer record).
+A property model was trained, and its std calibrated, on final fits: the out-of-fold
+errors its conformal scale comes from already hold that scatter, so adding the floors
+counted it twice. Measured (``time_to_answer.py --seed 23``, 4 Hz low-pass): from 2 s on,
+the height of a streamed fit is as far from the truth as the final fit's (GPR RMS z of
+the model's std alone 0.97-1.00 against 0.94 at the final), while streamed ω lay
+0.01-0.04 % from the final ω for water and sugar water against the floor's 0.15 %;
+with the floors the height's RMS z fell to 0.87-0.90. Held-out seed 31, the same rows with
+and without the floors: GPR height from 2 s on 0.81/0.88/0.89 → 0.84/0.91/0.93, ±2σ
+98-100 % → 96-99 %. The window terms stay: they are what a short window adds over the
+whole record, which the training rows never saw.
 """
 
 from __future__ import annotations
@@ -62,17 +76,21 @@ SHORT_FREQ_REL_STD = 0.01
 SHORT_FREQ_WINDOW_S = 1.5
 
 
-def window_rel_std(decay_rate: float, window_s: float) -> float:
-    """b: the relative std of λ from the window alone (``n = λ · window_s`` e-foldings)."""
+def window_rel_std(decay_rate: float, window_s: float, *, floor: bool = True) -> float:
+    """b: the relative std of λ from the window alone (``n = λ · window_s`` e-foldings);
+    ``floor=False`` leaves out :data:`DECAY_REL_STD_FLOOR` (module docstring)."""
     window_s = max(float(window_s), 0.0)
     efoldings = max(float(decay_rate) * window_s, 0.0)
     few = SHORT_WINDOW_REL_STD * math.exp(-efoldings / SHORT_WINDOW_EFOLDINGS)
     short = SHORT_DECAY_REL_STD * math.exp(-window_s / SHORT_DECAY_WINDOW_S)
-    return math.sqrt(few**2 + short**2 + DECAY_REL_STD_FLOOR**2)
+    return math.hypot(few, short, DECAY_REL_STD_FLOOR if floor else 0.0)
 
 
-def streamed_decay_rate_std(decay_rate: float, fit_std: float, window_s: float) -> float:
-    """std of a streamed λ [1/s] from the fit's std [1/s] and the window [s] (module docstring).
+def streamed_decay_rate_std(
+    decay_rate: float, fit_std: float, window_s: float, *, floor: bool = True
+) -> float:
+    """std of a streamed λ [1/s] from the fit's std [1/s] and the window [s] (module docstring);
+    ``floor=False``: the std a property model gets (without :data:`DECAY_REL_STD_FLOOR`).
 
     NaN when λ or the window is not finite; a NaN fit std counts as 0.
     """
@@ -80,11 +98,15 @@ def streamed_decay_rate_std(decay_rate: float, fit_std: float, window_s: float) 
     if not (math.isfinite(lam) and math.isfinite(float(window_s))):
         return math.nan
     fit = float(fit_std) if math.isfinite(float(fit_std)) else 0.0
-    return math.hypot(fit, abs(lam) * window_rel_std(lam, window_s))
+    return math.hypot(fit, abs(lam) * window_rel_std(lam, window_s, floor=floor))
 
 
-def streamed_frequency_std(angular_frequency: float, fit_std: float, window_s: float) -> float:
-    """std of a streamed ω [rad/s] from the fit's std [rad/s] and the window [s] (module docstring).
+def streamed_frequency_std(
+    angular_frequency: float, fit_std: float, window_s: float, *, floor: bool = True
+) -> float:
+    """std of a streamed ω [rad/s] from the fit's std [rad/s] and the window [s] (module
+    docstring); ``floor=False``: the std a property model gets (without
+    :data:`FREQ_REL_STD_FLOOR`).
 
     NaN when ω or the window is not finite; a NaN fit std counts as 0.
     """
@@ -93,4 +115,4 @@ def streamed_frequency_std(angular_frequency: float, fit_std: float, window_s: f
         return math.nan
     fit = float(fit_std) if math.isfinite(float(fit_std)) else 0.0
     short = SHORT_FREQ_REL_STD * math.exp(-max(float(window_s), 0.0) / SHORT_FREQ_WINDOW_S)
-    return math.hypot(fit, abs(omega) * math.hypot(short, FREQ_REL_STD_FLOOR))
+    return math.hypot(fit, abs(omega) * math.hypot(short, FREQ_REL_STD_FLOOR if floor else 0.0))
