@@ -80,8 +80,8 @@ def jackknife_std(state: FitState) -> tuple[float, float]:
     centre = np.array([state.rates[mode], state.freqs[mode]])
     # blocks of equal information, not of equal length: a ring-down that dies early carries
     # nearly all of it in its first samples, and a block holding it all estimates nothing
-    share = np.cumsum(np.einsum("ij,jk,ik->i", jac, inverse, jac)) / len(free)
-    edges = np.searchsorted(share, np.arange(1, N_BLOCKS) / N_BLOCKS) + 1
+    leverage = np.einsum("ij,jk,ik->i", jac, inverse, jac) / len(free)  # per sample, Σ = 1
+    edges = np.searchsorted(np.cumsum(leverage), np.arange(1, N_BLOCKS) / N_BLOCKS) + 1
     edges = np.unique(np.concatenate([[0], np.clip(edges, 1, state.n - 1), [state.n]]))
     total, fits = np.zeros(2), 0
     for lo, hi in itertools.pairwise(edges):
@@ -90,11 +90,9 @@ def jackknife_std(state: FitState) -> tuple[float, float]:
         sub = refit(state, keep)
         if sub is None:
             continue
-        block = jac[lo:hi]
-        leverage = float(np.trace(inverse @ (block.T @ block))) / len(free)
         k = sub.reported_mode()
         deviation = np.array([sub.rates[k], sub.freqs[k]]) - centre
-        total += (1.0 - leverage) * deviation**2
+        total += (1.0 - float(leverage[lo:hi].sum())) * deviation**2
         fits += 1
     if fits < MIN_BLOCK_FITS:
         return math.nan, math.nan
