@@ -31,7 +31,11 @@ One run, on simulated trials (GelSight Mini videos, 320 × 240 at 25 fps):
    threaded case); a PNG of coverage and error vs ring-down time.
 
 The simulated features are saved (``--save data.json``) and a run can be
-re-analysed from them (``--load data.json``) without simulating again.
+re-analysed from them (``--load data.json``) without simulating again: each refresh's
+row holds the streaming fit's own std and window, so the models' λ, ω std is recomputed
+with the current rule (:func:`~liquidtouch.live.uncertainty.property_feature_std`);
+``--as-streamed`` keeps the std the stream gave, ``--model-std-scores`` calibrates on
+scores of the model's std alone (the rule before the total-std scores).
 
 Usage: nice -n 10 python benchmarks/time_to_answer.py [--trials 4] [--train-heights 8]
 """
@@ -67,8 +71,9 @@ from liquidtouch.sim.presets import TRAIN_CONCENTRATIONS
 
 TRAIN_SUGAR = (40.0, 100.0, 160.0)
 #: columns of the per-refresh rows: the λ, ω std as the property models got them in the
-#: stream, then the streaming fit's own: window [s], correlated-noise std of λ and ω, and
-#: the jackknife std (the larger of it and the correlated one, as ``extract``'s default)
+#: stream, then the streaming fit's own: window [s], std of λ and ω as streamed
+#: (``REFRESH_NOISE``: correlated noise in runs before 2026-11-25's change, jackknife
+#: since), and the jackknife std (the larger of it and the correlated one)
 ROW_COLUMNS = ("t_s", "decay_rate", "decay_rate_std", "angular_frequency", "angular_frequency_std",
                "window_s", "decay_rate_fit_std", "angular_frequency_fit_std",
                "decay_rate_jackknife_std", "angular_frequency_jackknife_std")  # fmt: skip
