@@ -71,6 +71,7 @@ __all__ = [
     "ONE_SIGMA_LEVEL",
     "TRIAL_COLUMNS",
     "TargetCalibration",
+    "TotalStdRegressor",
     "calibrate_regressor",
     "calibration_folds",
     "default_groups",
@@ -130,9 +131,10 @@ def min_rows_for_level(level: float) -> int:
 class TargetCalibration:
     """The cross-conformal calibration of one target (dimensionless scores).
 
-    ``scores``: the sorted out-of-fold normalised scores ``|y − ŷ| / (σ̂ ρ)``, one per
-    training row; ``n_folds``: K; ``random_state``: the fold shuffle's seed; ``local``:
-    the local factor ρ on the model's std (:mod:`~liquidtouch.models.local_scale`;
+    ``scores``: the sorted out-of-fold normalised scores ``|y − ŷ| / (σ̂ ρ)`` (σ̂ the total
+    std √(σ̂² + σ_fit²) when ``normalised_by="total-std"``), one per training row;
+    ``n_folds``: K; ``random_state``: the fold shuffle's seed; ``local``: the local
+    factor ρ on the model's std (:mod:`~liquidtouch.models.local_scale`;
     ``None``: ρ = 1, one scale everywhere); ``normalised_by``: one of
     :data:`NORMALISED_BY` (module docstring).
     """
