@@ -31,7 +31,11 @@ One run, on simulated trials (GelSight Mini videos, 320 × 240 at 25 fps):
    threaded case); a PNG of coverage and error vs ring-down time.
 
 The simulated features are saved (``--save data.json``) and a run can be
-re-analysed from them (``--load data.json``) without simulating again.
+re-analysed from them (``--load data.json``) without simulating again: each refresh's
+row holds the streaming fit's own std and window, so the models' λ, ω std is recomputed
+with the current rule (:func:`~liquidtouch.live.uncertainty.property_feature_std`);
+``--as-streamed`` keeps the std the stream gave, ``--model-std-scores`` calibrates on
+scores of the model's std alone (the rule before the total-std scores).
 
 Usage: nice -n 10 python benchmarks/time_to_answer.py [--trials 4] [--train-heights 8]
 """
@@ -57,12 +61,22 @@ from time_to_answer_tables import (
     report_time_to_answer,
 )
 
-from liquidtouch.live.uncertainty import DECAY_REL_STD_FLOOR, FREQ_REL_STD_FLOOR
+from liquidtouch.io.dataset import TRUTH_COLUMNS
+from liquidtouch.live.uncertainty import (
+    DECAY_REL_STD_FLOOR,
+    FREQ_REL_STD_FLOOR,
+    property_feature_std,
+)
 from liquidtouch.sim.presets import TRAIN_CONCENTRATIONS
 
 TRAIN_SUGAR = (40.0, 100.0, 160.0)
-#: columns of the per-refresh rows (the λ, ω std as the property models get them)
-ROW_COLUMNS = ("t_s", "decay_rate", "decay_rate_std", "angular_frequency", "angular_frequency_std")
+#: columns of the per-refresh rows: the λ, ω std as the property models got them in the
+#: stream, then the streaming fit's own: window [s], std of λ and ω as streamed
+#: (``REFRESH_NOISE``: correlated noise in runs before 2026-11-25's change, jackknife
+#: since), and the jackknife std (the larger of it and the correlated one)
+ROW_COLUMNS = ("t_s", "decay_rate", "decay_rate_std", "angular_frequency", "angular_frequency_std",
+               "window_s", "decay_rate_fit_std", "angular_frequency_fit_std",
+               "decay_rate_jackknife_std", "angular_frequency_jackknife_std")  # fmt: skip
 #: the saved rows' std: what the models get, without the streamed std's floors (earlier
 #: files held the std with them: stripped on loading)
 ROW_STD = "without-floors"
@@ -146,16 +160,43 @@ class _Recorder:
         return np.ones(len(X), bool)
 
 
+class _FitRecorder:
+    """Wraps the streaming refresh's ``fit_oscillation``: each streaming fit's own std
+    (correlated noise, as streamed) and its jackknife std (the same window refitted with
+    ``noise="jackknife"``), keyed by the fit's (λ, ω)."""
+
+    def __init__(self, fit_oscillation) -> None:
+        self.fit_oscillation, self.fits = fit_oscillation, {}
+
+    def __call__(self, t, u, **options):
+        fit = self.fit_oscillation(t, u, **options)
+        jk = fit
+        if options.get("noise") != "jackknife":
+            jk = self.fit_oscillation(t, u, **(options | {"noise": "jackknife"}))
+        self.fits[(fit.decay_rate, fit.angular_frequency)] = (
+            fit.duration_s, fit.decay_rate_std, fit.angular_frequency_std,
+            jk.decay_rate_std, jk.angular_frequency_std,
+        )  # fmt: skip
+        return fit
+
+
 def stream_trial(directory: Path) -> dict:
-    """Every refresh's (t_s, λ, σλ, ω, σω) — ungated — of one stream, and its timing."""
+    """Every refresh's row (``ROW_COLUMNS``) — ungated — of one stream, and its timing."""
+    import liquidtouch.live.refresh as refresh_module
     from liquidtouch.live import live_updates
 
     recorder = _Recorder()
-    updates = list(live_updates(directory, realtime=False, model=recorder))
+    fits = _FitRecorder(refresh_module.fit_oscillation)
+    refresh_module.fit_oscillation = fits  # benchmark only: record the fits' own std
+    try:
+        updates = list(live_updates(directory, realtime=False, model=recorder))
+    finally:
+        refresh_module.fit_oscillation = fits.fit_oscillation
     rows = []
     for u in updates:
         if "call" in u.predicted:
-            rows.append((u.t_s, *recorder.calls[int(u.predicted["call"][0])]))
+            call = recorder.calls[int(u.predicted["call"][0])]
+            rows.append((u.t_s, *call, *fits.fits.get((call[0], call[2]), (np.nan,) * 5)))
     return {"rows": np.array(rows).tolist(), "timing": updates[-1].timing}
 
 
@@ -179,6 +220,18 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results"))
     parser.add_argument("--save", type=Path, help="write the simulated features here (JSON)")
     parser.add_argument("--load", type=Path, help="re-analyse features saved by --save")
+    parser.add_argument(
+        "--as-streamed",
+        action="store_true",
+        help="with --load: keep the λ, ω std the models got in the stream (default: "
+        "recompute it from the streaming fit's jackknife std with the current rule)",
+    )
+    parser.add_argument(
+        "--model-std-scores",
+        action="store_true",
+        help="calibrate on scores of the model's std alone (before: the total std with the "
+        "training rows' fit std, as `train` does from a features table)",
+    )
     args = parser.parse_args()
 
     began = time.perf_counter()
@@ -194,8 +247,11 @@ def main() -> None:
     for k, r in enumerate(sugar):  # files before the paper's sugar design: 3 concentrations
         r.setdefault("sugar_concentration", TRAIN_SUGAR[k * len(TRAIN_SUGAR) // len(sugar)])
     for test in streams:
-        test["rows"] = np.asarray(test["rows"], float).reshape(-1, len(ROW_COLUMNS))
-        if data.get("row_std") != ROW_STD:
+        test["rows"] = np.asarray(test["rows"], float).reshape(len(test["rows"]), -1)
+        if test["rows"].shape[1] == len(ROW_COLUMNS):
+            if not args.as_streamed:
+                restream_std(test["rows"])
+        elif data.get("row_std") != ROW_STD:
             strip_floors(test["rows"])
     # a stream whose ring-down check never passed has no fit at all: no answer (time inf)
     tests = [t for t in streams if len(t["rows"])]
@@ -205,7 +261,7 @@ def main() -> None:
         f"{data['duration']:g} s each, GelSight Mini; {took:.0f} s; streams without any fit: "
         + (", ".join(t["liquid"] for t in streams if not len(t["rows"])) or "none")
     )
-    models = train_models(train)
+    models = train_models(train, fit_std=not args.model_std_scores)
     for test in tests:
         test["pred"] = {kind: predictions(model, test["rows"]) for kind, model in models.items()}
     report_calibration(models)
@@ -243,6 +299,7 @@ def simulate_all(args) -> dict:
                         {
                             "liquid": liquid,
                             "truth": labels_of(labels),
+                            "truth_fit": {k: float(labels[k]) for k in TRUTH_COLUMNS},
                             "offline": offline,
                             **streamed,
                         }
@@ -258,11 +315,25 @@ def strip_floors(rows: np.ndarray) -> None:
         rows[:-1, col + 1] = np.sqrt(np.maximum(std**2 - (rows[:-1, col] * floor) ** 2, 0.0))
 
 
-def train_models(train: list[dict]) -> dict:
+def restream_std(rows: np.ndarray) -> None:
+    """The models' λ, ω std of every streamed row (all but the final) recomputed from the
+    streaming fit's own jackknife std and window with the current rule
+    (:func:`~liquidtouch.live.uncertainty.property_feature_std`), so one simulation is
+    re-analysed under a changed rule; a row without a recorded fit keeps its std."""
+    lam, win, s_lam, s_omega = rows[:-1, 1], rows[:-1, 5], rows[:-1, 8], rows[:-1, 9]
+    omega = rows[:-1, 3]
+    for i in np.flatnonzero(np.isfinite(win)):
+        rows[i, 2], rows[i, 4] = property_feature_std(
+            lam[i], s_lam[i], omega[i], s_omega[i], win[i]
+        )
+
+
+def train_models(train: list[dict], fit_std: bool = True) -> dict:
     """A GPR and a physics-GPR on every training trial of set ``all``, a GPR on its
     sugar-water trials (``sugar-only``) and one on the paper's sugar design
     (``sugar-paper``, when simulated); each calibrated as ``train`` does (10 folds, the
-    default groups of a table of the trials' liquid, fill height and sugar concentration)."""
+    default groups of a table of the trials' liquid, fill height and sugar concentration;
+    ``fit_std``: scores normalised by the total std with the rows' own fit std)."""
     import pandas as pd
 
     from liquidtouch.models.conformal import default_groups
@@ -272,8 +343,14 @@ def train_models(train: list[dict]) -> dict:
         columns = ("liquid", "height_mm", "sugar_concentration")
         table = pd.DataFrame({k: [r.get(k) for r in rows] for k in columns})
         X, y = train_matrix(rows)
+        X_std = [(r["fit"]["decay_rate_std"], r["fit"]["angular_frequency_std"]) for r in rows]
         return train_regression(
-            X, y, kind, calibration_folds=10, calibration_groups=default_groups(table)
+            X,
+            y,
+            kind,
+            calibration_folds=10,
+            calibration_groups=default_groups(table),
+            calibration_std=X_std if fit_std else None,
         )
 
     models = {kind: model(train_rows(train), kind) for kind in KINDS}

@@ -41,6 +41,38 @@ def test_conformal_intervals_cover_new_rows_at_their_level(model: str, noise: fl
     assert np.all(upper > lower)
 
 
+def test_scores_of_the_total_std_count_the_features_noise_once(tmp_path) -> None:
+    """Features observed with known noise (ω ± 0.3 rad/s, as a fit's std says): scores of
+    the model's std alone already hold that noise, so adding the propagated fit std on top
+    counted it twice (over-cautious); scores of the total std count it once."""
+    rng = np.random.default_rng(11)
+
+    def rows(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        X = np.column_stack([rng.uniform(0.1, 1.3, n), rng.uniform(10.0, 14.0, n)])
+        y = 20 + 3 * (X[:, 1] - 12.0) + 0.05 * rng.standard_normal(n)
+        X_std = np.column_stack([np.full(n, 0.01), np.full(n, 0.3)])
+        return X + X_std * rng.standard_normal((n, 2)), X_std, y
+
+    X, X_std, y = rows(200)
+    total = train_regression(X, {"h": y}, "gpr", calibration_folds=10, calibration_std=X_std)
+    alone = train_regression(X, {"h": y}, "gpr", calibration_folds=10)
+    assert total.calibration["h"].normalised_by == "total-std"
+    assert alone.calibration["h"].normalised_by == "model-std"
+    Xt, Xt_std, yt = rows(2000)
+    z = {}
+    for name, fitted in (("total", total), ("alone", alone)):
+        mean, std = fitted.predict(Xt, Xt_std)["h"]
+        z[name] = np.abs(mean - yt) / std
+    assert math.sqrt(np.mean(z["total"] ** 2)) == pytest.approx(1.0, abs=0.15)
+    assert np.mean(z["total"] <= 1) == pytest.approx(0.683, abs=0.07)
+    assert math.sqrt(np.mean(z["alone"] ** 2)) < 0.8  # the noise counted twice
+    back = load_model(save_model(total, tmp_path / "m.json"))
+    assert back.calibration == total.calibration
+    assert json.loads((tmp_path / "m.json").read_text())["calibration"]["h"]["normalised_by"] == (
+        "total-std"
+    )
+
+
 def test_calibration_corrects_a_wrong_model_std() -> None:
     """A quadratic fitted to a sine: its OLS std is too small; calibration widens it to cover."""
     rng = np.random.default_rng(3)
@@ -118,7 +150,7 @@ def test_the_calibration_is_stored_in_the_model_file(tmp_path) -> None:
     lo0, hi0 = fitted.predict_interval(X, 0.9)["h"]
     assert np.array_equal(lo, lo0) and np.array_equal(hi, hi0)
     doc = json.loads(path.read_text())
-    assert doc["format_version"] == 5 and doc["calibration"]["h"]["n_folds"] == 5
+    assert doc["format_version"] == 6 and doc["calibration"]["h"]["n_folds"] == 5
     # a version-2 file (no calibration) still loads, uncalibrated
     from liquidtouch.models.modelfile_checks import document_sha256
 

@@ -129,6 +129,7 @@ def train(
     from liquidtouch.io.tables import numeric_column
     from liquidtouch.models.held_out import regression_errors, selection_summary, split_rows
     from liquidtouch.models.modelfile import save_model
+    from liquidtouch.models.property_model import feature_std_matrix
     from liquidtouch.models.training import train_regression
 
     kind = str(model)
@@ -139,7 +140,13 @@ def train(
         folds = None if calibration_folds == 0 else max(calibration_folds, 2)
         groups = calibration_groups(table, calibration_group)
         fitted = train_regression(
-            X, targets, kind, advance, calibration_folds=folds, calibration_groups=groups
+            X,
+            targets,
+            kind,
+            advance,
+            calibration_folds=folds,
+            calibration_groups=groups,
+            calibration_std=feature_std_matrix(table),
         )
     held_out = None if rest is None else regression_errors(fitted, rest, list(targets))
     save_model(fitted, out)

@@ -4,10 +4,10 @@ From the uncertainty, no time floor: ω is reported once its
 std is below :data:`MAX_FREQ_REL_STD` of ω; λ once its std is below
 :data:`MAX_DECAY_REL_STD` of λ. While streaming, the std is how far the value
 may still be from the stream's final one (:mod:`liquidtouch.live.uncertainty`):
-the fit's correlated-noise standard error plus calibrated terms for the
-window's length, in e-foldings of the decay and in seconds — the damping of a real slosh is
-not exactly exponential, so the fit's std alone claims a precision a short
-window does not have (simulated water: the first λ emitted was 38 % off the
+the streaming fit's own (jackknife) std of the window so far, for λ plus calibrated
+terms for the window's length, in e-foldings of the decay and in seconds — the damping
+of a real slosh is not exactly exponential, so the fit's std alone claims a precision a
+short window does not have (simulated water: the first λ emitted was 38 % off the
 final one while its std claimed 6 %). The final update keeps the final fit's
 std. Properties do not wait for these gates: a regression model's targets are
 predicted from every fit, the λ and ω std propagated and added to the model's
@@ -28,7 +28,11 @@ import numpy as np
 
 from liquidtouch.live.properties import classify_with_fit_std, out_of_domain, predict_with_fit_std
 from liquidtouch.live.refresh import Refreshed
-from liquidtouch.live.uncertainty import streamed_decay_rate_std, streamed_frequency_std
+from liquidtouch.live.uncertainty import (
+    property_feature_std,
+    streamed_decay_rate_std,
+    streamed_frequency_std,
+)
 from liquidtouch.live.updates import LiveUpdate
 
 __all__ = ["MAX_DECAY_REL_STD", "MAX_FREQ_REL_STD", "emitted_update"]
@@ -72,7 +76,7 @@ def emitted_update(
             lam_std, omega_std = fit.decay_rate_std, fit.angular_frequency_std
         else:
             lam_std = streamed_decay_rate_std(lam, fit.decay_rate_std, fit.duration_s)
-            omega_std = streamed_frequency_std(omega, fit.angular_frequency_std, fit.duration_s)
+            omega_std = streamed_frequency_std(omega, fit.angular_frequency_std)
         show_omega = final or omega_std < MAX_FREQ_REL_STD * abs(omega)
         show_lam = final or lam_std < MAX_DECAY_REL_STD * abs(lam)
         if show_omega:
@@ -82,14 +86,10 @@ def emitted_update(
         features = (lam, lam_std, omega, omega_std)
         if model_kind == "regression":
             if not final:  # the floors are in the model's calibrated std already
-                features = (
-                    lam,
-                    streamed_decay_rate_std(lam, fit.decay_rate_std, fit.duration_s, floor=False),
-                    omega,
-                    streamed_frequency_std(
-                        omega, fit.angular_frequency_std, fit.duration_s, floor=False
-                    ),
+                lam_model_std, omega_model_std = property_feature_std(
+                    lam, fit.decay_rate_std, omega, fit.angular_frequency_std, fit.duration_s
                 )
+                features = (lam, lam_model_std, omega, omega_model_std)
             # no λ/ω gate: a property is as good as its own propagated std says (a
             # height that hangs on ω answers before λ is known to 10 %); a target
             # with an until_std threshold is reported once its std meets it

@@ -20,8 +20,8 @@ estimator every ~0.25 s of stream:
    10-30 % on simulated slosh), except ``two-mode``, fitted single-mode while
    streaming (:data:`REFRESH_MODEL`: the slow mode is the feature, and the
    two-mode multi-start is ~90 % of a fit's time) and ``auto`` fitted with the
-   amplitude model (:data:`REFRESH_AUTO_MODEL`); standard errors for
-   low-passed, correlated noise (:data:`REFRESH_NOISE`). The final refresh fits
+   amplitude model (:data:`REFRESH_AUTO_MODEL`); standard errors from the
+   blocked jackknife of the window (:data:`REFRESH_NOISE`). The final refresh fits
    the whole signal exactly as :func:`~liquidtouch.extraction.extract` does.
    Each streaming fit is warm-started from the previous refresh's (λ, ω).
 """
@@ -62,9 +62,10 @@ REFRESH_MODEL = "single-mode"
 #: default): the amplitude model, which ``auto`` keeps or refines with a second mode on most
 #: simulated slosh; fitting every candidate at every refresh would take 3-4× as long
 REFRESH_AUTO_MODEL = "amplitude"
-#: noise model of the streaming fits' std: the signal is low-passed, its noise correlated
-#: (white-noise errors were 1.5-2× too small on simulated trials)
-REFRESH_NOISE = "correlated"
+#: noise model of the streaming fits' std: the blocked jackknife of the window so far (the
+#: larger of it and the correlated-noise std, as the final fit's), the std of a streamed ω
+#: (:mod:`liquidtouch.live.uncertainty`); white-noise errors were 1.5-2× too small
+REFRESH_NOISE = "jackknife"
 
 
 @dataclass

@@ -37,10 +37,17 @@ so any level can be answered afterwards:
   the largest level that has a finite q is n / (n + 1): a 90 % interval needs 9
   rows, 95 % 19, 99 % 99 (:func:`min_rows_for_level`); a smaller set is refused.
 
-When the features themselves are uncertain (a streamed fit), the propagated
-variance is added to the calibrated model variance
-(:mod:`liquidtouch.models.propagation`) and the interval is
-``ŷ ± (q_α / s) · σ_total``: q_α in calibrated stds.
+When the features themselves are uncertain, the propagated variance σ_fit²
+(:mod:`liquidtouch.models.propagation`) is part of the std the model predicts with.
+Given the training rows' own fit std (``X_std``, the ``*_std`` columns of a features
+table), the scores are normalised by that same total, ``|y − ŷ| / √(σ̂² + σ_fit²)``
+(``normalised_by="total-std"``), each held-out row's fit std propagated through the
+fold model that predicts it, and a new row's std is ``s · ρ · √(σ̂² + σ_fit²)``: the
+final fit's scatter is then counted once, in proportion to each row's own fit std
+(scores of σ̂ alone already hold the training fits' scatter, and adding a new fit's
+σ_fit on top counted it twice: ``benchmarks/RESULTS.md``, calibration). Without it
+(``"model-std"``, model files before version 6) the std is ``√((s ρ σ̂)² + σ_fit²)``.
+The interval is ``ŷ ± (q_α / s) · σ_total``: q_α in calibrated stds.
 """
 
 from __future__ import annotations
@@ -50,18 +57,21 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from sklearn.base import clone
+from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.model_selection import GroupKFold, KFold, PredefinedSplit
 
 from liquidtouch.errors import TableError
 from liquidtouch.models.local_scale import LocalScale, fit_local_scale
+from liquidtouch.models.propagation import clean_feature_std, propagated_variance
 
 __all__ = [
     "DEFAULT_FOLDS",
     "DENSE_HEIGHTS",
+    "NORMALISED_BY",
     "ONE_SIGMA_LEVEL",
     "TRIAL_COLUMNS",
     "TargetCalibration",
+    "TotalStdRegressor",
     "calibrate_regressor",
     "calibration_folds",
     "default_groups",
@@ -74,6 +84,9 @@ DEFAULT_FOLDS = 10
 ONE_SIGMA_LEVEL = math.erf(1 / math.sqrt(2))
 #: calibration methods a model file may name
 METHODS = ("cross-conformal",)
+#: what the scores are normalised by: the model's std σ̂, or the total std √(σ̂² + σ_fit²)
+#: with the row's fit std propagated (module docstring)
+NORMALISED_BY = ("model-std", "total-std")
 #: label columns that say under which conditions a trial was recorded (its repeats share them)
 TRIAL_COLUMNS = ("liquid", "container", "height_mm", "sugar_concentration")
 #: fill heights per liquid from which a design is dense: a trial's repeats are held out
@@ -118,10 +131,12 @@ def min_rows_for_level(level: float) -> int:
 class TargetCalibration:
     """The cross-conformal calibration of one target (dimensionless scores).
 
-    ``scores``: the sorted out-of-fold normalised scores ``|y − ŷ| / (σ̂ ρ)``, one per
-    training row; ``n_folds``: K; ``random_state``: the fold shuffle's seed; ``local``:
-    the local factor ρ on the model's std (:mod:`~liquidtouch.models.local_scale`;
-    ``None``: ρ = 1, one scale everywhere).
+    ``scores``: the sorted out-of-fold normalised scores ``|y − ŷ| / (σ̂ ρ)`` (σ̂ the total
+    std √(σ̂² + σ_fit²) when ``normalised_by="total-std"``), one per training row;
+    ``n_folds``: K; ``random_state``: the fold shuffle's seed; ``local``: the local
+    factor ρ on the model's std (:mod:`~liquidtouch.models.local_scale`;
+    ``None``: ρ = 1, one scale everywhere); ``normalised_by``: one of
+    :data:`NORMALISED_BY` (module docstring).
     """
 
     scores: tuple[float, ...]
@@ -129,6 +144,7 @@ class TargetCalibration:
     random_state: int = 0
     method: str = "cross-conformal"
     local: LocalScale | None = None
+    normalised_by: str = "model-std"
 
     def __post_init__(self) -> None:
         s = np.asarray(self.scores, dtype=float)
@@ -136,6 +152,8 @@ class TargetCalibration:
             raise TableError("a calibration needs at least 2 finite scores >= 0")
         if self.method not in METHODS:
             raise TableError(f"unknown calibration method {self.method!r}")
+        if self.normalised_by not in NORMALISED_BY:
+            raise TableError(f"unknown score normalisation {self.normalised_by!r}")
         object.__setattr__(self, "scores", tuple(float(v) for v in np.sort(s)))
 
     @property
@@ -187,6 +205,8 @@ class TargetCalibration:
         }
         if self.local is not None:
             state["local"] = self.local.to_state()
+        if self.normalised_by != "model-std":
+            state["normalised_by"] = self.normalised_by
         return state
 
     @classmethod
@@ -198,6 +218,7 @@ class TargetCalibration:
             random_state=int(state.get("random_state", 0)),
             method=state.get("method", "cross-conformal"),
             local=None if state.get("local") is None else LocalScale.from_state(state["local"]),
+            normalised_by=state.get("normalised_by", "model-std"),
         )
 
 
@@ -227,6 +248,31 @@ def calibration_folds(
     return list(folds.split(index, groups=groups))
 
 
+class TotalStdRegressor(RegressorMixin, BaseEstimator):
+    """A regressor on (n, 4) rows (λ, ω, σλ, σω) whose std is the total std: the wrapped
+    ``estimator``'s std on (λ, ω) and (σλ, σω) propagated through its mean, in quadrature
+    (the scores' normaliser of ``normalised_by="total-std"``; module docstring)."""
+
+    def __init__(self, estimator: Any = None) -> None:
+        self.estimator = estimator
+
+    def fit(self, X: Any, y: Any) -> TotalStdRegressor:
+        """Fit the wrapped estimator on the features ``X[:, :2]``; return ``self``."""
+        self.estimator_ = clone(self.estimator).fit(np.asarray(X, dtype=float)[:, :2], y)
+        return self
+
+    def predict(self, X: Any, return_std: bool = False) -> Any:
+        """Mean (n,) at ``X[:, :2]``; with ``return_std``, also the total std (n,)."""
+        X = np.asarray(X, dtype=float)
+        mean, std = self.estimator_.predict(X[:, :2], return_std=True)
+        if not return_std:
+            return mean
+        _, var = propagated_variance(
+            lambda rows: {"y": self.estimator_.predict(rows)}, X[:, :2], X[:, 2:]
+        )
+        return mean, np.hypot(std, np.sqrt(var["y"]))
+
+
 def calibrate_regressor(
     estimator: Any,
     X: Any,
@@ -234,6 +280,7 @@ def calibrate_regressor(
     n_folds: int = DEFAULT_FOLDS,
     random_state: int = 0,
     groups: Any = None,
+    X_std: Any = None,
 ) -> TargetCalibration:
     """Cross-conformal calibration of an (unfitted) regressor with ``predict(X, return_std=True)``.
 
@@ -244,13 +291,19 @@ def calibrate_regressor(
     so a row is predicted by a model that has not seen its group — as a new trial at
     a new height is. Repeated grid values otherwise make K-fold optimistic: a held-out
     row's twins stay in training (synthetic, 5 liquids × 3 heights × 2 trials: height
-    ±1σ coverage 12 % with KFold).
+    ±1σ coverage 12 % with KFold). ``X_std`` (n, 2): the rows' own fit std of (λ, ω);
+    the scores are then normalised by the total std (``normalised_by="total-std"``).
     """
     from mapie.conformity_scores import StdConformityScore
     from mapie.regression import CrossConformalRegressor
 
     X = np.asarray(X, dtype=float)
     y = np.asarray(y, dtype=float)
+    normalised_by = "model-std" if X_std is None else "total-std"
+    features = X
+    if X_std is not None:
+        features = np.column_stack([X, clean_feature_std(X_std, X.shape[0])])
+        estimator = TotalStdRegressor(estimator)
     folds = calibration_folds(X.shape[0], n_folds, groups, random_state)
     test_fold = np.empty(X.shape[0], dtype=int)
     for i, (_, held_out) in enumerate(folds):
@@ -261,9 +314,13 @@ def calibrate_regressor(
         method="base",
         cv=PredefinedSplit(test_fold),
     )
-    mapie.fit_conformalize(X, y)
+    mapie.fit_conformalize(features, y)
     scores = np.abs(np.asarray(mapie.conformity_scores, dtype=float))
     local, rho = fit_local_scale(X, scores, groups)
     return TargetCalibration(
-        tuple((scores / rho).tolist()), n_folds=len(folds), random_state=random_state, local=local
+        tuple((scores / rho).tolist()),
+        n_folds=len(folds),
+        random_state=random_state,
+        local=local,
+        normalised_by=normalised_by,
     )

@@ -3,7 +3,7 @@
 A model file is one JSON document (small arrays — training data, scaling —
 are embedded as lists; JSON floats round-trip exactly)::
 
-    {"format": "liquidtouch-model", "format_version": 5,
+    {"format": "liquidtouch-model", "format_version": 6,
      "kind": "regression" | "classification", "created_by": "liquidtouch 0.1.0",
      "provenance": {"liquidtouch": ..., "scikit_learn": ..., "numpy": ..., "python": ...,
                     "training_sha256": ...},
@@ -14,7 +14,8 @@ are embedded as lists; JSON floats round-trip exactly)::
      "classifier": {"model": "svm", "C": ..., "gamma": ..., ..., "unknown": {...}} | null,
      "calibration": {target: {"method": "cross-conformal", "n_folds": K,
                               "random_state": 0, "scores": [...],
-                              "local": {"points": [...], "z2": [...], "bandwidth": h, ...}}},
+                              "local": {"points": [...], "z2": [...], "bandwidth": h, ...},
+                              "normalised_by": "model-std" | "total-std"}},
      "sha256": ...}
 
 Each estimator stores its hyperparameters (GP kernel: constant, RBF length
@@ -34,10 +35,11 @@ from liquidtouch.io.tables import FEATURE_COLUMNS
 FORMAT_NAME = "liquidtouch-model"
 #: Version 2 adds ``sha256``, ``provenance`` and ``domain``; version 3 ``calibration``
 #: (cross-conformal scores per target); version 4 the classifier's ``unknown`` rule;
-#: version 5 a calibration's ``local`` scale (:mod:`liquidtouch.models.local_scale`).
+#: version 5 a calibration's ``local`` scale (:mod:`liquidtouch.models.local_scale`);
+#: version 6 its ``normalised_by`` (scores of the total std, :mod:`~liquidtouch.models.conformal`).
 #: Versions 1-4 still load (uncalibrated; a classifier without ``unknown`` gets the
 #: rule at its default false-alarm rate from its training rows).
-FORMAT_VERSION = 5
+FORMAT_VERSION = 6
 
 PositiveFloat = Annotated[float, Field(gt=0)]
 Sha256 = Annotated[str, Field(pattern=r"^[0-9a-f]{64}$")]
@@ -179,6 +181,7 @@ class CalibrationState(_Strict):
     random_state: int = 0
     scores: list[Annotated[float, Field(ge=0)]] = Field(min_length=2)
     local: LocalScaleState | None = None
+    normalised_by: Literal["model-std", "total-std"] = "model-std"
 
 
 class ProvenanceState(_Strict):
@@ -234,6 +237,10 @@ class ModelFile(_Strict):
             raise ValueError("calibration needs format version 3")
         if self.format_version < 5 and any(c.local for c in self.calibration.values()):
             raise ValueError("a local calibration scale needs format version 5")
+        if self.format_version < 6 and any(
+            c.normalised_by != "model-std" for c in self.calibration.values()
+        ):
+            raise ValueError("scores normalised by the total std need format version 6")
         if self.format_version >= 4 and self.classifier is not None:
             if self.classifier.unknown is None:
                 raise ValueError(f"format version {self.format_version} needs classifier.unknown")

@@ -40,6 +40,7 @@ __all__ = [
     "REGRESSORS",
     "STD_COLUMNS",
     "PropertyModel",
+    "feature_std_matrix",
 ]
 
 #: The regressor kinds, by the name used on the command line and in model files:
@@ -51,6 +52,14 @@ REGRESSORS: dict[str, type] = dict(
 
 #: the features' std columns of a feature table (the fit's standard errors), propagated
 STD_COLUMNS: tuple[str, str] = ("decay_rate_std", "angular_frequency_std")
+
+
+def feature_std_matrix(table: pd.DataFrame) -> np.ndarray | None:
+    """(n, 2) std of (λ [1/s], ω [rad/s]) from a table's :data:`STD_COLUMNS` (an empty or
+    non-numeric cell is NaN: unknown); ``None`` when the table has no such columns."""
+    if not all(c in table.columns for c in STD_COLUMNS):
+        return None
+    return table[list(STD_COLUMNS)].apply(pd.to_numeric, errors="coerce").to_numpy(float)
 
 
 class PropertyModel:
@@ -245,7 +254,10 @@ class PropertyModel:
         for t, (mean, std) in raw.items():
             cal = self.calibration.get(t)
             scale = 1.0 if cal is None else cal.std_scale * cal.local_factor(Xm)
-            out[t] = (np.asarray(mean), scale * np.asarray(std), np.sqrt(fit_var[t]))
+            fit_std = np.sqrt(fit_var[t])
+            if cal is not None and cal.normalised_by == "total-std":  # scores of the total std
+                fit_std = scale * fit_std
+            out[t] = (np.asarray(mean), scale * np.asarray(std), fit_std)
         return out
 
     def predict(
@@ -317,9 +329,7 @@ class PropertyModel:
         """
         X = feature_matrix(table)
         out = table.copy()
-        X_std = None
-        if all(c in table.columns for c in STD_COLUMNS):
-            X_std = table[list(STD_COLUMNS)].apply(pd.to_numeric, errors="coerce").to_numpy(float)
+        X_std = feature_std_matrix(table)
         if self.classifier is not None:
             predicted, proba = self.predict_proba(X)
             predicted = np.where(self.unknown(X, X_std), UNKNOWN, predicted.astype(object))

@@ -47,6 +47,7 @@ def train_regression(
     progress: Callable[[str], None] | None = None,
     calibration_folds: int | None = None,
     calibration_groups: Any = None,
+    calibration_std: Any = None,
 ) -> PropertyModel:
     """Fit one regressor of kind ``model`` per target; ``targets`` maps column → values.
 
@@ -57,6 +58,9 @@ def train_regression(
     fits per target), when every fold keeps the estimator's minimum of rows; ``None``:
     no calibration. ``calibration_groups`` (n,): rows held out together (e.g. the fill
     height of each row: a row is then predicted by a model that never saw its height).
+    ``calibration_std`` (n, 2): the rows' own fit std of (λ, ω) (a features table's
+    ``*_std`` columns); the scores are then normalised by the total std the model predicts
+    with (:mod:`~liquidtouch.models.conformal`, ``normalised_by="total-std"``).
     Raises :class:`TableError` for bad input, before any fitting.
     """
     if model not in REGRESSORS:
@@ -89,7 +93,12 @@ def train_regression(
             model, X.shape[0], calibration_folds, calibration_groups
         ):
             calibration[target] = calibrate_regressor(
-                make_regressor(model, target), X, y, calibration_folds, groups=calibration_groups
+                make_regressor(model, target),
+                X,
+                y,
+                calibration_folds,
+                groups=calibration_groups,
+                X_std=calibration_std,
             )
         if progress is not None:
             progress(target)
