@@ -23,23 +23,17 @@ from liquidtouch.errors import TableError
 from liquidtouch.experiments.common import TARGETS, X, pyplot, save_figure, split, usable
 from liquidtouch.experiments.report import ExperimentResult, Headline
 from liquidtouch.models.conformal import default_groups
-from liquidtouch.models.property_model import STD_COLUMNS
+from liquidtouch.models.property_model import feature_std_matrix
 from liquidtouch.models.training import can_calibrate, train_regression
 
 #: central-interval levels of the reliability diagram
 LEVELS = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
 
 
-def _std(table: pd.DataFrame) -> np.ndarray | None:
-    if not all(c in table.columns for c in STD_COLUMNS):
-        return None
-    return table[list(STD_COLUMNS)].to_numpy(dtype=float)
-
-
 def _rows(model, name: str, table: pd.DataFrame, targets: list[str]) -> tuple[list, dict]:
     """Coverage rows of ``table`` and, per target, the observed coverage at :data:`LEVELS`."""
     rows, curves = [], {}
-    std_in = _std(table)
+    std_in = feature_std_matrix(table)
     predicted = model.predict(X(table), std_in)
     for target in targets:
         truth = table[target].to_numpy(dtype=float)
@@ -86,6 +80,7 @@ def run(sugar_table: pd.DataFrame, other_table: pd.DataFrame, out_dir: Path) -> 
         "gpr",
         calibration_folds=10,
         calibration_groups=groups,
+        calibration_std=feature_std_matrix(train),  # the scores see the rows' own fit std
     )
     parts = [("sugar water (test)", test)]
     other = usable(other_table)
