@@ -160,8 +160,9 @@ def lowpass_frames(
     gram[-1] += np.bincount(k, (1 - a) ** 2, n) + np.bincount(k + 1, a**2, n)
     gram[-2, 1:] += np.bincount(k, a * (1 - a), n)[:-1]
     rhs = np.zeros((n, values.shape[1]))
-    np.add.at(rhs, k, (1 - a)[:, None] * values)
-    np.add.at(rhs, k + 1, a[:, None] * values)
+    rows, first = np.unique(k, return_index=True)  # k never decreases: frames in order
+    rhs[rows] += np.add.reduceat((1 - a)[:, None] * values, first, axis=0)
+    rhs[rows + 1] += np.add.reduceat(a[:, None] * values, first, axis=0)
     from scipy.linalg import solveh_banded
 
     out = solveh_banded(gram, rhs, check_finite=False)
