@@ -6,12 +6,12 @@
 Frames that never came are not invented: :func:`lowpass_frames` is the same low-pass for
 marker motion read at the frames that did come, at their own times. It is a penalised
 least-squares (Whittaker-Henderson) smoother: the values ``x`` on a uniform clock that
-minimise ``sum_j (y_j - (B x)_j)^2 + lam * |D^6 x|^2``, where ``B`` reads the clock's values
-at each frame's time (linear between the two samples around it) and ``D^6`` takes sixth
+minimise ``sum_j (y_j - (B x)_j)^2 + lam * |D^5 x|^2``, where ``B`` reads the clock's values
+at each frame's time (linear between the two samples around it) and ``D^5`` takes fifth
 differences. On a uniformly sampled signal its response is
-``1 / (1 + lam (2 sin(pi f / fps))^12)``, and ``lam`` puts its half-power point at the
-cut-off: at 4 Hz and 25 fps it passes 99.5 % at 2.5 Hz (the slosh) and 1.5 % at 6 Hz,
-where the 4th-order Butterworth run forwards and backwards passes 98.5 % and 1.4 %. Where frames are missing the data term simply has no
+``1 / (1 + lam (2 sin(pi f / fps))^10)``, and ``lam`` puts its half-power point at the
+cut-off, like the 4th-order Butterworth run forwards and backwards
+(:data:`SMOOTHER_ORDER` says how alike). Where frames are missing the data term simply has no
 rows: the smoother bridges a dropped frame or three (at 15-18 fps, up to a quarter of a
 slosh period) from the frames on both sides, without the straight line or spline that an
 interpolate-then-filter chain would first have put there (and then filtered as if it had
@@ -58,12 +58,16 @@ DEFAULT_LOWPASS_HZ = 4.0
 SLOSH_MAX_HZ = 3.0
 #: without a low-pass, a stretch without frames longer than this many frame periods is a gap
 GAP_PERIODS = 2.0
-#: order of the differences the smoother penalises. 6, not 4: with its half-power point
-#: at the cut-off, order 4 took 10 % off a 3 Hz line and passed 5.7 % at 6 Hz (order 6:
-#: 4 % and 1.5 %), and read 3 dropped frames of a ring-down 1.4 % of its amplitude off
-#: (order 6: 0.02 %). lam grows as (fps / f_c)^12: at 4 Hz and 200 fps the smoother
-#: still matches the Butterworth's error on a noisy ring-down (0.0071 vs 0.0070).
-SMOOTHER_ORDER = 6
+#: order of the differences the smoother penalises. 5: with its half-power point at the
+#: cut-off (4 Hz, 25 fps) it passes 98.8 % at 2.5 Hz, 93.6 % at 3 Hz and 2.9 % at 6 Hz,
+#: close to the 4th-order Butterworth run forwards and backwards that it replaced (98.5,
+#: 93.3, 1.4 %), so a recording without gaps gives much the same signal, and it reads three
+#: dropped frames of a ring-down 0.3 % of its amplitude off. Order 4 passed 89.6 % at
+#: 3 Hz and was 1.4 % off there; order 6 (0.02 %) is sharper than the Butterworth and
+#: moved detergent-like fits at the release more (``benchmarks/lowpass_bias.py``). lam grows
+#: as (fps / f_c)^10: at 4 Hz and 200 fps the smoother still matches the Butterworth's
+#: error on a noisy ring-down.
+SMOOTHER_ORDER = 5
 
 
 def max_bridged_gap_s(lowpass_hz: float | None, fps: float) -> float:
