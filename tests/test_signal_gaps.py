@@ -12,8 +12,8 @@ import pytest
 from liquidtouch.cli.format import gap_warning
 from liquidtouch.errors import SwallowedRingDownError
 from liquidtouch.fit_settings import FitSettings, ring_down_swallowed
-from liquidtouch.lowpass_filter import lowpass, lowpass_observed
-from liquidtouch.signal import interpolate_frames, tactile_signal
+from liquidtouch.lowpass_filter import lowpass, lowpass_frames, observed_samples
+from liquidtouch.signal import tactile_signal
 from liquidtouch.sim.gelsight import sensor_scene
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
@@ -27,32 +27,60 @@ def ring_down(t: np.ndarray) -> np.ndarray:
     return np.exp(-LAM * t) * np.cos(OMEGA * t)
 
 
-def test_cubic_interpolation_keeps_the_peaks_across_dropped_frames():
+def test_the_low_pass_of_the_frames_that_came_reads_through_dropped_frames():
     """Three dropped frames at 25 fps are a quarter of a 2 Hz period: a straight line
-    cuts the peak by about half, the spline by a few per cent."""
-    t_clock = np.arange(100) / FPS
-    keep = np.ones(100, bool)
+    across them, then the low-pass, is a quarter of the amplitude off; the smoother of
+    the frames that came, ~0.3 %."""
+    t_clock = np.arange(250) / FPS
+    keep = np.ones(250, bool)
     keep[[11, 12, 13, 40, 41, 70]] = False  # frame 12: near a peak (ω t ≈ 2π)
-    values = ring_down(t_clock[keep])[:, None]
-    truth = ring_down(t_clock)
-    cubic = interpolate_frames(t_clock[keep], values, t_clock)[:, 0]
-    linear = np.interp(t_clock, t_clock[keep], values[:, 0])
-    assert np.abs(linear - truth).max() > 0.2
-    assert np.abs(cubic - truth).max() < 0.05
-    assert np.array_equal(cubic[keep], truth[keep])  # the frames themselves are kept
+    x = ring_down(t_clock)[:, None]
+    everything = lowpass_frames(t_clock, x, t_clock, FPS)[:, 0]
+    came = lowpass_frames(t_clock[keep], x[keep], t_clock, FPS)[:, 0]
+    line = lowpass(np.interp(t_clock, t_clock[keep], x[keep, 0])[:, None], FPS)[:, 0]
+    assert np.abs(line - lowpass(x, FPS)[:, 0]).max() > 0.2
+    assert np.abs(came - everything).max() < 0.005
 
 
-def test_lowpass_next_to_a_gap_matches_the_gap_free_lowpass():
-    """The stretch on each side of a stall is filtered as if the signal went on: within
-    1 % of the ring-down's amplitude of the low-pass without the gap (odd-reflection
-    padding: ~10 %)."""
+def test_the_smoother_is_the_butterworth_where_no_frame_is_missing():
+    """Same passband and stopband as the zero-phase Butterworth it stands in for, and
+    closer to the clean signal at the recording's ends (odd-reflection padding)."""
+    t = np.arange(2000) / FPS
+    for f_hz in (1.0, 2.0, 2.5, 3.0, 4.0):
+        wave = np.sin(2 * np.pi * f_hz * t)[:, None]
+        smooth = lowpass_frames(t, wave, t, FPS)[500:-500, 0].std()
+        butter = lowpass(wave, FPS)[500:-500, 0].std()
+        assert smooth == pytest.approx(butter, abs=0.005)
+    wave = np.sin(2 * np.pi * 6.0 * t)[:, None]
+    assert lowpass_frames(t, wave, t, FPS)[500:-500].std() / wave.std() < 0.03
+    t = t[:250]
+    clean = ring_down(t)
+    noisy = clean + np.random.default_rng(0).normal(0, 0.01, t.size)
+    smooth = lowpass_frames(t, noisy[:, None], t, FPS)[:, 0]
+    butter = lowpass(noisy[:, None], FPS)[:, 0]
+    inner = slice(25, -25)
+    assert np.abs(smooth - clean)[inner].max() < 1.1 * np.abs(butter - clean)[inner].max()
+    assert np.abs(smooth - clean)[:10].max() < 0.5 * np.abs(butter - clean)[:10].max()
+
+
+def test_the_low_pass_next_to_a_stall_matches_the_gap_free_low_pass():
+    """No frame for 0.6 s: at the samples on each side the low-pass is within 1 % of the
+    ring-down's amplitude of the low-pass without the stall."""
     t = np.arange(250) / FPS
     x = ring_down(t)[:, None]
-    observed = (t < 2.0) | (t > 2.6)
-    filtered, still = lowpass_observed(x, observed, FPS, 3.0)
-    assert np.array_equal(still, observed)
-    reference = lowpass(x, FPS, 3.0)
-    assert np.abs(filtered - reference)[observed].max() < 0.01
+    came = (t < 2.0) | (t > 2.6)
+    gapped = lowpass_frames(t[came], x[came], t, FPS)
+    assert np.abs(gapped - lowpass_frames(t, x, t, FPS))[came].max() < 0.01
+
+
+def test_a_lone_frame_at_either_end_is_not_observed():
+    """Dropped frames just before the last frame leave nothing beyond it to bridge to:
+    the clock ends at the last two frames one period apart (the smoother read a water
+    ring-down's last 0.16 s at up to 5x the push)."""
+    t_frames = np.delete(np.arange(30) / FPS, [1, 2, 25, 26, 27, 28])
+    clock = np.arange(30) / FPS
+    observed = observed_samples(t_frames, clock, 0.17)
+    assert not observed[:3].any() and observed[3:25].all() and not observed[25:].any()
 
 
 def truth_tracks(liquid: str, seed: int, height_mm: float) -> tuple[list[MarkerTracks], object]:

@@ -1,29 +1,27 @@
 """From marker tracks to the 1-D tactile signal ``u(t)``: resample, low-pass, select, PCA.
 
-1. **Clock**: all sensors are resampled (linear interpolation; a cubic spline across
-   dropped frames, :func:`interpolate_frames`) onto one
-   uniform clock over the time they all recorded. Each sensor's frame ``k`` is at
-   ``start_s + t[k] - t[0]`` on the trial's shared clock
-   (:attr:`MarkerTracks.start_s`, from the recorder's ``sensor_start_s``; 0 for
-   videos given on their own, which are then aligned on their first frames). The
+1. **Clock**: all sensors are read on one uniform clock over the time they all
+   recorded. Each sensor's frame ``k`` is at ``start_s + t[k] - t[0]`` on the trial's
+   shared clock (:attr:`MarkerTracks.start_s`, from the recorder's ``sensor_start_s``;
+   0 for videos given on their own, which are then aligned on their first frames). The
    clock starts at the first frame of the sensor that started last and steps at
    that sensor's frame period fitted to all its timestamps
    (:func:`~liquidtouch.clock.frame_period`, :mod:`liquidtouch.clock` says why).
 2. **Gaps**: a marker lost in more than ``max_lost_fraction`` of the frames, or
-   for longer than ``max_gap_s`` at a stretch, is not used; shorter gaps are
-   interpolated. Markers cut by the image border in the first frame are not
-   used either (their centroid sees only part of the blob). **Frames that never
-   came** (a camera stall, dropped frames) are not invented: a clock sample
-   inside a stretch without frames longer than half the period of the low-pass
-   cut-off, at most 3 Hz (:func:`~liquidtouch.lowpass_filter.max_bridged_gap_s`: the
-   low-passed slosh is then sampled below its Nyquist rate; 0.17 s) is *not observed*; shorter
-   stretches (a dropped frame or a few) are interpolated.
-3. **Low-pass**: zero-phase Butterworth (``sosfiltfilt``, :mod:`liquidtouch.lowpass_filter`),
-   :data:`~liquidtouch.lowpass_filter.DEFAULT_LOWPASS_HZ`
-   (4 Hz) by default, run on each contiguous stretch of observed samples on its own
-   (a stretch too short to filter is dropped too), so no filter output mixes in a gap; an end of a
-   stretch at a gap is continued by linear prediction for the filter's settling
-   (:func:`~liquidtouch.linear_prediction.predict_edges`), and the continuation dropped.
+   for longer than ``max_gap_s`` at a stretch, is not used; a marker's shorter losses
+   are bridged like dropped frames. Markers cut by the image border in the first frame
+   are not used either (their centroid sees only part of the blob). **Frames that never
+   came** (a camera stall, dropped frames) are not invented: a clock sample inside a
+   stretch without frames longer than half the period of the low-pass cut-off, at most
+   3 Hz (:func:`~liquidtouch.lowpass_filter.max_bridged_gap_s`: the low-passed slosh
+   is then sampled below its Nyquist rate; 0.17 s), in any sensor, is *not observed*.
+3. **Low-pass**: each sensor's motion is the low-pass of the frames that came, at
+   their own times (:func:`~liquidtouch.lowpass_filter.lowpass_frames`, a smoother
+   with the response of a zero-phase 4th-order Butterworth,
+   :data:`~liquidtouch.lowpass_filter.DEFAULT_LOWPASS_HZ` (4 Hz) by default). A dropped
+   frame or three leave no sample to invent: the smoother reads through them from the
+   frames on both sides. Without a low-pass (``lowpass_hz=None``) the motion is read
+   linearly between consecutive frames.
 4. **Selection**: the ``n_markers`` markers (across all sensors) with the
    largest motion, ``sqrt(var x + var y)`` of the filtered displacement.
 5. **PCA**: their x, y displacements form a ``2·n``-D vector per frame; the
@@ -51,7 +49,7 @@ from liquidtouch.clock import check_times, finite_array, uniform_clock
 from liquidtouch.errors import MarkerError, SignalError
 from liquidtouch.lowpass_filter import (
     DEFAULT_LOWPASS_HZ,
-    lowpass_observed,
+    lowpass_frames,
     max_bridged_gap_s,
     observed_samples,
 )
@@ -132,71 +130,48 @@ def common_span(tracks: Sequence[MarkerTracks]) -> tuple[int, float, float]:
 
 def resample_displacement(
     tracks: MarkerTracks,
-    t_uniform: np.ndarray,
+    t_clock: np.ndarray,
+    fps: float,
+    lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     max_lost_fraction: float = 0.05,
     max_gap_s: float = 0.25,
-    bridged_s: float = math.inf,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Displacement (T, N, 2) [px] on ``t_uniform`` and which markers are usable (N,).
+    """Displacement (T, N, 2) [px] on the clock ``t_clock`` and which markers are usable (N,).
 
-    ``t_uniform`` [s] is on the sensor's own clock from its first frame
-    (``tracks.t - tracks.t[0]``). Unusable markers (too often or too long lost,
-    cut by the border) get zeros. Across dropped frames the motion is a cubic
-    spline through the frames around them (:func:`interpolate_frames`; no spline
-    spans a step over ``bridged_s`` [s]).
+    ``t_clock`` [s] is uniform at ``fps`` [Hz], on the sensor's own clock from its first
+    frame (``tracks.t - tracks.t[0]``). With a low-pass, it is the low-pass of the frames
+    that came, at their own times (:func:`~liquidtouch.lowpass_filter.lowpass_frames`:
+    nothing is interpolated first); without one, the motion is read linearly between
+    consecutive frames. Samples in a gap get values too: the caller leaves them out
+    (:func:`~liquidtouch.lowpass_filter.observed_samples`). A marker lost in some frames
+    is read from the frames where it was found. Unusable markers (too often or too long
+    lost, cut by the border) get zeros.
     """
     _check_gap_limits(max_lost_fraction, max_gap_s)
     t = tracks.t - tracks.t[0]
     valid = tracks.valid
     disp = tracks.displacement
-    n = tracks.n_markers
     usable = valid.mean(axis=0) >= 1.0 - max_lost_fraction
     usable &= _longest_gap_s(t, valid) <= max_gap_s
     usable &= ~_cut_by_border(tracks)
-    out = np.zeros((t_uniform.size, n, 2))
-    whole = usable & valid.all(axis=0)  # one spline for all of them
-    if whole.any():
-        out[:, whole] = interpolate_frames(t, disp[:, whole], t_uniform, bridged_s)
-    for i in np.flatnonzero(usable & ~whole):
-        ok = valid[:, i]
-        out[:, i] = interpolate_frames(t[ok], disp[ok, i], t_uniform, bridged_s)
-    return out, usable
-
-
-def interpolate_frames(
-    t_frames: np.ndarray, values: np.ndarray, t_out: np.ndarray, bridged_s: float = math.inf
-) -> np.ndarray:
-    """``values`` (F, ...) at frame times ``t_frames`` [s] read at times ``t_out`` [s].
-
-    Linear between consecutive frames (held constant outside them); across dropped
-    frames (a step of two frame periods or more, as :func:`~liquidtouch.clock.frame_period`
-    counts them) a cubic spline (not-a-knot) through the run of at least 4 frames
-    without a step over ``bridged_s`` [s] around them. Cubic there: at 15-18 fps a
-    dropped frame or three leave ~0.1-0.16 s between frames, a quarter of a 2 Hz
-    slosh period, and a straight line across it cuts a peak by up to half the
-    amplitude (the spline: a few per cent); the low-pass does not undo that, and λ
-    moved by 5-15 %. Linear elsewhere, so a recording without drops gives the same
-    signal as before (the model choice is sensitive to small changes of u).
-    """
-    from scipy.interpolate import CubicSpline
-
-    flat = values.reshape(len(t_frames), -1)
-    out = np.column_stack([np.interp(t_out, t_frames, c) for c in flat.T])
-    if t_frames.size < 4:
-        return out.reshape((t_out.size, *values.shape[1:]))
-    steps = np.diff(t_frames)
-    dropped = np.flatnonzero(np.rint(steps / np.median(steps)) > 1)
-    breaks = np.flatnonzero(steps > bridged_s) + 1
-    k = np.searchsorted(t_frames, t_out, side="right") - 1  # the step each time is in
-    for run in np.split(np.arange(t_frames.size), breaks):
-        inside_run = dropped[(dropped >= run[0]) & (dropped < run[-1])]
-        if run.size < 4 or inside_run.size == 0:
+    out = np.zeros((t_clock.size, tracks.n_markers, 2))
+    whole = usable & valid.all(axis=0)  # read together, from every frame
+    groups = [(whole, np.ones(t.size, bool))] if whole.any() else []
+    groups += [
+        (np.eye(1, tracks.n_markers, i, dtype=bool)[0], valid[:, i])
+        for i in np.flatnonzero(usable & ~whole)
+    ]
+    half = 0.5 / fps
+    for markers, frames in groups:
+        t_seen, seen = t[frames], disp[frames][:, markers]
+        if lowpass_hz is None:
+            flat = seen.reshape(len(t_seen), -1)
+            read = np.column_stack([np.interp(t_clock, t_seen, c) for c in flat.T])
+            out[:, markers] = read.reshape(t_clock.size, -1, 2)
             continue
-        across = np.isin(k, inside_run) & (t_out < t_frames[-1])
-        if across.any():
-            spline = CubicSpline(t_frames[run], flat[run], axis=0)
-            out[across] = spline(t_out[across])
-    return out.reshape((t_out.size, *values.shape[1:]))
+        span = (t_seen >= t_clock[0] - half) & (t_seen <= t_clock[-1] + half)
+        out[:, markers] = lowpass_frames(t_seen[span], seen[span], t_clock, fps, lowpass_hz)
+    return out, usable
 
 
 def _longest_gap_s(t: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -273,12 +248,20 @@ def tactile_signal(
     t_ref = tracks[reference].t
     t_uniform, fps = uniform_clock(t_ref, end_s=float(t_ref[0]) + (end_s - begin_s))
     bridged_s = max_bridged_gap_s(lowpass_hz, fps)
+    locals_s = [t_uniform + (begin_s - float(tr.start_s)) for tr in tracks]  # own clocks
     observed = np.ones(t_uniform.size, bool)
-    blocks, names = [], []
-    for tr in tracks:
-        local = t_uniform + (begin_s - float(tr.start_s))  # on this sensor's own clock
-        disp, usable = resample_displacement(tr, local, max_lost_fraction, max_gap_s, bridged_s)
+    for tr, local in zip(tracks, locals_s, strict=True):
         observed &= observed_samples(tr.t - tr.t[0], local, bridged_s)
+    if observed.sum() < 2:
+        raise SignalError(
+            "almost no sample of the recording is observed: the frames come with "
+            f"gaps over {bridged_s:.2g} s; check the camera's frame rate"
+        )
+    blocks, names = [], []
+    for tr, local in zip(tracks, locals_s, strict=True):
+        disp, usable = resample_displacement(
+            tr, local, fps, lowpass_hz, max_lost_fraction, max_gap_s
+        )
         blocks.append(disp[:, usable])
         names.extend((tr.sensor, int(i)) for i in np.flatnonzero(usable))
     motion = np.concatenate(blocks, axis=1)
@@ -286,13 +269,6 @@ def tactile_signal(
         raise MarkerError(
             f"only {motion.shape[1]} markers were tracked well enough (lost in at most "
             f"{max_lost_fraction:.0%} of frames); at least {MIN_SELECTED} are needed"
-        )
-    if lowpass_hz is not None:
-        motion, observed = lowpass_observed(motion, observed, fps, lowpass_hz)
-    if observed.sum() < 2:
-        raise SignalError(
-            "no stretch of the recording is long enough to filter: the frames come with "
-            f"gaps over {bridged_s:.2g} s; check the camera's frame rate"
         )
     motion = motion[observed]
     score = np.sqrt(motion.var(axis=0).sum(axis=1))
