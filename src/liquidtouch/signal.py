@@ -156,11 +156,8 @@ def resample_displacement(
     usable &= ~_cut_by_border(tracks)
     out = np.zeros((t_clock.size, tracks.n_markers, 2))
     whole = usable & valid.all(axis=0)  # read together, from every frame
-    groups = [(whole, np.ones(t.size, bool))] if whole.any() else []
-    groups += [
-        (np.eye(1, tracks.n_markers, i, dtype=bool)[0], valid[:, i])
-        for i in np.flatnonzero(usable & ~whole)
-    ]
+    groups = [(np.flatnonzero(whole), np.ones(t.size, bool))] if whole.any() else []
+    groups += [(np.array([i]), valid[:, i]) for i in np.flatnonzero(usable & ~whole)]
     half = 0.5 / fps
     for markers, frames in groups:
         t_seen, seen = t[frames], disp[frames][:, markers]
