@@ -41,6 +41,7 @@ import contextlib
 import dataclasses
 import itertools
 import math
+import shlex
 import sys
 import time
 from collections.abc import Iterator
@@ -152,10 +153,10 @@ def errors(
 def summary(values: list[float], tol: float, digits: int = 1) -> str:
     v = np.asarray(values, dtype=float)
     ok = v[np.isfinite(v)]
-    if ok.size == 0:
-        return "–"
-    p10, p50, p90 = 100 * np.percentile(ok, [10, 50, 90])
     beyond = np.mean(~(np.abs(v) <= tol))  # a refused fit counts as beyond
+    if ok.size == 0:
+        return f"refused · {beyond:.0%}"
+    p10, p50, p90 = 100 * np.percentile(ok, [10, 50, 90])
     return f"{p50:+.{digits}f} [{p10:+.{digits}f}, {p90:+.{digits}f}] % · {beyond:.0%}"
 
 
@@ -221,7 +222,7 @@ def main() -> int:
             ]
             cells.append(summary([r["marker"][0] for r in sel], TOL_DECAY) if sel else "–")
         print(f"| {liquid} | " + " | ".join(cells) + " |")
-    print(f"\ncommand: `{' '.join(['python', *sys.argv])}`")
+    print(f"\ncommand: `{shlex.join(['python', *sys.argv])}`")
     return 0
 
 
