@@ -48,6 +48,7 @@ from collections.abc import Iterator
 from unittest import mock
 
 import numpy as np
+from scene_tracks import noisy_true_tracks
 
 import liquidtouch.fit.amplitude_solve as amplitude_solve
 import liquidtouch.fit.oscillation as oscillation
@@ -63,7 +64,6 @@ from liquidtouch.sim.gelsight import sensor_scene
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.variability import Variability
-from liquidtouch.tracking.tracks import MarkerTracks
 
 LIQUIDS = ("water", "olive-oil", "mirin", "corn-oil", "sugar-water 60", "sugar-water 140",
            "detergent")  # fmt: skip
@@ -118,13 +118,7 @@ def signals(liquid: str, height: float, push: float, seed: int, settings: dict):
                            variability=settings.get("variability"), **extra)  # fmt: skip
     rng = np.random.default_rng(10_000 + seed)
     scene = sensor_scene(trial.loads, get_sensor_profile("mini"), rng, jitter=False)
-    tracks = []
-    for s, sensor in enumerate(("left", "right")):
-        noise = rng.normal(0, settings["noise_px"], scene.positions_px[s].shape)
-        pos = scene.positions_px[s] + noise
-        valid = np.ones(pos.shape[:2], bool)
-        tracks.append(MarkerTracks(scene.timestamps_s.copy(), pos, valid, pos[0].copy(), sensor))
-    sig = tactile_signal(tracks)
+    sig = tactile_signal(noisy_true_tracks(scene, rng, settings["noise_px"]))
     force = np.interp(sig.t, trial.t_s, trial.slosh_force_n())
     force = lowpass(force, sig.fps, DEFAULT_LOWPASS_HZ)
     return sig, force, trial.true_decay_rate, trial.true_angular_frequency

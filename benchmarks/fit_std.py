@@ -20,6 +20,7 @@ import sys
 import time
 
 import numpy as np
+from scene_tracks import noisy_true_tracks
 
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.fit.choices import NOISE_MODELS
@@ -30,7 +31,6 @@ from liquidtouch.signal import tactile_signal
 from liquidtouch.sim.gelsight import sensor_scene
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
-from liquidtouch.tracking.tracks import MarkerTracks
 
 LIQUIDS = ("water", "olive-oil", "mirin", "corn-oil", "sugar-water", "detergent")
 NOISE_PX = 0.02
@@ -45,12 +45,7 @@ def trial_signal(seed: int):
     trial = simulate_trial(liquid, height_mm=height, seed=seed,
                            parameters={"push_distance_mm": 15.0 * push}, **extra)  # fmt: skip
     scene = sensor_scene(trial.loads, get_sensor_profile("mini"), rng, jitter=False)
-    tracks = []
-    for s, name in enumerate(("left", "right")):
-        pos = scene.positions_px[s] + rng.normal(0, NOISE_PX, scene.positions_px[s].shape)
-        valid = np.ones(pos.shape[:2], bool)
-        tracks.append(MarkerTracks(scene.timestamps_s.copy(), pos, valid, pos[0].copy(), name))
-    sig = tactile_signal(tracks)
+    sig = tactile_signal(noisy_true_tracks(scene, rng, NOISE_PX))
     return sig, trial.true_decay_rate, trial.true_angular_frequency, liquid
 
 

@@ -37,6 +37,7 @@ import sys
 import time
 
 import numpy as np
+from scene_tracks import noisy_true_tracks
 
 from liquidtouch.errors import LiquidTouchError, SwallowedRingDownError
 from liquidtouch.fit_settings import FitSettings, ring_down_swallowed
@@ -59,12 +60,7 @@ def truth_tracks(seed: int) -> list[MarkerTracks]:
     liquid = LIQUIDS[seed % len(LIQUIDS)]
     trial = simulate_trial(liquid, height_mm=float(rng.uniform(18, 32)), seed=seed)
     scene = sensor_scene(trial.loads, get_sensor_profile(PROFILE), rng, jitter=False)
-    tracks = []
-    for s, name in enumerate(("left", "right")):
-        pos = scene.positions_px[s] + rng.normal(0, NOISE_PX, scene.positions_px[s].shape)
-        valid = np.ones(pos.shape[:2], bool)
-        tracks.append(MarkerTracks(scene.timestamps_s.copy(), pos, valid, pos[0].copy(), name))
-    return tracks
+    return noisy_true_tracks(scene, rng, NOISE_PX)
 
 
 def keep_frames(tracks: list[MarkerTracks], keep: list[np.ndarray]) -> list[MarkerTracks]:

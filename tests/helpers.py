@@ -1,6 +1,7 @@
 """Shared test helpers: synthetic GelSight marker images with known marker positions,
-Chromium for the browser checks, fewer random draws for the experiments, and a
-directory built once per test run however many xdist workers need it.
+Chromium for the browser checks, fewer random draws for the experiments, a
+directory built once per test run however many xdist workers need it, and a
+regression stand-in that records what the live estimator gives it.
 
 Test modules import these (``from helpers import grid, render_blobs``; ``tests/`` is on
 pytest's ``pythonpath``) instead of importing each other. The synthetic feature
@@ -110,3 +111,22 @@ def built_once(
             build(directory)
             (directory / ".complete").touch()
     return directory
+
+
+class RecordingModel:
+    """A regression model stand-in for ``live_updates``: records the features and their std
+    each refresh gives it (``calls[i]`` = (X row, X_std row)) and predicts ``i`` for target
+    ``call``, so an update says which call it came from."""
+
+    kind = "regression"
+    targets = ("call",)
+
+    def __init__(self) -> None:
+        self.calls: list[tuple[np.ndarray, np.ndarray]] = []
+
+    def predict(self, X, X_std=None):
+        self.calls.append((np.asarray(X, float)[0], np.asarray(X_std, float)[0]))
+        return {"call": (np.array([len(self.calls) - 1.0]), np.array([0.0]))}
+
+    def in_domain(self, X) -> np.ndarray:
+        return np.ones(len(X), bool)

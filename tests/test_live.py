@@ -13,6 +13,7 @@ import time
 
 import numpy as np
 import pytest
+from helpers import RecordingModel
 
 from liquidtouch.errors import ModelFileError, SignalError, VideoError
 from liquidtouch.live import LiveEstimator, live_updates, parse_until_std, stop_reached
@@ -151,34 +152,17 @@ def test_property_std_adds_the_fit_std() -> None:
     )
 
 
-class _RecordingModel:
-    """A regression stand-in that records the (λ, ω) std each refresh gives it."""
-
-    kind = "regression"
-    targets = ("call",)
-
-    def __init__(self) -> None:
-        self.stds: list[tuple[float, float]] = []
-
-    def predict(self, X, X_std=None):
-        self.stds.append(tuple(np.asarray(X_std, float)[0]))
-        return {"call": (np.array([float(len(self.stds) - 1)]), np.array([0.0]))}
-
-    def in_domain(self, X) -> np.ndarray:
-        return np.ones(len(X), bool)
-
-
 def test_a_property_model_gets_the_streamed_std_without_its_floors(trial) -> None:
     """The floors stand for the final fit's own scatter, which a model's calibration (on
     final fits) holds already: the shown λ, ω std is the model's input std plus the floor."""
     from liquidtouch.live.uncertainty import DECAY_REL_STD_FLOOR, FREQ_REL_STD_FLOOR
 
-    model = _RecordingModel()
+    model = RecordingModel()
     checked = 0
     for u in live_updates(trial[0], model=model):
         if u.final or "call" not in u.predicted:
             continue
-        lam_std, omega_std = model.stds[int(u.predicted["call"][0])]
+        _, (lam_std, omega_std) = model.calls[int(u.predicted["call"][0])]
         if math.isfinite(u.decay_rate):  # water: λ is rarely shown before the end
             shown = math.hypot(lam_std, u.decay_rate * DECAY_REL_STD_FLOOR)
             assert u.decay_rate_std == pytest.approx(shown, rel=1e-9)

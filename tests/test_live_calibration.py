@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import RecordingModel
 
 from liquidtouch.errors import SignalError
 from liquidtouch.live.calibration import coverage, coverage_interval, nominal_coverage
@@ -95,23 +96,6 @@ def test_streamed_std_covers_the_final_values(mirin_stream) -> None:
     assert coverage(omega[:, 0], omega[:, 1], final.angular_frequency)[2.0] >= 0.8
 
 
-class _RecordingModel:
-    """A regression model that records the (ω, σω) a property model gets at each refresh."""
-
-    kind = "regression"
-    targets = ("call",)
-
-    def __init__(self) -> None:
-        self.calls: list[tuple[float, float]] = []
-
-    def predict(self, X, X_std=None):
-        self.calls.append((float(X[0, 1]), float(np.asarray(X_std)[0, 1])))
-        return {"call": (np.array([len(self.calls) - 1.0]), np.array([0.0]))}
-
-    def in_domain(self, X) -> np.ndarray:
-        return np.ones(len(X), bool)
-
-
 @pytest.fixture(scope="module")
 def early_omega(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[np.ndarray, float]]:
     """Per liquid: (ω, σω) a property model gets 1-2 s into the ring-down, and the true ω."""
@@ -123,13 +107,13 @@ def early_omega(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[np.
     for liquid in ("water", "detergent"):
         simulated = simulate_trial(liquid, height_mm=25.0, seed=3, duration_s=6.0)
         root = tmp_path_factory.mktemp(liquid)
-        model = _RecordingModel()
+        model = RecordingModel()
         updates = list(live_updates(write_trial(simulated, root / "t", sensor="mini"), model=model))
-        early = [
-            model.calls[int(u.predicted["call"][0])]
-            for u in updates
-            if not u.final and "call" in u.predicted and 1.0 <= u.t_s < 2.0
-        ]
+        early = []
+        for u in updates:
+            if not u.final and "call" in u.predicted and 1.0 <= u.t_s < 2.0:
+                x, x_std = model.calls[int(u.predicted["call"][0])]
+                early.append((x[1], x_std[1]))  # (ω, σω)
         out[liquid] = (np.array(early).reshape(-1, 2), simulated.true_angular_frequency)
     return out
 

@@ -9,6 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from benchmarks.scene_tracks import noisy_true_tracks
 from liquidtouch.cli.format import gap_warning
 from liquidtouch.errors import SwallowedRingDownError
 from liquidtouch.fit_settings import FitSettings, ring_down_swallowed
@@ -89,12 +90,7 @@ def truth_tracks(liquid: str, seed: int, height_mm: float) -> tuple[list[MarkerT
     rng = np.random.default_rng(seed)
     trial = simulate_trial(liquid, height_mm=height_mm, seed=seed)
     scene = sensor_scene(trial.loads, get_sensor_profile("mini"), rng, jitter=False)
-    tracks = []
-    for s, name in enumerate(("left", "right")):
-        pos = scene.positions_px[s] + rng.normal(0, 0.01, scene.positions_px[s].shape)
-        valid = np.ones(pos.shape[:2], bool)
-        tracks.append(MarkerTracks(scene.timestamps_s.copy(), pos, valid, pos[0].copy(), name))
-    return tracks, trial
+    return noisy_true_tracks(scene, rng, 0.01), trial
 
 
 def keep_frames(tracks: list[MarkerTracks], keep: list[np.ndarray]) -> list[MarkerTracks]:

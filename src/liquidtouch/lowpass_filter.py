@@ -138,6 +138,8 @@ def lowpass_frames(
     Frames outside the clock's span are not used; at least :data:`SMOOTHER_ORDER` + 1
     must lie inside it.
     """
+    from scipy.linalg import solveh_banded  # why: SciPy loads on first use (start-up time)
+
     t_frames = finite_array(t_frames, "the frame times", min_ndim=1)
     t_clock = finite_array(t_clock, "the clock", min_ndim=1)
     if not 0 < as_number(fps) < math.inf:
@@ -167,8 +169,6 @@ def lowpass_frames(
     rows, first = np.unique(k, return_index=True)  # k never decreases: frames in order
     rhs[rows] += np.add.reduceat((1 - a)[:, None] * values, first, axis=0)
     rhs[rows + 1] += np.add.reduceat(a[:, None] * values, first, axis=0)
-    from scipy.linalg import solveh_banded
-
     out = solveh_banded(gram, rhs, check_finite=False)
     return out.reshape((n, *np.shape(y)[1:]))
 

@@ -158,7 +158,6 @@ def resample_displacement(
     whole = usable & valid.all(axis=0)  # read together, from every frame
     groups = [(np.flatnonzero(whole), np.ones(t.size, bool))] if whole.any() else []
     groups += [(np.array([i]), valid[:, i]) for i in np.flatnonzero(usable & ~whole)]
-    half = 0.5 / fps
     for markers, frames in groups:
         t_seen, seen = t[frames], disp[frames][:, markers]
         if lowpass_hz is None:
@@ -166,8 +165,7 @@ def resample_displacement(
             read = np.column_stack([np.interp(t_clock, t_seen, c) for c in flat.T])
             out[:, markers] = read.reshape(t_clock.size, -1, 2)
             continue
-        span = (t_seen >= t_clock[0] - half) & (t_seen <= t_clock[-1] + half)
-        out[:, markers] = lowpass_frames(t_seen[span], seen[span], t_clock, fps, lowpass_hz)
+        out[:, markers] = lowpass_frames(t_seen, seen, t_clock, fps, lowpass_hz)
     return out, usable
 
 

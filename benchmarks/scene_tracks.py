@@ -1,0 +1,28 @@
+"""Marker tracks without rendering: a simulated scene's true positions plus tracking noise.
+
+Shared by the benchmarks that study the signal and the fit apart from the tracker
+(``gaps.py``, ``fit_std.py``, ``fit_bias.py``) and by the tests (imported as
+``benchmarks.scene_tracks``; the scripts beside it import ``scene_tracks``). Not in the
+simulator: ``liquidtouch.sim`` must not load the estimation pipeline (``MarkerTracks``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from liquidtouch.sim.gelsight import SENSOR_NAMES, SensorScene
+from liquidtouch.tracking.tracks import MarkerTracks
+
+
+def noisy_true_tracks(
+    scene: SensorScene, rng: np.random.Generator, noise_px: float
+) -> list[MarkerTracks]:
+    """Both sensors' tracks as a tracker with ``noise_px`` [px] of Gaussian noise per
+    coordinate would give them: ``scene``'s true positions plus noise drawn from ``rng``
+    (left sensor first), every marker valid, the first (noisy) frame the reference."""
+    tracks = []
+    for s, name in enumerate(SENSOR_NAMES):
+        pos = scene.positions_px[s] + rng.normal(0, noise_px, scene.positions_px[s].shape)
+        valid = np.ones(pos.shape[:2], bool)
+        tracks.append(MarkerTracks(scene.timestamps_s.copy(), pos, valid, pos[0].copy(), name))
+    return tracks
