@@ -243,7 +243,6 @@ def test_cli_ctrl_c_leaves_no_trial(tmp_path) -> None:
     env = {
         **os.environ,
         "PYTHONPATH": os.pathsep.join([str(SRC), os.environ.get("PYTHONPATH", "")]),
-        "PYTHONFAULTHANDLER": "1",  # SIGABRT dumps every thread's stack (a hang, below)
     }
     with MjpegServer(CodedFrames(), fps=FPS) as server:
         process = subprocess.Popen(
@@ -252,6 +251,10 @@ def test_cli_ctrl_c_leaves_no_trial(tmp_path) -> None:
             stderr=subprocess.PIPE,
             text=True,
             env=env,
+            # as a terminal's Ctrl-C finds it: a suite started in the background by a
+            # non-interactive shell ignores SIGINT, and `record` inherited that (it then
+            # recorded its 30 s and exited 0; the earlier "did not exit" failures)
+            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
         )
         try:
             deadline = time.monotonic() + 30.0
@@ -261,13 +264,7 @@ def test_cli_ctrl_c_leaves_no_trial(tmp_path) -> None:
                 time.sleep(0.05)
             time.sleep(0.5)
             process.send_signal(signal.SIGINT)
-            try:
-                _, err = process.communicate(timeout=40)
-            except subprocess.TimeoutExpired:
-                # twice, in full-suite runs only, it had not exited after 20 s: say where
-                process.send_signal(signal.SIGABRT)
-                _, err = process.communicate(timeout=10)
-                pytest.fail(f"record outlived Ctrl-C by 40 s; its threads:\n{err[-6000:]}")
+            _, err = process.communicate(timeout=20)
         finally:
             if process.poll() is None:
                 process.kill()
