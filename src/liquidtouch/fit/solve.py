@@ -17,10 +17,11 @@ from liquidtouch.fit.start import profile_starts, spectral_peaks
 
 RATE_MAX = 60.0  # 1/s; far above any slosh mode at 30 Hz sampling
 DELTA_MIN = 1e-6  # 1/s; keeps λ' > λ strictly
-#: energy of each mode over the noise level needed to accept a two-mode fit: a spurious
-#: mode next to the real one can reach ~50 on single-mode signals (benchmark)
-MIN_SLOW_ENERGY_SHARE = 0.1  # slow-mode energy / fast-mode energy, at least
-MIN_MODE_CHI2 = 100.0
+#: a mode whose ω is below this many times its λ (damping ratio above 1/√2: it decays by
+#: e within a radian of its cycle and overshoots by under 4.3 %) is a transient, e.g. the
+#: push's, not the slosh (detergent's slosh: ω/λ ≈ 3-4; the push's transient beside it
+#: in a two-mode fit: 0.1-0.3)
+MIN_OSCILLATION_OMEGA_OVER_LAMBDA = 1.0
 #: above this many samples, autocorrelations are computed by FFT
 FFT_MIN_SAMPLES = 4096
 
@@ -70,9 +71,15 @@ class FitState:
         return np.arange(self.theta.size)
 
     def reported_mode(self) -> int:
-        """Which mode is the slosh (0 or 1): the less damped one, unless it is a sliver
-        next to the other (a short, heavily damped ring-down)."""
-        return int(self.n_modes == 2 and self.slow_mode_energy_share() < 1.0)
+        """Which mode is the slosh (0 or 1): the one that oscillates when the other is a
+        transient (``MIN_OSCILLATION_OMEGA_OVER_LAMBDA``), else the less damped one, unless
+        it is a sliver next to the other (a short, heavily damped ring-down)."""
+        if self.n_modes != 2:
+            return 0
+        oscillates = self.freqs >= MIN_OSCILLATION_OMEGA_OVER_LAMBDA * self.rates
+        if oscillates[0] != oscillates[1]:
+            return int(oscillates[1])
+        return int(self.slow_mode_energy_share() < 1.0)
 
     def residual(self) -> np.ndarray:
         """Unweighted residual ``u - û``."""
@@ -90,18 +97,6 @@ class FitState:
 
     def bic(self) -> float:
         return self.n * math.log(self.cost / self.n) + self.n_params * math.log(self.n)
-
-    def mode_chi2(self) -> np.ndarray:
-        """Energy Σ w m_k² of each mode, in units of the weighted noise variance."""
-        k = om.n_nonlinear(self.n_modes)
-        design = om.basis(self.tau, self.x, self.rates, self.freqs)
-        lin = self.theta[k:]
-        var_w = self.cost / (self.n - self.n_params)
-        out = []
-        for j in range(self.n_modes):
-            m = design[:, 2 * j : 2 * j + 2] @ lin[2 * j : 2 * j + 2]
-            out.append(float(np.sum((self.sqrt_w * m) ** 2)) / var_w)
-        return np.array(out)
 
     def is_weighted(self) -> bool:
         return bool(np.ptp(self.sqrt_w) > 0)
@@ -129,15 +124,6 @@ class FitState:
             m = design[:, 2 * j : 2 * j + 2] @ lin[2 * j : 2 * j + 2]
             out.append(float(m @ m) / max(local_var, 1e-300))
         return np.array(out)
-
-    def supported_over(self, single: FitState) -> bool:
-        """True when this two-mode fit is better supported than the single-mode one."""
-        return bool(
-            self.bic() < single.bic()
-            and (self.mode_chi2() >= MIN_MODE_CHI2).all()
-            and (self.mode_snr() >= MIN_MODE_CHI2).all()
-            and self.slow_mode_energy_share() >= MIN_SLOW_ENERGY_SHARE
-        )
 
     def slow_mode_energy_share(self) -> float:
         """Energy of the slow mode over the window relative to the fast mode's.
