@@ -15,7 +15,10 @@ What it does, per run (``--runs``, 40 by default; seed = run number):
      ring-down (at most the end of the recording minus the stall), from the largest
      excursion of the reference signal on;
    - ``15-18 fps``: each sensor keeps each frame independently with probability
-     (15-18 fps drawn uniformly) / 25, so gaps of 1, 2, 3, ... frames come irregularly.
+     (15-18 fps drawn uniformly) / 25, so gaps of 1, 2, 3, ... frames come irregularly;
+   - ``no gap, noise redrawn``: every frame, with the tracking noise drawn again — how
+     far the gap-free fit itself moves when only 0.01 px of noise changes, the floor
+     under which no setting's share can be expected to fall.
 
 Reported: the share of runs with λ within 5 % and ω within 0.5 % of the gap-free fit
 (a refused fit counts as outside), over all runs and over the runs where the library
@@ -42,7 +45,7 @@ from scene_tracks import noisy_true_tracks
 from liquidtouch.errors import LiquidTouchError, SwallowedRingDownError
 from liquidtouch.fit_settings import FitSettings, ring_down_swallowed
 from liquidtouch.signal import tactile_signal
-from liquidtouch.sim.gelsight import sensor_scene
+from liquidtouch.sim.gelsight import SensorScene, sensor_scene
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.tracking.tracks import MarkerTracks
@@ -52,15 +55,18 @@ STALLS_S = (0.3, 0.6, 1.0)
 PROFILE = "mini"
 NOISE_PX = 0.01
 LAMBDA_TOL, OMEGA_TOL = 0.05, 0.005
+#: the floor of the comparison: every frame kept, the 0.01 px tracking noise drawn again
+NOISE_REDRAWN = "no gap, noise redrawn"
 
 
-def truth_tracks(seed: int) -> list[MarkerTracks]:
-    """Both sensors' true marker positions of one simulated trial, with tracking noise."""
+def truth_tracks(seed: int) -> tuple[list[MarkerTracks], SensorScene]:
+    """Both sensors' true marker positions of one simulated trial, with tracking noise, and
+    the scene (to draw the noise again)."""
     rng = np.random.default_rng(seed)
     liquid = LIQUIDS[seed % len(LIQUIDS)]
     trial = simulate_trial(liquid, height_mm=float(rng.uniform(18, 32)), seed=seed)
     scene = sensor_scene(trial.loads, get_sensor_profile(PROFILE), rng, jitter=False)
-    return noisy_true_tracks(scene, rng, NOISE_PX)
+    return noisy_true_tracks(scene, rng, NOISE_PX), scene
 
 
 def keep_frames(tracks: list[MarkerTracks], keep: list[np.ndarray]) -> list[MarkerTracks]:
@@ -102,6 +108,7 @@ def settings_of(tracks, ref, rng) -> dict[str, list[np.ndarray]]:
     out["15-18 fps"] = [rng.random(tr.t.size) < p for tr in tracks]
     for k in out["15-18 fps"]:
         k[[0, -1]] = True
+    out[NOISE_REDRAWN] = [np.ones(tr.t.size, bool) for tr in tracks]
     return out
 
 
@@ -113,17 +120,21 @@ def main() -> None:
     rows: dict[str, list[tuple[float, float, bool]]] = {}
     by_liquid: dict[tuple[str, str], list[bool]] = {}
     for run in range(args.runs):
-        tracks = truth_tracks(run)
+        tracks, scene = truth_tracks(run)
         ref = fit(tracks)
         if not math.isfinite(ref[0]):
             print(f"run {run}: the gap-free fit failed", file=sys.stderr)
             continue
         rng = np.random.default_rng(10_000 + run)
         liquid = LIQUIDS[run % len(LIQUIDS)]
+        redrawn = noisy_true_tracks(scene, np.random.default_rng(20_000 + run), NOISE_PX)
         for name, keep in settings_of(tracks, ref, rng).items():
-            if name.startswith("stall"):
-                keep.pop()
-            lam, omega, _, _, swallowed = fit(keep_frames(tracks, keep))
+            if name == NOISE_REDRAWN:
+                lam, omega, _, _, swallowed = fit(redrawn)
+            else:
+                if name.startswith("stall"):
+                    keep.pop()
+                lam, omega, _, _, swallowed = fit(keep_frames(tracks, keep))
             err = (abs(lam / ref[0] - 1), abs(omega / ref[1] - 1))
             rows.setdefault(name, []).append((*err, swallowed))
             ok = err[0] <= LAMBDA_TOL and err[1] <= OMEGA_TOL

@@ -22,6 +22,12 @@ DELTA_MIN = 1e-6  # 1/s; keeps λ' > λ strictly
 #: push's, not the slosh (detergent's slosh: ω/λ ≈ 3-4; the push's transient beside it
 #: in a two-mode fit: 0.1-0.3)
 MIN_OSCILLATION_OMEGA_OVER_LAMBDA = 1.0
+#: a slow mode with less energy than this share of the fast mode's is a sliver (drift or
+#: noise locked onto beside a short, heavily damped ring-down), not the slosh: slivers
+#: on simulated trials 0.001-0.15 (detergent, ``tests/data/detergent_short_ringdown.csv``
+#: 0.10); the slow mode of exact two-mode signals whose optimum shares the energy
+#: differently from the truth 0.69-0.72 (``benchmarks/fit_accuracy.py``)
+SLIVER_ENERGY_SHARE = 0.3
 #: above this many samples, autocorrelations are computed by FFT
 FFT_MIN_SAMPLES = 4096
 
@@ -79,7 +85,7 @@ class FitState:
         oscillates = self.freqs >= MIN_OSCILLATION_OMEGA_OVER_LAMBDA * self.rates
         if oscillates[0] != oscillates[1]:
             return int(oscillates[1])
-        return int(self.slow_mode_energy_share() < 1.0)
+        return int(self.slow_mode_energy_share() < SLIVER_ENERGY_SHARE)
 
     def residual(self) -> np.ndarray:
         """Unweighted residual ``u - û``."""
