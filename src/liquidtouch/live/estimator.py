@@ -3,7 +3,8 @@
 :class:`LiveEstimator` does not know where frames come from:
 ``add_frame(sensor, t_s, image)`` tracks the frame's markers at once (the only
 per-frame work) and, every :data:`REFRESH_S` of stream time, refreshes the
-estimate (:func:`~liquidtouch.live.refresh.refresh`) — on a worker thread when
+estimate (its segments, then each ring-down's fit: :mod:`liquidtouch.live.refresh`,
+:mod:`liquidtouch.live.ring_downs`) — on a worker thread when
 ``threaded`` (so a slow fit never holds up the frames; a refresh due while one
 runs waits for it), else in the call. ``add_frame`` returns the update of a
 refresh that finished, else ``None``; :meth:`LiveEstimator.finish` fits the

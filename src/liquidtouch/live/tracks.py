@@ -123,11 +123,6 @@ class GrowingTracks:
         return self.t[self.n - 1] if self.n else float("nan")
 
     @property
-    def window_start_s(self) -> float:
-        """Where :meth:`snapshot` begins [s, shared clock]: the oldest frame in the window."""
-        return float(self.t[self._first_in_window()]) if self.n else float("nan")
-
-    @property
     def cut(self) -> bool:
         """Whether frames before the window were left out (the stream outgrew it)."""
         return self.total > self.n - self._first_in_window() if self.n else False

@@ -93,16 +93,6 @@ class FrameStats:
         span = self.last_t_s - self.first_t_s
         return (self.frames - 1) / span if span > 0 else None
 
-    def as_dict(self) -> dict[str, object]:
-        return {
-            "frames": self.frames,
-            "measured_fps": self.measured_fps,
-            "drops": self.drops,
-            "duplicates": self.duplicates,
-            "first_t_s": self.first_t_s,
-            "last_t_s": self.last_t_s,
-        }
-
 
 # --- threads ----------------------------------------------------------------------------
 

@@ -81,11 +81,6 @@ class SenderClock:
         self.window_s = float(window_s)
         self._recent: deque[tuple[float, float]] = deque()  # (arrival, offset), offsets rising
 
-    @property
-    def offset_s(self) -> float | None:
-        """The current offset [s] (``None`` before the first frame)."""
-        return self._recent[0][1] if self._recent else None
-
     def to_local(self, sender_s: float, arrival_s: float) -> float:
         offset = arrival_s - sender_s
         while self._recent and self._recent[-1][1] >= offset:
@@ -205,10 +200,6 @@ class MjpegStream:
         except (OSError, http.client.HTTPException) as exc:
             raise DeviceError(f"stream {self.url} broke off: {exc}") from None
         return time.monotonic(), headers, body
-
-    def set_read_timeout(self, timeout_s: float) -> None:
-        """Give each later :meth:`read_part` at most ``timeout_s`` [s] as a whole."""
-        self.read_timeout_s = float(timeout_s)
 
     def interrupt(self) -> None:
         """Wake a read blocked on the socket (from another thread): it fails at once."""

@@ -176,11 +176,6 @@ class MjpegServer:
         host, port = self._server.server_address[:2]
         return f"http://{host}:{port}{STREAM_PATH}"
 
-    @property
-    def frames_captured(self) -> int:
-        """How many frames the producer has captured so far."""
-        return len(self.sent_timestamps)
-
     def start(self) -> MjpegServer:
         """Bind the socket, start producing frames and serving clients; return ``self``."""
         if self._server is not None:
