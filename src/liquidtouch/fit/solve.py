@@ -20,7 +20,7 @@ DELTA_MIN = 1e-6  # 1/s; keeps λ' > λ strictly
 #: a mode whose ω is below this many times its λ (damping ratio above 1/√2: it decays by
 #: e within a radian of its cycle and overshoots by under 4.3 %) is a transient, e.g. the
 #: push's, not the slosh (detergent's slosh: ω/λ ≈ 3-4; the push's transient beside it
-#: in a two-mode fit: 0.1-0.3)
+#: in a two-mode fit: 0.1-0.35)
 MIN_OSCILLATION_OMEGA_OVER_LAMBDA = 1.0
 #: a slow mode with less energy than this share of the fast mode's is a sliver (drift or
 #: noise locked onto beside a short, heavily damped ring-down), not the slosh: slivers
