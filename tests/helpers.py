@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 from scipy.special import erf
 
-from liquidtouch.experiments import data_efficiency, transfer
+from liquidtouch.experiments import data_efficiency, reproduce, transfer
 
 
 def render_blobs(positions: np.ndarray, shape=(160, 200), radius=4.5, gain=1.0, noise=0.0, seed=0):
@@ -85,6 +85,7 @@ def fewer_experiment_draws(patch: pytest.MonkeyPatch) -> None:
     patch.setattr(data_efficiency, "REPEATS", 1)
     patch.setattr(transfer, "SIZES", (5, 15))
     patch.setattr(transfer, "REPEATS", 2)
+    patch.setattr(reproduce, "STREAMED_TRIALS_QUICK", 1)  # experiment 9: one replayed trial
 
 
 def built_once(

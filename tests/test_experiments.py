@@ -182,7 +182,9 @@ def test_an_experiment_the_data_cannot_support_is_reported_not_fatal(
     titles = [r.title for r in results]
     assert titles[0] == "1. Liquid classification (not run)"
     assert "at least 3 rows per class" in results[0].summary
-    assert sum(title.endswith("(not run)") for title in titles) == 2  # 1 and 2 (the GelSight part)
+    # 1 and 2 (the GelSight part), and 9: no recordings to replay beside synthetic tables
+    assert sum(title.endswith("(not run)") for title in titles) == 3
+    assert titles[-1] == "9. Time to answer, streamed (ours) (not run)"
     assert results[2].headlines  # sugar water and the rest still ran
 
 
@@ -251,6 +253,10 @@ def test_reproduce_end_to_end_through_videos(tmp_path, monkeypatch) -> None:
     np.testing.assert_allclose(
         features["angular_frequency"], features["true_angular_frequency"], rtol=0.01
     )
+    # experiment 9 replayed a sugar-water test trial through the live estimator
+    assert "<h2>9. Time to answer, streamed (ours)</h2>" in page
+    assert (out / "time_to_answer.png").is_file()
+    assert "median ring-down time to a height within 1 mm for good" in summary.index
     # the F/T figure shows a trial's signals: it is wider than the accuracy bars alone
     from PIL import Image
 
@@ -291,5 +297,5 @@ def test_demo_prints_a_line_per_stage_when_stderr_is_not_a_terminal(tmp_path, ca
     assert [s.split(":")[0] for s in stages[: len(rep.DATASETS)]] == [
         f"dataset {i}/{len(rep.DATASETS)}" for i in range(1, len(rep.DATASETS) + 1)
     ]
-    assert stages[-2:] == ["the seven experiments", "writing the report to nowhere-report"]
+    assert stages[-2:] == ["the experiments", "writing the report to nowhere-report"]
     assert lines[-1] == "error: stopped before the report (test)"
