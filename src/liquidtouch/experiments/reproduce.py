@@ -57,7 +57,7 @@ __all__ = [
 DATASETS = ("classification", "sugar", "other-liquids", "containers")
 #: sugar-water test trials experiment 9 streams through the live estimator (~2 CPU-s each
 #: on the Mini), and in a quick reproduction
-STREAMED_TRIALS, STREAMED_TRIALS_QUICK = 12, 3
+STREAMED_TRIALS, STREAMED_TRIALS_QUICK = 12, 2
 #: the classification dataset's wrist feature tables: feature source -> file name
 WRENCH_TABLES = {
     "wrench": "features_wrench.csv",

@@ -153,7 +153,7 @@ def _coverage(stream: pd.DataFrame, targets: list[str]) -> pd.DataFrame:
                     "target": TARGETS[target],
                     "ring-down": label,
                     "n": n,
-                    "median |error|": float(np.median(err[inside])) if n else math.nan,
+                    "median abs. error": float(np.median(err[inside])) if n else math.nan,
                     "±1σ [%]": 100 * float(np.mean(z[inside] <= 1)) if n else math.nan,
                     "±2σ [%]": 100 * float(np.mean(z[inside] <= 2)) if n else math.nan,
                 }
