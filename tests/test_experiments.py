@@ -299,3 +299,35 @@ def test_demo_prints_a_line_per_stage_when_stderr_is_not_a_terminal(tmp_path, ca
     ]
     assert stages[-2:] == ["the experiments", "writing the report to nowhere-report"]
     assert lines[-1] == "error: stopped before the report (test)"
+
+
+def test_reproduce_simulates_with_the_sensor_asked_for_and_keeps_its_data_apart(
+    tmp_path, monkeypatch, capsys
+):
+    """`reproduce --sensor mini` (the full sizes at a third of the cost): every dataset is
+    simulated with that profile, under its own data directory; an unknown name is refused
+    before anything is simulated."""
+    import liquidtouch.experiments.reproduce as rep
+    from liquidtouch.cli import main
+    from liquidtouch.errors import LiquidTouchError
+
+    asked = []
+    monkeypatch.setattr(rep, "prepare_dataset", lambda preset, root, **k: asked.append((root, k)))
+    monkeypatch.setattr(rep, "run_experiments", lambda *a, **k: [])
+
+    def stop(*args, **kwargs):
+        raise LiquidTouchError("stopped before the report (test)")
+
+    monkeypatch.setattr(rep, "write_report", stop)
+    monkeypatch.setattr(rep, "failure_note", lambda features: "")
+    out = tmp_path / "report"
+    assert main(["reproduce", "--sensor", "mini", "--out", str(out)]) == 2
+    assert [k["sensor"] for _, k in asked] == ["mini"] * len(rep.DATASETS)
+    assert {root.parent for root, _ in asked} == {tmp_path / "report-data" / "full-seed0-mini"}
+    asked.clear()
+    assert main(["reproduce", "--quick", "--out", str(out)]) == 2  # the quick run's own: mini
+    assert {root.parent for root, _ in asked} == {tmp_path / "report-data" / "quick-seed0"}
+    capsys.readouterr()
+    assert main(["reproduce", "--sensor", "nope", "--out", str(tmp_path / "other")]) == 2
+    assert "nope" in capsys.readouterr().err
+    assert not (tmp_path / "other-data").exists() and not (tmp_path / "other").exists()

@@ -123,10 +123,12 @@ def prepare_dataset(
     progress: bool,
     seed: int = 0,
     realism: str = "clean",
+    sensor: str | None = None,
 ) -> dict[str, pd.DataFrame]:
     """Simulate ``preset`` into ``root`` unless it is there; return its feature tables.
 
-    ``realism`` is the simulated world (``clean`` or ``lab``: :mod:`liquidtouch.sim.realism`).
+    ``realism`` is the simulated world (``clean`` or ``lab``: :mod:`liquidtouch.sim.realism`);
+    ``sensor`` the GelSight profile (default: :func:`sensor_for` the size).
     """
 
     if not (root / MANIFEST_NAME).is_file():
@@ -137,7 +139,7 @@ def prepare_dataset(
             root,
             jobs=jobs,
             progress=progress,
-            sensor=sensor_for(quick),
+            sensor=sensor or sensor_for(quick),
             realism=realism,
             # each worker extracts a trial as soon as it has written it: no separate
             # extraction pass (extract_features below reads the cache; without Dask)
@@ -273,6 +275,7 @@ def reproduce(
     data_dir: str | Path | None = None,
     seed: int = 0,
     realism: str = "clean",
+    sensor: str | None = None,
     on_stage: Callable[[str], None] | None = None,
 ) -> Reproduction:
     """Simulate, extract, run the experiments and write ``report.md`` / ``report.html``.
@@ -286,13 +289,18 @@ def reproduce(
     is the base seed of the simulated trials and of the experiments' random draws.
     ``realism`` ``"lab"`` simulates a real bench's nuisances on top of the clean
     world (:mod:`liquidtouch.sim.realism`); its data go to ``...-seed<seed>-lab``
-    and the report says which world it ran in.
+    and the report says which world it ran in. ``sensor`` is the GelSight profile of the
+    simulated videos (default: :func:`sensor_for` the size, the Mini for ``quick``); another
+    than the size's default puts the data under ``...-seed<seed>-<sensor>``.
     """
 
     world = get_realism(realism)
+    profile = get_sensor_profile(sensor or sensor_for(quick))  # an unknown name fails here
     out = Path(out_dir)
     data = Path(data_dir) if data_dir is not None else default_data_dir(out)
     suffix = "" if world.is_clean else f"-{world.world}"
+    if profile.name != sensor_for(quick):
+        suffix += f"-{profile.name}"
     data_root = data / f"{'quick' if quick else 'full'}-seed{seed}{suffix}"
     seconds: dict[str, float] = {}
     features: dict[str, dict[str, pd.DataFrame]] = {}
@@ -316,6 +324,7 @@ def reproduce(
             progress=progress,
             seed=seed,
             realism=world.world,
+            sensor=profile.name,
         )
         seconds[f"data: {preset}"] = time.perf_counter() - start
 
@@ -331,10 +340,9 @@ def reproduce(
     timing = ", ".join(f"{k} {v:.0f} s" for k, v in seconds.items())
     if reused:  # their simulation (and cached features) came from an earlier run
         timing += f" (simulated in an earlier run, not timed here: {', '.join(reused)})"
-    sensor = get_sensor_profile(sensor_for(quick))
     sensor_text = (
-        f"{'GelSight Mini, ' if sensor.name == 'mini' else ''}profile `{sensor.name}`: "
-        f"{sensor.width_px}×{sensor.height_px} px, {sensor.fps:g} fps"
+        f"{'GelSight Mini, ' if profile.name == 'mini' else ''}profile `{profile.name}`: "
+        f"{profile.width_px}×{profile.height_px} px, {profile.fps:g} fps"
     )
     world_text = (
         "the clean simulated world (no bench nuisances)"
