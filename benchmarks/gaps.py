@@ -41,7 +41,7 @@ import sys
 import time
 
 import numpy as np
-from scene_tracks import noisy_true_tracks
+from scene_tracks import keep_frames, noisy_true_tracks
 
 from liquidtouch.errors import LiquidTouchError, SwallowedRingDownError
 from liquidtouch.fit_settings import FitSettings, ring_down_swallowed
@@ -70,46 +70,39 @@ def truth_tracks(seed: int) -> tuple[list[MarkerTracks], SensorScene]:
     return noisy_true_tracks(scene, rng, NOISE_PX), scene
 
 
-def keep_frames(tracks: list[MarkerTracks], keep: list[np.ndarray]) -> list[MarkerTracks]:
-    return [
-        MarkerTracks(tr.t[k], tr.positions[k], tr.valid[k], tr.reference, tr.sensor)
-        for tr, k in zip(tracks, keep, strict=True)
-    ]
-
-
-def fit(tracks: list[MarkerTracks]) -> tuple[float, float, float, float, bool]:
-    """(λ, ω, decay start [s], ring-down above the noise [s], the library reported that a
-    gap swallowed the ring-down) of the default fit; NaN when refused. The ring-down
-    lasts until the fitted envelope falls to the noise: ln(amplitude / noise std) / λ."""
+def fit(tracks: list[MarkerTracks]) -> tuple[float, float, float, bool]:
+    """(λ, ω, decay start [s], the library reported that a gap swallowed the ring-down) of
+    the default fit; NaN when refused."""
     try:
         sig = tactile_signal(tracks)
         result = FitSettings().fit(sig.t, sig.u)
     except SwallowedRingDownError:  # refused, naming the gap
-        return math.nan, math.nan, math.nan, math.nan, True
+        return math.nan, math.nan, math.nan, True
     except LiquidTouchError:
-        return math.nan, math.nan, math.nan, math.nan, False
-    ring = math.log(max(abs(result.amplitude) / result.noise_std, 1.0)) / result.decay_rate
-    swallowed = ring_down_swallowed(result)
-    return result.decay_rate, result.angular_frequency, result.t0, ring, swallowed
+        return math.nan, math.nan, math.nan, False
+    return result.decay_rate, result.angular_frequency, result.t0, ring_down_swallowed(result)
 
 
-def settings_of(tracks, ref, rng) -> dict[str, list[np.ndarray]]:
-    """The frames kept by each setting (module docstring, 3)."""
-    lam, _, start, *_ = ref
+def setting_tracks(
+    tracks: list[MarkerTracks], redrawn: list[MarkerTracks], ref: tuple, rng: np.random.Generator
+) -> dict[str, list[MarkerTracks]]:
+    """Each setting's tracks (module docstring, 3): ``tracks`` with frames taken out, or
+    ``redrawn`` (the same scene with its noise drawn again)."""
+    lam, _, start, _ = ref
     t = tracks[0].t
     out = {}
     for stall in STALLS_S:
         latest = min(start + 3.0 / lam, t[-1] - stall - 0.5)
         begin = rng.uniform(start, max(latest, start))
-        gone = (t > begin) & (t < begin + stall)
-        out[f"stall {stall:g} s"] = [~gone, ~gone]
-        out[f"stall {stall:g} s"].append(begin)  # type: ignore[arg-type]
+        kept = ~((t > begin) & (t < begin + stall))
+        out[f"stall {stall:g} s"] = keep_frames(tracks, [kept, kept])
     fps = rng.uniform(15, 18)
     p = fps / get_sensor_profile(PROFILE).fps
-    out["15-18 fps"] = [rng.random(tr.t.size) < p for tr in tracks]
-    for k in out["15-18 fps"]:
+    keep = [rng.random(tr.t.size) < p for tr in tracks]
+    for k in keep:
         k[[0, -1]] = True
-    out[NOISE_REDRAWN] = [np.ones(tr.t.size, bool) for tr in tracks]
+    out["15-18 fps"] = keep_frames(tracks, keep)
+    out[NOISE_REDRAWN] = redrawn
     return out
 
 
@@ -129,13 +122,8 @@ def main() -> None:
         rng = np.random.default_rng(10_000 + run)
         liquid = LIQUIDS[run % len(LIQUIDS)]
         redrawn = noisy_true_tracks(scene, np.random.default_rng(20_000 + run), NOISE_PX)
-        for name, keep in settings_of(tracks, ref, rng).items():
-            if name == NOISE_REDRAWN:
-                lam, omega, _, _, swallowed = fit(redrawn)
-            else:
-                if name.startswith("stall"):
-                    keep.pop()
-                lam, omega, _, _, swallowed = fit(keep_frames(tracks, keep))
+        for name, setting in setting_tracks(tracks, redrawn, ref, rng).items():
+            lam, omega, _, swallowed = fit(setting)
             err = (abs(lam / ref[0] - 1), abs(omega / ref[1] - 1))
             rows.setdefault(name, []).append((*err, swallowed))
             ok = err[0] <= LAMBDA_TOL and err[1] <= OMEGA_TOL

@@ -1,4 +1,5 @@
-"""Marker tracks without rendering: a simulated scene's true positions plus tracking noise.
+"""Marker tracks without rendering: a simulated scene's true positions plus tracking noise,
+and the same tracks with frames taken out.
 
 Shared by the benchmarks that study the signal and the fit apart from the tracker
 (``gaps.py``, ``fit_std.py``, ``fit_bias.py``) and by the tests (imported as
@@ -26,3 +27,11 @@ def noisy_true_tracks(
         valid = np.ones(pos.shape[:2], bool)
         tracks.append(MarkerTracks(scene.timestamps_s.copy(), pos, valid, pos[0].copy(), name))
     return tracks
+
+
+def keep_frames(tracks: list[MarkerTracks], keep: list[np.ndarray]) -> list[MarkerTracks]:
+    """``tracks`` with only the frames ``keep`` (one boolean mask per sensor) says came."""
+    return [
+        MarkerTracks(tr.t[k], tr.positions[k], tr.valid[k], tr.reference, tr.sensor)
+        for tr, k in zip(tracks, keep, strict=True)
+    ]

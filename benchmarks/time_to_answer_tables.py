@@ -13,27 +13,17 @@ from pathlib import Path
 
 import numpy as np
 
+from liquidtouch.experiments.time_to_answer import BINS_S, TOLERANCES, settle_time_s
 from liquidtouch.live.calibration import COVERAGE_KS, coverage, nominal_coverage
 from liquidtouch.live.uncertainty import DECAY_REL_STD_FLOOR, FREQ_REL_STD_FLOOR
 
 TEST_LIQUIDS = ("water", "olive-oil", "corn-oil", "mirin", "detergent", "sugar-water")
 TARGETS = ("height_mm", "log10_viscosity_cst")
-TOLERANCE = {"height_mm": 1.0, "log10_viscosity_cst": 0.1}
 KINDS = ("gpr", "physics-gpr")
-#: ring-down time bins of the coverage table [s]
-TIME_BINS = ((0.0, 1.0), (1.0, 2.0), (2.0, 4.0), (4.0, 6.0), (6.0, math.inf))
 #: a property is reported once its std is at most this (the stream's --until-std)
 REPORT_STD = {"height_mm": 1.0, "log10_viscosity_cst": 0.1}
 #: liquids a sugar-water-only model is judged on
 OTHER_LIQUIDS = ("olive-oil", "corn-oil", "mirin")
-
-
-def time_to_answer(t_s: np.ndarray, ok: np.ndarray) -> float:
-    """Ring-down time [s] from which every update (the last included) is ``ok``; inf if never."""
-    if not ok[-1]:
-        return math.inf
-    bad = np.flatnonzero(~ok)
-    return float(t_s[bad[-1] + 1] if bad.size else t_s[0])
 
 
 def quantiles(values: list[float]) -> str:
@@ -110,11 +100,11 @@ def report_time_to_answer(tests: list[dict]) -> None:
                 for target in TARGETS:
                     mean, _ = reported(test, kind, target)
                     with np.errstate(invalid="ignore"):
-                        ok = np.abs(mean - test["truth"][target]) <= TOLERANCE[target]
-                    cells[target].append(time_to_answer(t_s, ok))
+                        ok = np.abs(mean - test["truth"][target]) <= TOLERANCES[target]
+                    cells[target].append(settle_time_s(t_s, ok))
                     ok_all = ok if ok_all is None else ok_all & ok
                     errs[target].append(abs(mean[-1] - test["truth"][target]))
-                cells["both"].append(time_to_answer(t_s, ok_all))
+                cells["both"].append(settle_time_s(t_s, ok_all))
                 record.append(t_s[-1])
             line = " ".join(f"{quantiles(cells[c]):>13s}" for c in (*TARGETS, "both"))
             print(
@@ -135,7 +125,7 @@ def coverage_cells(z_rows: list[tuple[float, float, float, float]], lo: float, h
 
 
 def report_coverage(tests: list[dict]) -> None:
-    bins = [f"{lo:g}-{hi:g} s" if math.isfinite(hi) else f"≥{lo:g} s" for lo, hi in TIME_BINS]
+    bins = [f"{lo:g}-{hi:g} s" if math.isfinite(hi) else f"≥{lo:g} s" for lo, hi in BINS_S]
     nominal = ", ".join(f"±{k:g}σ {nominal_coverage(k):.0%}" for k in COVERAGE_KS)
     for title, gated in (("every refresh", False), ("reported values only", True)):
         print(
@@ -159,7 +149,7 @@ def report_coverage(tests: list[dict]) -> None:
                         for t, m, s in zip(t_s[:-1], mean[:-1], std[:-1], strict=True)
                     ]
                     final.append((0.0, mean[-1], std[-1], truth))
-                cells = [coverage_cells(stream, lo, hi) for lo, hi in TIME_BINS]
+                cells = [coverage_cells(stream, lo, hi) for lo, hi in BINS_S]
                 cells.append(coverage_cells(final, 0.0, math.inf))
                 print(f"{kind + ' ' + target:30s} " + " ".join(cells))
     for col, name in ((1, "λ (of the final λ)"), (3, "ω (of the final ω)")):
@@ -170,7 +160,7 @@ def report_coverage(tests: list[dict]) -> None:
                 (t, v, s, r[-1, col])
                 for t, v, s in zip(r[:-1, 0], r[:-1, col], shown[:-1], strict=True)
             ]
-        cells = [coverage_cells(rows, lo, hi) for lo, hi in TIME_BINS]
+        cells = [coverage_cells(rows, lo, hi) for lo, hi in BINS_S]
         print(f"{'streamed ' + name:30s} " + " ".join(cells))
 
 
@@ -196,19 +186,19 @@ def plot(tests: list[dict], path: Path) -> Path:
 
     fig, axes = plt.subplots(2, 2, figsize=(11, 7))
     colours = dict(zip(TEST_LIQUIDS, plt.cm.tab10.colors, strict=False))
-    centres = [lo + (min(hi, lo + 2.0) - lo) / 2 for lo, hi in TIME_BINS]
+    centres = [lo + (min(hi, lo + 2.0) - lo) / 2 for lo, hi in BINS_S]
     for col, target in enumerate(TARGETS):
         ax = axes[0, col]
         for test in tests:
             t_s, mean = test["rows"][:, 0], test["pred"]["gpr"][target][:, 0]
             ax.plot(t_s, np.abs(mean - test["truth"][target]), color=colours[test["liquid"]])
-        ax.axhline(TOLERANCE[target], color="k", ls="--", lw=1)
+        ax.axhline(TOLERANCES[target], color="k", ls="--", lw=1)
         ax.set(yscale="log", xlabel="ring-down time [s]", ylabel=f"GPR |error| of {target}")
         ax = axes[1, col]
         for kind, style in zip(KINDS, ("-", ":"), strict=True):
             for k in COVERAGE_KS:
                 fractions = []
-                for lo, hi in TIME_BINS:
+                for lo, hi in BINS_S:
                     rows = [
                         (m, s, test["truth"][target])
                         for test in tests

@@ -276,20 +276,27 @@ def test_reproduce_end_to_end_through_videos(tmp_path, monkeypatch) -> None:
     )
 
 
-def test_demo_prints_a_line_per_stage_when_stderr_is_not_a_terminal(tmp_path, capsys, monkeypatch):
-    """Campaign: `demo` piped into a log printed nothing for minutes."""
+def _stop_before_the_report(monkeypatch, prepare_dataset) -> None:
+    """A reproduction that runs no simulation or experiment: ``prepare_dataset`` stands in
+    for the datasets, and writing the report fails (the command exits 2)."""
     import liquidtouch.experiments.reproduce as rep
-    from liquidtouch.cli import main
     from liquidtouch.errors import LiquidTouchError
-
-    monkeypatch.setattr(rep, "prepare_dataset", lambda *a, **k: {})
-    monkeypatch.setattr(rep, "run_experiments", lambda *a, **k: [])
 
     def stop(*args, **kwargs):
         raise LiquidTouchError("stopped before the report (test)")
 
+    monkeypatch.setattr(rep, "prepare_dataset", prepare_dataset)
+    monkeypatch.setattr(rep, "run_experiments", lambda *a, **k: [])
     monkeypatch.setattr(rep, "write_report", stop)
     monkeypatch.setattr(rep, "failure_note", lambda features: "")
+
+
+def test_demo_prints_a_line_per_stage_when_stderr_is_not_a_terminal(tmp_path, capsys, monkeypatch):
+    """Campaign: `demo` piped into a log printed nothing for minutes."""
+    import liquidtouch.experiments.reproduce as rep
+    from liquidtouch.cli import main
+
+    _stop_before_the_report(monkeypatch, lambda *a, **k: {})
     monkeypatch.chdir(tmp_path)
     assert main(["demo", "--out", "nowhere-report"]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
@@ -309,17 +316,9 @@ def test_reproduce_simulates_with_the_sensor_asked_for_and_keeps_its_data_apart(
     before anything is simulated."""
     import liquidtouch.experiments.reproduce as rep
     from liquidtouch.cli import main
-    from liquidtouch.errors import LiquidTouchError
 
     asked = []
-    monkeypatch.setattr(rep, "prepare_dataset", lambda preset, root, **k: asked.append((root, k)))
-    monkeypatch.setattr(rep, "run_experiments", lambda *a, **k: [])
-
-    def stop(*args, **kwargs):
-        raise LiquidTouchError("stopped before the report (test)")
-
-    monkeypatch.setattr(rep, "write_report", stop)
-    monkeypatch.setattr(rep, "failure_note", lambda features: "")
+    _stop_before_the_report(monkeypatch, lambda preset, root, **k: asked.append((root, k)))
     out = tmp_path / "report"
     assert main(["reproduce", "--sensor", "mini", "--out", str(out)]) == 2
     assert [k["sensor"] for _, k in asked] == ["mini"] * len(rep.DATASETS)

@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from benchmarks.scene_tracks import noisy_true_tracks
+from benchmarks.scene_tracks import keep_frames, noisy_true_tracks
 from liquidtouch.cli.format import gap_warning
 from liquidtouch.errors import SwallowedRingDownError
 from liquidtouch.fit_settings import FitSettings, ring_down_swallowed
@@ -91,13 +91,6 @@ def truth_tracks(liquid: str, seed: int, height_mm: float) -> tuple[list[MarkerT
     trial = simulate_trial(liquid, height_mm=height_mm, seed=seed)
     scene = sensor_scene(trial.loads, get_sensor_profile("mini"), rng, jitter=False)
     return noisy_true_tracks(scene, rng, 0.01), trial
-
-
-def keep_frames(tracks: list[MarkerTracks], keep: list[np.ndarray]) -> list[MarkerTracks]:
-    return [
-        MarkerTracks(tr.t[k], tr.positions[k], tr.valid[k], tr.reference, tr.sensor)
-        for tr, k in zip(tracks, keep, strict=True)
-    ]
 
 
 def fit(tracks: list[MarkerTracks]):

@@ -65,6 +65,15 @@ def settle_time_s(t_s: np.ndarray, right: np.ndarray) -> float:
     return float(t_s[0] if not len(wrong) else t_s[wrong[-1] + 1])
 
 
+def _symbol(target: str) -> str:
+    """The target's short name in the tables (``h`` of ``h [mm]``)."""
+    return TARGETS[target].split(" ")[0]
+
+
+def _settle_column(target: str) -> str:
+    return f"{_symbol(target)} right from [s]"
+
+
 def run(
     model, sugar_table: pd.DataFrame, dataset_root: Path | None, out_dir: Path, n_trials: int
 ) -> ExperimentResult:
@@ -87,15 +96,13 @@ def run(
             continue
         entry = {"trial": row["trial"], "h [mm]": float(row["height_mm"])}
         for target in targets:
-            truth = float(row[target])
-            stream[f"{target}_truth"] = truth
-            ok = stream[target].notna().to_numpy()
-            err = np.abs(stream[target].to_numpy()[ok] - truth)
-            name = TARGETS[target].split(" ")[0]
-            entry[f"{name} right from [s]"] = settle_time_s(
-                stream["t_s"].to_numpy()[ok], err <= TOLERANCES[target]
+            stream[f"{target}_error"] = stream[target] - float(row[target])
+            shown = stream[stream[target].notna()]
+            err = shown[f"{target}_error"].abs().to_numpy()
+            entry[_settle_column(target)] = settle_time_s(
+                shown["t_s"].to_numpy(), err <= TOLERANCES[target]
             )
-            entry[f"{name} final error"] = float(err[-1]) if len(err) else math.nan
+            entry[f"{_symbol(target)} final error"] = float(err[-1]) if len(err) else math.nan
         entry["what happened"] = ""
         trials.append(entry)
         streams.append(stream)
@@ -104,8 +111,7 @@ def run(
     per_trial = pd.DataFrame(trials)
     coverage = _coverage(pd.concat(streams, ignore_index=True), targets)
     figure = _figure(streams, coverage, targets, Path(out_dir) / "time_to_answer.png")
-    h = TARGETS["height_mm"].split(" ")[0]
-    settle = per_trial.get(f"{h} right from [s]", pd.Series(dtype=float)).dropna()
+    settle = per_trial.get(_settle_column("height_mm"), pd.Series(dtype=float)).dropna()
     median_s = float(np.median(settle)) if len(settle) else math.nan
     summary = (
         f"{len(streams)} sugar-water test trials replayed through the live estimator "
@@ -142,8 +148,8 @@ def _coverage(stream: pd.DataFrame, targets: list[str]) -> pd.DataFrame:
     rows = []
     for target in targets:
         rows_t = stream[stream[target].notna()]
-        z = np.abs(rows_t[target] - rows_t[f"{target}_truth"]) / rows_t[f"{target}_std"]
-        err = np.abs(rows_t[target] - rows_t[f"{target}_truth"])
+        err = rows_t[f"{target}_error"].abs()
+        z = err / rows_t[f"{target}_std"]
         for lo, hi in BINS_S:
             inside = ((rows_t["t_s"] >= lo) & (rows_t["t_s"] < hi)).to_numpy()
             label = f"{lo:g}-{hi:g} s" if math.isfinite(hi) else f"≥ {lo:g} s"
@@ -167,9 +173,8 @@ def _figure(streams: list[pd.DataFrame], coverage: pd.DataFrame, targets, path: 
     fig, axes = plt.subplots(1, len(targets) + 1, figsize=(5.0 * (len(targets) + 1), 4.2))
     for ax, target in zip(axes, targets, strict=False):
         for stream in streams:
-            ok = stream[target].notna()
-            err = stream.loc[ok, target] - stream.loc[ok, f"{target}_truth"]
-            ax.plot(stream.loc[ok, "t_s"], err, lw=1, alpha=0.7)
+            shown = stream[stream[target].notna()]
+            ax.plot(shown["t_s"], shown[f"{target}_error"], lw=1, alpha=0.7)
         tol, unit = TOLERANCES[target], TARGETS[target].split("[")[-1].rstrip("]")
         ax.axhspan(-tol, tol, color="0.85", zorder=0, label=f"±{tol:g} {unit}")
         ax.set(xlabel="ring-down time [s]", ylabel=f"streamed − true {TARGETS[target]}")
