@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from liquidtouch._core.pool import open_executor, run_each
 from liquidtouch.batch.features import cache_trial_features, extract_features
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.experiments import (
@@ -194,6 +195,71 @@ def _attempt(
         return _not_run(key, title, exc)
 
 
+#: the report's order of the experiments (their ``ExperimentResult.key``)
+EXPERIMENT_ORDER = (
+    "classification",
+    "force_torque",
+    "sugar",
+    "other_liquids",
+    "containers",
+    "data_efficiency",
+    "transfer",
+    "calibration",
+    "time_to_answer",
+)
+
+
+def _classification_chain(classes: dict[str, pd.DataFrame], out: Path, root: Path | None):
+    """Experiments 1 and 2 (the classification dataset)."""
+    return [
+        _attempt("classification", "1. Liquid classification", classification.run,
+                 classes["gelsight"], out),
+        _attempt("force_torque", "2. GelSight vs wrist force-torque sensor", force_torque.run,
+                 classes["gelsight"], classes["wrench"], out, dataset_root=root,
+                 best_effort=classes.get("wrench-best-effort")),
+    ]  # fmt: skip
+
+
+def _sugar_chain(sugar_table, other_table, cuboid, out: Path, seed: int):
+    """Experiment 3 and the two that reuse its sugar-water model (4 and 7)."""
+    sugar_gpr = None
+    try:
+        sugar_result, sugar_gpr = sugar.run(sugar_table, out)
+    except LiquidTouchError as exc:
+        sugar_result = _not_run("sugar", "3. Sugar water", exc)
+    return [
+        sugar_result,
+        _attempt("other_liquids", "4. Olive oil, corn oil, mirin", other_liquids.run,
+                 sugar_gpr, other_table, out),
+        _attempt("transfer", "7. Container transfer", transfer.run, sugar_gpr, cuboid, out,
+                 seed=seed),
+    ]  # fmt: skip
+
+
+def _container_chain(container_table, per_container, out: Path, seed: int):
+    """Experiments 5 and 6 (the containers)."""
+    return [
+        _attempt("containers", "5. Other containers", containers.run, container_table, out),
+        _attempt("data_efficiency", "6. Data efficiency", data_efficiency.run, per_container, out,
+                 seed=seed),
+    ]  # fmt: skip
+
+
+def _calibration_chain(sugar_table, other_table, out: Path, root: Path | None, n_trials: int):
+    """Experiment 8 and experiment 9, which streams with 8's calibrated model."""
+    calibrated = None
+    try:
+        calibration_result, calibrated = calibration.run(sugar_table, other_table, out)
+    except LiquidTouchError as exc:
+        calibration_result = _not_run("calibration", "8. Calibration of the ± values (ours)", exc)
+    return [
+        calibration_result,
+        _attempt("time_to_answer", "9. Time to answer, streamed (ours)", time_to_answer.run,
+                 model=calibrated, sugar_table=sugar_table, dataset_root=root, out_dir=out,
+                 n_trials=n_trials),
+    ]  # fmt: skip
+
+
 def run_experiments(
     features: dict[str, dict[str, pd.DataFrame]],
     out_dir: str | Path,
@@ -201,9 +267,10 @@ def run_experiments(
     seed: int = 0,
     dataset_roots: dict[str, Path] | None = None,
     streamed_trials: int = STREAMED_TRIALS,
+    jobs: int = 1,
 ) -> list[ExperimentResult]:
     """The paper's seven experiments and our two on feature tables
-    (``features[preset]["gelsight" | "wrench"]``).
+    (``features[preset]["gelsight" | "wrench"]``), in the order of :data:`EXPERIMENT_ORDER`.
 
     ``features`` needs the presets of :data:`DATASETS`; ``classification`` also
     its ``wrench`` table (and optionally ``wrench-best-effort``). Figures and
@@ -212,57 +279,39 @@ def run_experiments(
     run. ``seed`` draws the random training subsets of experiments 6 and 7;
     ``dataset_roots`` (preset → dataset directory) lets experiment 2 plot a trial's raw
     signals and experiment 9 replay ``streamed_trials`` sugar-water test trials through the
-    live estimator (without them it is reported as not run).
+    live estimator (without them it is reported as not run). The experiments form four
+    independent chains (an experiment that reuses another's model runs after it in its
+    chain), run on ``jobs`` worker processes; the results do not depend on ``jobs``.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    roots = dataset_roots or {}
     sugar_table = features["sugar"]["gelsight"]
+    other_table = features["other-liquids"]["gelsight"]
     container_table = features["containers"]["gelsight"]
-    classes = features["classification"]
     per_container = {"grooved-cuboid": sugar_table}
     per_container.update(
         {name: part for name, part in container_table.groupby("container", sort=False)}
     )
     cuboid = container_table[container_table["container"] == "cuboid"]
+    # the longest chains first, so that the pool's two workers end close together
+    chains = {
+        "sugar": (_sugar_chain, sugar_table, other_table, cuboid, out, seed),
+        "containers": (_container_chain, container_table, per_container, out, seed),
+        "calibration": (_calibration_chain, sugar_table, other_table, out, roots.get("sugar"),
+                        streamed_trials),
+        "classification": (_classification_chain, features["classification"], out,
+                           roots.get("classification")),
+    }  # fmt: skip
+    results: list[ExperimentResult] = []
+    with open_executor(jobs, n_tasks=len(chains)) as pool:
+        for _, future in run_each(pool, _run_chain, chains):
+            results += future.result()
+    return sorted(results, key=lambda result: EXPERIMENT_ORDER.index(result.key))
 
-    results = [
-        _attempt("classification", "1. Liquid classification", classification.run,
-                 classes["gelsight"], out),
-        _attempt("force_torque", "2. GelSight vs wrist force-torque sensor", force_torque.run,
-                 classes["gelsight"], classes["wrench"], out,
-                 dataset_root=(dataset_roots or {}).get("classification"),
-                 best_effort=classes.get("wrench-best-effort")),
-    ]  # fmt: skip
-    sugar_gpr = None  # experiments 4 and 7 reuse experiment 3's model
-    try:
-        sugar_result, sugar_gpr = sugar.run(sugar_table, out)
-    except LiquidTouchError as exc:
-        sugar_result = _not_run("sugar", "3. Sugar water", exc)
-    results += [
-        sugar_result,
-        _attempt("other_liquids", "4. Olive oil, corn oil, mirin", other_liquids.run,
-                 sugar_gpr, features["other-liquids"]["gelsight"], out),
-        _attempt("containers", "5. Other containers", containers.run, container_table, out),
-        _attempt("data_efficiency", "6. Data efficiency", data_efficiency.run, per_container, out,
-                 seed=seed),
-        _attempt("transfer", "7. Container transfer", transfer.run, sugar_gpr, cuboid, out,
-                 seed=seed),
-    ]  # fmt: skip
-    calibrated = None  # experiment 9 streams with experiment 8's model
-    try:
-        calibration_result, calibrated = calibration.run(
-            sugar_table, features["other-liquids"]["gelsight"], out
-        )
-    except LiquidTouchError as exc:
-        calibration_result = _not_run("calibration", "8. Calibration of the ± values (ours)", exc)
-    results += [
-        calibration_result,
-        _attempt("time_to_answer", "9. Time to answer, streamed (ours)", time_to_answer.run,
-                 model=calibrated, sugar_table=sugar_table,
-                 dataset_root=(dataset_roots or {}).get("sugar"), out_dir=out,
-                 n_trials=streamed_trials),
-    ]  # fmt: skip
-    return results
+
+def _run_chain(chain: Callable[..., list[ExperimentResult]], *args) -> list[ExperimentResult]:
+    return chain(*args)
 
 
 def reproduce(
@@ -333,7 +382,7 @@ def reproduce(
     roots = {preset: data_root / preset for preset in DATASETS}
     results = run_experiments(
         features, out, seed=seed, dataset_roots=roots,
-        streamed_trials=STREAMED_TRIALS_QUICK if quick else STREAMED_TRIALS,
+        streamed_trials=STREAMED_TRIALS_QUICK if quick else STREAMED_TRIALS, jobs=jobs,
     )  # fmt: skip
     seconds["experiments"] = time.perf_counter() - start
 
