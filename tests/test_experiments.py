@@ -311,21 +311,27 @@ def test_demo_prints_a_line_per_stage_when_stderr_is_not_a_terminal(tmp_path, ca
 def test_reproduce_simulates_with_the_sensor_asked_for_and_keeps_its_data_apart(
     tmp_path, monkeypatch, capsys
 ):
-    """`reproduce --sensor mini` (the full sizes at a third of the cost): every dataset is
-    simulated with that profile, under its own data directory; an unknown name is refused
-    before anything is simulated."""
+    """`reproduce` simulates the GelSight Mini unless `--sensor` asks for another profile;
+    the full size's data folder names the Mini (`full-seed0` held 640x480 data before), so
+    no run reuses another profile's data; an unknown name is refused before anything is
+    simulated."""
     import liquidtouch.experiments.reproduce as rep
     from liquidtouch.cli import main
 
     asked = []
     _stop_before_the_report(monkeypatch, lambda preset, root, **k: asked.append((root, k)))
     out = tmp_path / "report"
-    assert main(["reproduce", "--sensor", "mini", "--out", str(out)]) == 2
-    assert [k["sensor"] for _, k in asked] == ["mini"] * len(rep.DATASETS)
-    assert {root.parent for root, _ in asked} == {tmp_path / "report-data" / "full-seed0-mini"}
-    asked.clear()
-    assert main(["reproduce", "--quick", "--out", str(out)]) == 2  # the quick run's own: mini
-    assert {root.parent for root, _ in asked} == {tmp_path / "report-data" / "quick-seed0"}
+    for args, sensor, folder in [
+        ([], "mini", "full-seed0-mini"),
+        (["--sensor", "mini"], "mini", "full-seed0-mini"),
+        (["--sensor", "default"], "default", "full-seed0"),
+        (["--quick"], "mini", "quick-seed0"),
+        (["--quick", "--sensor", "default"], "default", "quick-seed0-default"),
+    ]:
+        asked.clear()
+        assert main(["reproduce", *args, "--out", str(out)]) == 2
+        assert [k["sensor"] for _, k in asked] == [sensor] * len(rep.DATASETS), args
+        assert {root.parent for root, _ in asked} == {tmp_path / "report-data" / folder}, args
     capsys.readouterr()
     assert main(["reproduce", "--sensor", "nope", "--out", str(tmp_path / "other")]) == 2
     assert "nope" in capsys.readouterr().err

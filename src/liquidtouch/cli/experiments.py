@@ -144,9 +144,8 @@ def register(app: typer.Typer) -> None:
             None,
             "--sensor",
             metavar="NAME",
-            help="GelSight profile of the simulated videos (default: 'default', 640x480 at "
-            "30 fps; 'mini' with --quick). The full datasets at --sensor mini take about a "
-            "third of the time.",
+            help="GelSight profile of the simulated videos (default: 'mini', the GelSight Mini, "
+            "320x240 at 25 fps; 'default': 640x480 at 30 fps, twice the time).",
             show_default=False,
         ),
         as_json: bool = typer.Option(False, "--json", help=_JSON_HELP),
