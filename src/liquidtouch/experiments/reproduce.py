@@ -218,7 +218,9 @@ EXPERIMENT_ORDER = (
 )
 
 
-def _classification_chain(classes: dict[str, pd.DataFrame], out: Path, root: Path | None):
+def _classification_chain(
+    classes: dict[str, pd.DataFrame], out: Path, root: Path | None
+) -> list[ExperimentResult]:
     """Experiments 1 and 2 (the classification dataset)."""
     return [
         _attempt("classification", "1. Liquid classification", classification.run,
@@ -229,7 +231,9 @@ def _classification_chain(classes: dict[str, pd.DataFrame], out: Path, root: Pat
     ]  # fmt: skip
 
 
-def _sugar_chain(sugar_table, other_table, cuboid, out: Path, seed: int):
+def _sugar_chain(
+    sugar_table: pd.DataFrame, other_table: pd.DataFrame, cuboid: pd.DataFrame, out: Path, seed: int
+) -> list[ExperimentResult]:
     """Experiment 3 and the two that reuse its sugar-water model (4 and 7)."""
     sugar_gpr = None
     try:
@@ -245,7 +249,9 @@ def _sugar_chain(sugar_table, other_table, cuboid, out: Path, seed: int):
     ]  # fmt: skip
 
 
-def _container_chain(container_table, per_container, out: Path, seed: int):
+def _container_chain(
+    container_table: pd.DataFrame, per_container: dict[str, pd.DataFrame], out: Path, seed: int
+) -> list[ExperimentResult]:
     """Experiments 5 and 6 (the containers)."""
     return [
         _attempt("containers", "5. Other containers", containers.run, container_table, out),
@@ -254,7 +260,13 @@ def _container_chain(container_table, per_container, out: Path, seed: int):
     ]  # fmt: skip
 
 
-def _calibration_chain(sugar_table, other_table, out: Path, root: Path | None, n_trials: int):
+def _calibration_chain(
+    sugar_table: pd.DataFrame,
+    other_table: pd.DataFrame,
+    out: Path,
+    root: Path | None,
+    n_trials: int,
+) -> list[ExperimentResult]:
     """Experiment 8 and experiment 9, which streams with 8's calibrated model."""
     calibrated = None
     try:
