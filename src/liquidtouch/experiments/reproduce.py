@@ -93,7 +93,7 @@ def default_data_dir(out_dir: str | Path) -> Path:
 
 #: the GelSight profile the datasets are simulated with unless asked otherwise: the Mini
 #: (320 x 240 at 25 fps) costs 0.46x the 640 x 480 profile's time, and the full reproduction's
-#: numbers differ between the two by a seventh of what two seeds' do (median; README)
+#: numbers differ between the two by a sixth of what two seeds' do (median; README)
 DEFAULT_SENSOR = "mini"
 
 
