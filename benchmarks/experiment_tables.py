@@ -1,7 +1,7 @@
 """Synthetic feature tables for all seven experiments (tests of the experiments and the report).
 
 Built from the sloshing formulas of :mod:`synthetic_tables` (no video): the
-``features`` mapping that :func:`liquidtouch.experiments.reproduce.run_experiments`
+``features`` mapping that :func:`liquidtouch.experiments.suite.run_experiments`
 takes, with one classification test trial that gave no features and a wrist
 F/T table where no trial did. A report from these tables takes seconds.
 """

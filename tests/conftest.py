@@ -35,7 +35,8 @@ from helpers import built_once
 
 from benchmarks.experiment_tables import experiment_features
 from liquidtouch.experiments.report import write_report
-from liquidtouch.experiments.reproduce import failure_note, run_experiments
+from liquidtouch.experiments.reproduce import failure_note
+from liquidtouch.experiments.suite import run_experiments
 
 
 def _imports_of_test_modules(path: Path) -> list[str]:

@@ -18,7 +18,8 @@ import pytest
 from helpers import fewer_experiment_draws
 
 from benchmarks.experiment_tables import FAILED, NO_OSCILLATION, experiment_features
-from liquidtouch.experiments.reproduce import failure_note, run_experiments
+from liquidtouch.experiments.reproduce import failure_note
+from liquidtouch.experiments.suite import run_experiments
 
 
 @pytest.fixture(scope="module")
