@@ -33,9 +33,9 @@ from pathlib import Path
 import numpy as np
 
 try:  # imported as benchmarks.live_browser (tests) or run as a script
-    from benchmarks.report_browser import _chromium, _screenshot_colours, find_chromium
+    from benchmarks.report_browser import ATTEMPTS, _chromium, _screenshot_colours, find_chromium
 except ModuleNotFoundError:
-    from report_browser import _chromium, _screenshot_colours, find_chromium
+    from report_browser import ATTEMPTS, _chromium, _screenshot_colours, find_chromium
 
 WINDOW = (1280, 900)
 #: how long Chromium may keep the page open, in virtual time [ms]; paused while the stream is open
@@ -162,7 +162,7 @@ def check_page(dom: str, updates: list[dict], sensors: list[str]) -> list[str]:
     return problems
 
 
-def watch(url: str, png: Path, *, browser: str | None = None, timeout_s: float = 120) -> str:
+def watch(url: str, png: Path, *, browser: str | None = None, timeout_s: float = 60) -> str:
     """Load ``url`` in Chromium until its stream ends; return the DOM (and screenshot ``png``).
 
     The two Chromium runs are concurrent: the DOM one arrives first; the screenshot one
@@ -182,7 +182,7 @@ def watch(url: str, png: Path, *, browser: str | None = None, timeout_s: float =
     thread = threading.Thread(target=screenshot)
     thread.start()
     done = _chromium(browser, *common, "--dump-dom", url, timeout=timeout_s)
-    thread.join(timeout_s)
+    thread.join(timeout_s * ATTEMPTS + 10)
     if not done.stdout.strip():
         raise RuntimeError(f"chromium dumped no DOM (exit {done.returncode}): {done.stderr}")
     if not png.is_file():

@@ -19,8 +19,10 @@ Used by ``tests/test_report_browser.py``; exit status 1 when a check fails.
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -29,6 +31,8 @@ from pathlib import Path
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 WINDOW = (1280, 4000)
+#: runs of a stuck Chromium before giving up
+ATTEMPTS = 2
 SUMMARY_COLUMNS = ("experiment", "metric", "ours", "paper", "unit")
 
 # appended to a copy of the page: after load, write the image counts into the DOM
@@ -50,20 +54,45 @@ def find_chromium() -> str | None:
 
 
 def _chromium(browser: str, *args: str, timeout: float) -> subprocess.CompletedProcess:
-    with tempfile.TemporaryDirectory(prefix="lt-chromium-") as profile:
-        command = [
-            browser,
-            "--headless",
-            "--no-sandbox",  # root in a container has no user namespace sandbox
-            "--disable-gpu",
-            "--disable-dev-shm-usage",
-            "--hide-scrollbars",
-            "--no-first-run",
-            "--allow-file-access-from-files",
-            f"--user-data-dir={profile}",
-            *args,
-        ]
-        return subprocess.run(command, capture_output=True, text=True, timeout=timeout, check=False)
+    """Run headless Chromium with ``args``; a run stuck past ``timeout`` s is run again.
+
+    Once in CI a ``--screenshot`` run with ``--virtual-time-budget`` never finished: a
+    stuck run is killed with its child processes and started afresh, up to ``ATTEMPTS``.
+    """
+    for attempt in range(1, ATTEMPTS + 1):
+        with tempfile.TemporaryDirectory(prefix="lt-chromium-") as profile:
+            command = [
+                browser,
+                "--headless",
+                "--no-sandbox",  # root in a container has no user namespace sandbox
+                "--disable-gpu",
+                "--disable-dev-shm-usage",
+                "--hide-scrollbars",
+                "--no-first-run",
+                "--allow-file-access-from-files",
+                f"--user-data-dir={profile}",
+                *args,
+            ]
+            process = subprocess.Popen(
+                command,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+                start_new_session=True,  # its own process group: killed with its children
+            )
+            try:
+                stdout, stderr = process.communicate(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                os.killpg(process.pid, signal.SIGKILL)
+                process.communicate()
+                print(
+                    f"chromium: nothing after {timeout:.0f} s, killed (attempt {attempt} of "
+                    f"{ATTEMPTS})",
+                    file=sys.stderr,
+                )
+                continue
+            return subprocess.CompletedProcess(command, process.returncode, stdout, stderr)
+    raise RuntimeError(f"chromium was stuck {ATTEMPTS} times for {timeout:.0f} s: {args}")
 
 
 def screenshot(
