@@ -41,6 +41,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from liquidtouch._core.checks import check_int
 from liquidtouch.errors import ModelFileError, TableError
+from liquidtouch.models.gp_likelihood import LikelihoodOptimizer
 from liquidtouch.models.kernel_limits import (
     check_kernel_rows,
     single_threaded_blas,
@@ -55,6 +56,8 @@ MIN_ROWS_GPR = 5
 # fit a staircase through the grid levels with zero noise — a higher likelihood
 # but a worse interpolant (3 mm vs 0.2 mm test MAE on the sugar benchmark).
 LENGTH_SCALE_BOUNDS = (0.3, 100.0)
+#: added to the kernel's diagonal for numerical stability (scikit-learn's default ``alpha``)
+GP_JITTER = 1e-10
 #: Rows predicted at once by a GP (bounds the (rows × training rows) cross-kernel matrix).
 PREDICT_CHUNK_ROWS = 2048
 
@@ -133,18 +136,20 @@ class GPRegressor(RegressorMixin, BaseEstimator):
         from sklearn.exceptions import ConvergenceWarning
         from sklearn.gaussian_process import GaussianProcessRegressor
 
+        Z = (self._inputs(self.X_train_) - self.x_mean_) / self.x_scale_
+        r = (self.y_train_ - self._prior_mean(self.X_train_) - self.y_mean_) / self.y_scale_
         self.gp_ = GaussianProcessRegressor(
             kernel=kernel,
-            optimizer="fmin_l_bfgs_b" if optimise else None,
+            optimizer=LikelihoodOptimizer(Z, r, GP_JITTER) if optimise else None,
+            alpha=GP_JITTER,
             n_restarts_optimizer=self.n_restarts if optimise else 0,
             random_state=self.random_state,
         )
-        Z = (self._inputs(self.X_train_) - self.x_mean_) / self.x_scale_
-        r = (self.y_train_ - self._prior_mean(self.X_train_) - self.y_mean_) / self.y_scale_
         with warnings.catch_warnings(), single_threaded_blas():
             # a hyperparameter at its bound is a legitimate optimum on tiny data sets
             warnings.simplefilter("ignore", ConvergenceWarning)
             self.gp_.fit(Z, r)
+        self.gp_.optimizer = None  # fitted: the optimiser's copy of the data is not kept
 
     def fit(self, X: Any, y: Any) -> GPRegressor:
         """Fit on (n, d) features ``X`` and one target ``y`` of shape (n,); return ``self``.
