@@ -59,3 +59,12 @@ def test_the_fit_equals_the_one_scikit_learn_s_optimiser_gives(monkeypatch) -> N
         assert ours.gp_.log_marginal_likelihood_value_ == pytest.approx(
             theirs.gp_.log_marginal_likelihood_value_, abs=1e-6
         )
+
+
+def test_the_mean_is_scikit_learn_s_to_the_bit() -> None:
+    rng = np.random.default_rng(3)
+    for dims in (1, 2):
+        X = rng.uniform(0, 5, (30, dims))
+        model = GPRegressor().fit(X, np.sin(X).sum(axis=1) + rng.normal(0, 0.1, 30))
+        Z = (rng.uniform(-1, 6, (200, dims)) - model.x_mean_) / model.x_scale_
+        assert np.array_equal(model._gp_mean(Z), model.gp_.predict(Z))
