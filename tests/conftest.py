@@ -16,11 +16,13 @@ so these import as ``from helpers import ...`` and
 ``from benchmarks.synthetic_tables import ...``.
 
 Tests marked ``slow(seconds=...)`` (the end-to-end runs, seconds to minutes each) and
-the tests of ``synthetic_report`` (a long build) start the two halves of the test list
-(``_long_tests_spread``): under ``pytest -n 2 --dist worksteal`` (``make test``) each
+the tests of ``synthetic_report`` (a long build) start the workers' shares of the test
+list (``_long_tests_spread``): under ``pytest -n 3 --dist worksteal`` (``make test``) each
 worker begins with its share of the long tests, the short ones follow, and no long test
 starts last, alone, on an otherwise idle machine. The ``exclusive`` ones (a pool, a rig
-in real time) share one worker, so that they never run beside each other. A module's
+in real time) share one worker, so that they never run beside each other, and the other
+workers lower their priority (``pytest_runtest_setup``), so that with three workers on
+two cores the real-time tests still get a core. A module's
 slow tests stay together, and their module-scoped fixtures serve slow tests only (keep
 it so), so moving them costs no extra set-up.
 """
@@ -28,6 +30,7 @@ it so), so moving them costs no extra set-up.
 from __future__ import annotations
 
 import ast
+import os
 from pathlib import Path
 
 import pytest
@@ -66,26 +69,35 @@ def pytest_collection_modifyitems(session: pytest.Session, config, items) -> Non
             "test modules must not import each other; move shared code to tests/helpers.py: "
             + "; ".join(offences)
         )
-    items[:] = _long_tests_spread(items)
+    items[:] = _long_tests_spread(items, _workers(config))
+
+
+def _workers(config) -> int:
+    """The number of xdist workers the tests are shared among (1 without xdist)."""
+    count = os.environ.get("PYTEST_XDIST_WORKER_COUNT")  # set on each worker
+    if count is not None:
+        return int(count)
+    numprocesses = getattr(config.option, "numprocesses", None)
+    return numprocesses if isinstance(numprocesses, int) and numprocesses > 0 else 1
 
 
 #: rough time [s] of the synthetic report's one build (``synthetic_report``)
 REPORT_BUILD_S = 55.0
 
 
-def _long_tests_spread(items: list[pytest.Item]) -> list[pytest.Item]:
-    """The tests in an order that starts each half with its share of the long tests.
+def _long_tests_spread(items: list[pytest.Item], parts: int) -> list[pytest.Item]:
+    """The tests in an order that starts each worker's share with its long tests.
 
-    ``--dist worksteal`` hands the first half of the list to one worker and the second half
-    to the other, and later moves tests from the end of a worker's queue to the other.
-    The long tests (``slow(seconds=...)``, and the tests of ``synthetic_report``, whose
-    build is long) are grouped by module, so that a module-scoped fixture is set up on
-    one worker only. The ``exclusive`` ones (a pool of workers, or a rig or cameras in
-    real time) all go to the first half, one after the other, so that no two of them
-    share the two cores at once (a starved real-time rig drops frames); the other long
-    groups are dealt, longest first, to the half with fewer seconds so far. Each half
+    ``--dist worksteal`` hands each of the ``parts`` workers an equal contiguous share of
+    the list, and later moves tests from the end of a worker's queue to a worker that ran
+    dry. The long tests (``slow(seconds=...)``, and the tests of ``synthetic_report``,
+    whose build is long) are grouped by module, so that a module-scoped fixture is set up
+    on one worker only. The ``exclusive`` ones (a pool of workers, or a rig or cameras in
+    real time) all go to the first share, one after the other, so that no two of them
+    share the cores at once (a starved real-time rig drops frames); the other long groups
+    are dealt, longest first, to the share with the fewest seconds so far. Each share
     begins with its long groups, longest first; the short tests fill the rest of each
-    half, in collection order. Without xdist this is just an order.
+    share, in collection order. Without xdist this is just an order.
     """
     groups: dict[str, list[pytest.Item]] = {}
     seconds: dict[str, float] = {}
@@ -105,15 +117,46 @@ def _long_tests_spread(items: list[pytest.Item]) -> list[pytest.Item]:
             short.append(item)
             continue
         groups.setdefault(key, []).append(item)
-    halves: tuple[list[pytest.Item], list[pytest.Item]] = ([], [])
-    loads = [0.0, 0.0]
-    # the exclusive groups first (all to the first half), then the others by length
+    shares: list[list[pytest.Item]] = [[] for _ in range(max(parts, 1))]
+    loads = [0.0] * len(shares)
+    # the exclusive groups first (all to the first share), then the others by length
     for key in sorted(groups, key=lambda k: (k not in exclusive, -seconds[k])):
-        half = 0 if key in exclusive or loads[0] <= loads[1] else 1
-        halves[half].extend(groups[key])
-        loads[half] += seconds[key]
-    fill = max(len(items) // 2 - len(halves[0]), 0)  # worksteal's first share: len // 2
-    return [*halves[0], *short[:fill], *halves[1], *short[fill:]]
+        share = 0 if key in exclusive else loads.index(min(loads))
+        shares[share].extend(groups[key])
+        loads[share] += seconds[key]
+    ordered: list[pytest.Item] = []
+    for k, share in enumerate(shares):  # worksteal's first shares: len // parts each
+        end = (k + 1) * len(items) // len(shares)
+        fill = max(end - len(ordered) - len(share), 0) if k < len(shares) - 1 else len(short)
+        ordered += share + short[:fill]
+        short = short[fill:]
+    return ordered
+
+
+#: niceness a worker takes when its first test is not an exclusive one: the worker that
+#: runs the real-time tests keeps the cores first when three workers share two
+OTHER_WORKERS_NICE = 5
+_first_test_seen = False
+
+
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    """Under xdist, a worker whose first test is not ``exclusive`` lowers its priority.
+
+    The exclusive tests (a rig or cameras in real time) begin the first worker's share
+    (``_long_tests_spread``); the others' CPU-bound tests then wait for them, as they
+    would with one worker per core, instead of starving them (frames dropped, deadlines
+    missed). Never raised back: a niceness can only be lowered by a privileged process.
+    """
+    global _first_test_seen
+    if _first_test_seen or "PYTEST_XDIST_WORKER" not in os.environ:
+        return
+    _first_test_seen = True
+    marker = item.get_closest_marker("slow")
+    if marker is None or not marker.kwargs.get("exclusive", False):
+        try:
+            os.nice(OTHER_WORKERS_NICE)
+        except OSError:  # no such thing on this platform: run as is
+            pass
 
 
 @pytest.fixture(scope="session")

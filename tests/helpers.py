@@ -93,7 +93,7 @@ def built_once(
 ) -> Path:
     """Directory ``name``, filled by ``build(directory)`` once per test run, shared by workers.
 
-    ``--dist worksteal`` may split a module between the two workers, and each would then
+    ``--dist worksteal`` may split a module between the workers, and each would then
     set up the module's fixtures again (the synthetic report: ~55 CPU-s). Here the first
     worker to need the directory builds it under an exclusive lock in the run's temporary
     root (common to the workers); the other waits on the lock, then reads the finished
