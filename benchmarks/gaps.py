@@ -6,8 +6,10 @@ What it does, per run (``--runs``, 40 by default; seed = run number):
    detergent in turn) at a drawn fill height (18-32 mm) and its rendered markers'
    true positions on both sensors (``sim.gelsight.sensor_scene``, GelSight Mini
    profile, 25 fps, no rendering or tracking), plus 0.01 px of tracking noise.
-2. The gap-free reference: ``tactile_signal`` of all frames and ``FitSettings().fit``
-   (the defaults: ``extract``'s fit).
+2. The gap-free reference: ``tactile_signal`` of all frames and the default fit
+   (``extract``'s), with the correlated-noise standard errors
+   (``FitSettings(noise="correlated")``: the noise model changes only the ±, which the
+   "at best" share below uses).
 3. The same frames with frames taken out, fitted the same way:
 
    - ``stall S s``: both sensors deliver no frame for S s (0.3, 0.6, 1.0), the stall
@@ -30,16 +32,15 @@ ring-down above the noise, the CLI warns; or the fit was refused with
 number of such reports and of refusals (both kinds),
 and the median and 95th percentile of |λ/λ_ref − 1| and |ω/ω_ref − 1|.
 
-**At best** (what any fit at its own standard errors could score): each run's fits are
-repeated with the correlated-noise standard errors (``noise="correlated"``: the
-asymptotic std of the least-squares fit under the noise's estimated autocorrelation).
-For an estimator at that std, the difference between the fit of a subset of the samples
-and the fit of all of them has variance Var(subset) − Var(all) (Hausman: the full fit is
-the efficient one of the two); with the noise redrawn, Var(redrawn) + Var(all). The
-chance that a Gaussian difference of that std lands within the tolerance, the smaller of
-λ's and ω's (an upper bound of both together), averaged over the runs, is the share an
-estimator with those standard errors would score; a target above it asks the fit to be
-more precise than the samples allow.
+**At best** (what any fit at its own standard errors could score), from the fits'
+correlated-noise standard errors (the asymptotic std of the least-squares fit under the
+noise's estimated autocorrelation). For an estimator at that std, the difference between
+the fit of a subset of the samples and the fit of all of them has variance Var(subset) −
+Var(all) (Hausman: the full fit is the efficient one of the two); with the noise redrawn,
+Var(redrawn) + Var(all). The chance that a Gaussian difference of that std lands within
+the tolerance, the smaller of λ's and ω's (an upper bound of both together), averaged
+over the runs, is the share an estimator with those standard errors would score; a
+target above it asks the fit to be more precise than the samples allow.
 
     nice -n 10 .venv/bin/python benchmarks/gaps.py [--runs N]
 """
@@ -50,6 +51,7 @@ import argparse
 import math
 import sys
 import time
+from typing import NamedTuple
 
 import numpy as np
 from scene_tracks import keep_frames, noisy_true_tracks
@@ -82,18 +84,27 @@ def truth_tracks(seed: int) -> tuple[list[MarkerTracks], SensorScene]:
     return noisy_true_tracks(scene, rng, NOISE_PX), scene
 
 
-def fit(tracks: list[MarkerTracks], noise: str | None = None) -> tuple:
-    """(λ, ω, decay start [s], the library reported that a gap swallowed the ring-down, λ std,
-    ω std) of the default fit (``noise``: its standard errors' model); NaN when refused."""
-    settings = FitSettings() if noise is None else FitSettings(noise=noise)
+class Fit(NamedTuple):
+    """What the benchmark keeps of one fit (NaN when refused)."""
+
+    decay_rate: float
+    angular_frequency: float
+    t0: float  # decay start [s]
+    swallowed: bool  # the library reported that a gap swallowed the ring-down
+    decay_rate_std: float  # correlated-noise standard errors
+    angular_frequency_std: float
+
+
+def fit(tracks: list[MarkerTracks]) -> Fit:
+    """The default fit of ``tracks``' signal, with its correlated-noise standard errors."""
     try:
         sig = tactile_signal(tracks)
-        result = settings.fit(sig.t, sig.u)
+        result = FitSettings(noise="correlated").fit(sig.t, sig.u)
     except SwallowedRingDownError:  # refused, naming the gap
-        return math.nan, math.nan, math.nan, True, math.nan, math.nan
+        return Fit(math.nan, math.nan, math.nan, True, math.nan, math.nan)
     except LiquidTouchError:
-        return (math.nan,) * 3 + (False,) + (math.nan,) * 2
-    return (
+        return Fit(math.nan, math.nan, math.nan, False, math.nan, math.nan)
+    return Fit(
         result.decay_rate,
         result.angular_frequency,
         result.t0,
@@ -103,17 +114,19 @@ def fit(tracks: list[MarkerTracks], noise: str | None = None) -> tuple:
     )
 
 
-def best_share(reference: tuple, other: tuple, redrawn: bool) -> float:
-    """Chance that an estimator at the fits' correlated-noise standard errors lands within
-    both tolerances (module docstring, "at best"); ``reference``, ``other``: :func:`fit`
-    results with ``noise="correlated"``."""
+def best_share(reference: Fit, other: Fit, redrawn: bool) -> float:
+    """Chance that an estimator at the fits' standard errors lands within both tolerances
+    (module docstring, "at best")."""
     chances = []
-    for k, tol in ((0, LAMBDA_TOL), (1, OMEGA_TOL)):
-        var_ref, var_other = reference[4 + k] ** 2, other[4 + k] ** 2
-        var = var_other + var_ref if redrawn else var_other - var_ref
+    for value, std_ref, std_other, tol in (
+        (reference.decay_rate, reference.decay_rate_std, other.decay_rate_std, LAMBDA_TOL),
+        (reference.angular_frequency, reference.angular_frequency_std,
+         other.angular_frequency_std, OMEGA_TOL),
+    ):  # fmt: skip
+        var = std_other**2 + std_ref**2 if redrawn else std_other**2 - std_ref**2
         if not math.isfinite(var):
             return 0.0
-        chances.append(2.0 * norm.cdf(tol * reference[k] / math.sqrt(max(var, 1e-300))) - 1.0)
+        chances.append(2.0 * norm.cdf(tol * value / math.sqrt(max(var, 1e-300))) - 1.0)
     return min(chances)
 
 
@@ -122,7 +135,7 @@ def setting_tracks(
 ) -> dict[str, list[MarkerTracks]]:
     """Each setting's tracks (module docstring, 3): ``tracks`` with frames taken out, or
     ``redrawn`` (the same scene with its noise drawn again)."""
-    lam, start = ref[0], ref[2]
+    lam, start = ref.decay_rate, ref.t0
     t = tracks[0].t
     out = {}
     for stall in STALLS_S:
@@ -150,20 +163,20 @@ def main() -> None:
     for run in range(args.runs):
         tracks, scene = truth_tracks(run)
         ref = fit(tracks)
-        ref_correlated = fit(tracks, noise="correlated")
-        if not math.isfinite(ref[0]):
+        if not math.isfinite(ref.decay_rate):
             print(f"run {run}: the gap-free fit failed", file=sys.stderr)
             continue
         rng = np.random.default_rng(10_000 + run)
         liquid = LIQUIDS[run % len(LIQUIDS)]
         redrawn = noisy_true_tracks(scene, np.random.default_rng(20_000 + run), NOISE_PX)
         for name, setting in setting_tracks(tracks, redrawn, ref, rng).items():
-            lam, omega, _, swallowed, _, _ = fit(setting)
-            best = best_share(
-                ref_correlated, fit(setting, noise="correlated"), name == NOISE_REDRAWN
+            got = fit(setting)
+            best = best_share(ref, got, name == NOISE_REDRAWN)
+            err = (
+                abs(got.decay_rate / ref.decay_rate - 1),
+                abs(got.angular_frequency / ref.angular_frequency - 1),
             )
-            err = (abs(lam / ref[0] - 1), abs(omega / ref[1] - 1))
-            rows.setdefault(name, []).append((*err, swallowed, best))
+            rows.setdefault(name, []).append((*err, got.swallowed, best))
             ok = err[0] <= LAMBDA_TOL and err[1] <= OMEGA_TOL
             by_liquid.setdefault((name, liquid), []).append((ok, best))
         print(f"run {run} done", file=sys.stderr)

@@ -69,16 +69,12 @@ def pytest_collection_modifyitems(session: pytest.Session, config, items) -> Non
             "test modules must not import each other; move shared code to tests/helpers.py: "
             + "; ".join(offences)
         )
-    items[:] = _long_tests_spread(items, _workers(config))
+    items[:] = _long_tests_spread(items, _workers())
 
 
-def _workers(config) -> int:
+def _workers() -> int:
     """The number of xdist workers the tests are shared among (1 without xdist)."""
-    count = os.environ.get("PYTEST_XDIST_WORKER_COUNT")  # set on each worker
-    if count is not None:
-        return int(count)
-    numprocesses = getattr(config.option, "numprocesses", None)
-    return numprocesses if isinstance(numprocesses, int) and numprocesses > 0 else 1
+    return int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))  # set on each worker
 
 
 #: rough time [s] of the synthetic report's one build (``synthetic_report``)

@@ -143,7 +143,8 @@ def run_experiments(
     """The paper's seven experiments and our two on feature tables
     (``features[preset]["gelsight" | "wrench"]``), in the order of :data:`EXPERIMENT_ORDER`.
 
-    ``features`` needs the presets of :data:`DATASETS`; ``classification`` also
+    ``features`` needs the presets of
+    :data:`~liquidtouch.experiments.reproduce.DATASETS`; ``classification`` also
     its ``wrench`` table (and optionally ``wrench-best-effort``). Figures and
     tables go to ``out_dir``. An experiment the data cannot support (too few
     usable trials) is reported as not run, with the reason, and the others still
