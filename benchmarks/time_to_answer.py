@@ -247,7 +247,8 @@ def main() -> None:
     for k, r in enumerate(sugar):  # files before the paper's sugar design: 3 concentrations
         r.setdefault("sugar_concentration", TRAIN_SUGAR[k * len(TRAIN_SUGAR) // len(sugar)])
     for test in streams:
-        test["rows"] = np.asarray(test["rows"], float).reshape(len(test["rows"]), -1)
+        rows = np.asarray(test["rows"], float)
+        test["rows"] = rows if rows.ndim == 2 else rows.reshape(0, len(ROW_COLUMNS))
         if test["rows"].shape[1] == len(ROW_COLUMNS):
             if not args.as_streamed:
                 restream_std(test["rows"])

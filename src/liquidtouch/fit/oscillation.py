@@ -53,7 +53,11 @@ under the correlated noise the fit estimates (:mod:`liquidtouch.fit.selection`).
 ``"two-mode"`` chooses between one and two modes the same way (fast-mode fields NaN
 when one mode is kept: ``model == "single-mode"``); ``"amplitude"`` keeps a gain
 of 0 (λ0 the single-mode λ) unless the gain lowers the criterion; ``"single-mode"``
-fits one mode only.
+fits one mode only. A ring-down that loses more than a factor e of its amplitude per
+cycle (single-mode ω/λ < 2π, :data:`~liquidtouch.fit.choices.MIN_QUALITY_FOR_TWO_MODES`)
+rings for too few cycles to tell a second oscillating mode inside its spectral line
+(closer than the one-mode fit's λ) from the drift of its own frequency: ``"auto"`` then
+leaves out a fit with two such modes.
 
 Gaps
 ----
@@ -84,13 +88,19 @@ from liquidtouch.fit.choices import (
     DEFAULT_MODEL,
     DEFAULT_NOISE,
     LOSSES,
+    MIN_QUALITY_FOR_TWO_MODES,
     MODELS,
     NOISE_MODELS,
 )
 from liquidtouch.fit.jackknife import jackknife_std
 from liquidtouch.fit.result import OscillationFit
 from liquidtouch.fit.selection import Selection, select_model
-from liquidtouch.fit.solve import FitState, optimise_single_mode, optimise_two_mode
+from liquidtouch.fit.solve import (
+    MIN_OSCILLATION_OMEGA_OVER_LAMBDA,
+    FitState,
+    optimise_single_mode,
+    optimise_two_mode,
+)
 
 __all__ = ["fit_oscillation", "validate_signal"]
 
@@ -300,12 +310,13 @@ def fit_oscillation(
         at_two = next(e for e in ends if e.exponent == TWO_MODE_EXPONENT)
         both = optimise_amplitude_two_mode(tau, x, u_n, sqrt_w, band, at_two, two)
         candidates[COMBINED] = both
+    candidates, why = _identifiable(candidates, model)
     selection = select_model(candidates)
     chosen = candidates[selection.chosen]
     if model == "amplitude" and selection.chosen == "single-mode":
         chosen = without_gain(single, candidates["amplitude"].exponent)
     fit = _build_result(chosen, weights, noise, loss, delta_n * scale**2, t, mean, scale)
-    fit = replace(fit, **_selection_fields(selection, model), gap_share=gap_share(t))
+    fit = replace(fit, **_selection_fields(selection, why), gap_share=gap_share(t))
     if noise == "jackknife":  # the larger: conservative when the model is right
         decay_jk, freq_jk = jackknife_std(chosen)
         if math.isfinite(decay_jk):
@@ -326,13 +337,38 @@ def fit_oscillation(
     return fit
 
 
-def _selection_fields(selection: Selection, model: str) -> dict[str, object]:
-    """``model_reason`` and ``delta_bic_*`` of the result (module docstring)."""
-    if len(selection.bic) == 1:
-        reason = f"{model} asked for"
-    else:
-        asked = "auto" if model == AUTO else f"{model} asked for"
-        reason = f"{asked}; {selection.reason()}"
+def _identifiable(candidates: dict[str, FitState], model: str) -> tuple[dict[str, FitState], str]:
+    """The candidates ``"auto"`` may choose, and why: all of them, unless the ring-down loses
+    more than a factor e per cycle (single-mode ω/λ below
+    :data:`~liquidtouch.fit.choices.MIN_QUALITY_FOR_TWO_MODES`); then a fit with two
+    oscillating modes closer than the one-mode line's half-width λ is left out (a second
+    mode further off, e.g. the low-pass filter's ringing, or a transient stays)."""
+    if model != AUTO:
+        return candidates, f"{model} asked for"
+    single = candidates["single-mode"]
+    half_width = float(single.rates[0])
+    quality = float(single.freqs[0]) / max(half_width, 1e-300)
+    if quality >= MIN_QUALITY_FOR_TWO_MODES:
+        return candidates, "auto"
+
+    def one_drifting_mode(state: FitState) -> bool:
+        freqs, rates = state.freqs, state.rates
+        return (
+            len(freqs) == 2
+            and bool(np.all(freqs >= MIN_OSCILLATION_OMEGA_OVER_LAMBDA * rates))
+            and abs(float(freqs[0] - freqs[1])) < half_width
+        )
+
+    kept = {name: s for name, s in candidates.items() if not one_drifting_mode(s)}
+    if len(kept) == len(candidates):
+        return candidates, "auto"
+    return kept, f"auto, no two modes within the line (ω/λ {quality:.1f} < 2π)"
+
+
+def _selection_fields(selection: Selection, why: str) -> dict[str, object]:
+    """``model_reason`` (``why`` the candidates, then the criteria) and ``delta_bic_*`` of
+    the result (module docstring)."""
+    reason = why if len(selection.bic) == 1 else f"{why}; {selection.reason()}"
     return {
         "model_reason": reason,
         "delta_bic_single_mode": selection.delta("single-mode"),
