@@ -91,10 +91,13 @@ def report_time_to_answer(tests: list[dict]) -> None:
         for liquid in TEST_LIQUIDS:
             cells = {t: [] for t in (*TARGETS, "both")}
             record, errs = [], {t: [] for t in TARGETS}
+            right = {t: [] for t in TARGETS}  # the settle time where the final is right
             for test in (t for t in tests if t["liquid"] == liquid):
                 if not len(test["rows"]):  # no fit: never answered
                     for c in cells.values():
                         c.append(math.inf)
+                    for target in TARGETS:
+                        right[target].append(math.nan)
                     continue
                 t_s, ok_all = test["rows"][:, 0], None
                 for target in TARGETS:
@@ -104,13 +107,16 @@ def report_time_to_answer(tests: list[dict]) -> None:
                     cells[target].append(settle_time_s(t_s, ok))
                     ok_all = ok if ok_all is None else ok_all & ok
                     errs[target].append(abs(mean[-1] - test["truth"][target]))
+                    is_right = errs[target][-1] <= TOLERANCES[target]
+                    right[target].append(cells[target][-1] if is_right else math.nan)
                 cells["both"].append(settle_time_s(t_s, ok_all))
                 record.append(t_s[-1])
             line = " ".join(f"{quantiles(cells[c]):>13s}" for c in (*TARGETS, "both"))
-            right = " ".join(_median_where_right(cells[t], errs[t], t) for t in TARGETS)
+            right_cells = " ".join(_median_of_right(right[t]) for t in TARGETS)
             print(
                 f"{liquid:12s} {len(cells['both']):2d} {line} {np.median(record):7.2f} "
-                f"{np.mean(errs[TARGETS[0]]):8.2f} {np.mean(errs[TARGETS[1]]):8.3f} {right:>22s}"
+                f"{np.mean(errs[TARGETS[0]]):8.2f} {np.mean(errs[TARGETS[1]]):8.3f} "
+                f"{right_cells:>22s}"
             )
     print(
         "(offline |Δh| |Δμ|: mean absolute error of the final estimate; offline right: the "
@@ -118,11 +124,12 @@ def report_time_to_answer(tests: list[dict]) -> None:
     )
 
 
-def _median_where_right(times: list[float], errors: list[float], target: str) -> str:
-    """Median settle time [s] of the trials whose final error is within tolerance, "k/n"."""
-    right = [t for t, e in zip(times, errors, strict=True) if e <= TOLERANCES[target]]
+def _median_of_right(times: list[float]) -> str:
+    """Median settle time [s] of the trials whose final estimate is right (the others NaN),
+    and how many of all they are."""
+    right = [t for t in times if not math.isnan(t)]
     median = f"{np.percentile(right, 50, method='lower'):.2f}" if right else "-"
-    return f"{median} ({len(right)}/{len(errors)})"
+    return f"{median} ({len(right)}/{len(times)})"
 
 
 def coverage_cells(z_rows: list[tuple[float, float, float, float]], lo: float, hi: float) -> str:
