@@ -362,7 +362,8 @@ def _identifiable(candidates: dict[str, FitState], model: str) -> tuple[dict[str
     kept = {name: s for name, s in candidates.items() if not one_drifting_mode(s)}
     if len(kept) == len(candidates):
         return candidates, "auto"
-    return kept, f"auto, no two modes within the line (ω/λ {quality:.1f} < 2π)"
+    limit = MIN_QUALITY_FOR_TWO_MODES
+    return kept, f"auto, no two modes within the line (ω/λ {quality:.1f} < {limit:.1f})"
 
 
 def _selection_fields(selection: Selection, why: str) -> dict[str, object]:
