@@ -31,7 +31,8 @@ One run, on simulated trials (GelSight Mini videos, 320 × 240 at 25 fps):
    threaded case); a PNG of coverage and error vs ring-down time.
 
 The simulated features are saved (``--save data.json``) and a run can be
-re-analysed from them (``--load data.json``) without simulating again: each refresh's
+re-analysed from them (``--load data.json``; several runs of other ``--seed`` are pooled
+into one test set) without simulating again: each refresh's
 row holds the streaming fit's own std and window, so the models' λ, ω std is recomputed
 with the current rule (:func:`~liquidtouch.live.uncertainty.property_feature_std`);
 ``--as-streamed`` keeps the std the stream gave, ``--model-std-scores`` calibrates on
@@ -219,7 +220,13 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=7)
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results"))
     parser.add_argument("--save", type=Path, help="write the simulated features here (JSON)")
-    parser.add_argument("--load", type=Path, help="re-analyse features saved by --save")
+    parser.add_argument(
+        "--load",
+        type=Path,
+        nargs="+",
+        help="re-analyse features saved by --save; several runs (other --seed, same training "
+        "set) are pooled into one test set",
+    )
     parser.add_argument(
         "--as-streamed",
         action="store_true",
@@ -236,7 +243,7 @@ def main() -> None:
 
     began = time.perf_counter()
     if args.load is not None:
-        data = json.loads(args.load.read_text())
+        data = load_pooled(args.load)
     else:
         data = simulate_all(args)
         if args.save is not None:
@@ -307,6 +314,18 @@ def simulate_all(args) -> dict:
                     )
                     advance()
     return {"duration": args.duration, "row_std": ROW_STD, "train": train, "tests": tests}
+
+
+def load_pooled(paths: list[Path]) -> dict:
+    """The runs saved at ``paths`` as one: the first run's data with every run's test streams
+    (the training sets must be the same: the runs differ only by ``--seed`` or ``--trials``)."""
+    data = json.loads(paths[0].read_text())
+    for path in paths[1:]:
+        other = json.loads(path.read_text())
+        if other["train"] != data["train"] or other["duration"] != data["duration"]:
+            raise SystemExit(f"error: {path} was not run on {paths[0]}'s training set")
+        data["tests"] += other["tests"]
+    return data
 
 
 def strip_floors(rows: np.ndarray) -> None:
