@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -323,7 +324,8 @@ def load_pooled(paths: list[Path]) -> dict:
     for path in paths[1:]:
         other = json.loads(path.read_text())
         if other["train"] != data["train"] or other["duration"] != data["duration"]:
-            raise SystemExit(f"error: {path} was not run on {paths[0]}'s training set")
+            print(f"error: {path} was not run on {paths[0]}'s training set", file=sys.stderr)
+            raise SystemExit(2)
         data["tests"] += other["tests"]
     return data
 
