@@ -201,7 +201,7 @@ def main() -> None:
         refused = int(np.sum(~np.isfinite(e[:, 0])))
         kept = ok[~swallowed]
         e = np.where(np.isfinite(e), e, np.inf)
-        q = np.percentile(e, [50, 95], axis=0)
+        q = np.percentile(e, [50, 95], axis=0, method="higher")  # refused: inf, not NaN
         print(
             f"| {name} | {ok.mean():.0%} ({len(ok)}) | {best:.0%} | {int(swallowed.sum())} | "
             f"{kept.mean():.0%} ({len(kept)}) | {refused} | {100 * q[0, 0]:.1f} / "
