@@ -95,12 +95,7 @@ from liquidtouch.fit.choices import (
 from liquidtouch.fit.jackknife import jackknife_std
 from liquidtouch.fit.result import OscillationFit
 from liquidtouch.fit.selection import Selection, select_model
-from liquidtouch.fit.solve import (
-    MIN_OSCILLATION_OMEGA_OVER_LAMBDA,
-    FitState,
-    optimise_single_mode,
-    optimise_two_mode,
-)
+from liquidtouch.fit.solve import FitState, optimise_single_mode, optimise_two_mode
 
 __all__ = ["fit_oscillation", "validate_signal"]
 
@@ -352,11 +347,10 @@ def _identifiable(candidates: dict[str, FitState], model: str) -> tuple[dict[str
         return candidates, "auto"
 
     def one_drifting_mode(state: FitState) -> bool:
-        freqs, rates = state.freqs, state.rates
         return (
-            len(freqs) == 2
-            and bool(np.all(freqs >= MIN_OSCILLATION_OMEGA_OVER_LAMBDA * rates))
-            and abs(float(freqs[0] - freqs[1])) < half_width
+            state.n_modes == 2
+            and bool(state.oscillates().all())
+            and abs(float(np.diff(state.freqs)[0])) < half_width
         )
 
     kept = {name: s for name, s in candidates.items() if not one_drifting_mode(s)}

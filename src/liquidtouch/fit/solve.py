@@ -76,13 +76,17 @@ class FitState:
         """Indices of ``theta`` the solve moves (all here)."""
         return np.arange(self.theta.size)
 
+    def oscillates(self) -> np.ndarray:
+        """Per mode: oscillates (ω ≥ ``MIN_OSCILLATION_OMEGA_OVER_LAMBDA`` λ), not a transient."""
+        return self.freqs >= MIN_OSCILLATION_OMEGA_OVER_LAMBDA * self.rates
+
     def reported_mode(self) -> int:
         """Which mode is the slosh (0 or 1): the one that oscillates when the other is a
-        transient (``MIN_OSCILLATION_OMEGA_OVER_LAMBDA``), else the less damped one, unless
-        it is a sliver next to the other (a short, heavily damped ring-down)."""
+        transient (:meth:`oscillates`), else the less damped one, unless it is a sliver
+        next to the other (a short, heavily damped ring-down)."""
         if self.n_modes != 2:
             return 0
-        oscillates = self.freqs >= MIN_OSCILLATION_OMEGA_OVER_LAMBDA * self.rates
+        oscillates = self.oscillates()
         if oscillates[0] != oscillates[1]:
             return int(oscillates[1])
         return int(self.slow_mode_energy_share() < SLIVER_ENERGY_SHARE)
