@@ -22,6 +22,8 @@ TARGETS = ("height_mm", "log10_viscosity_cst")
 KINDS = ("gpr", "physics-gpr")
 #: a property is reported once its std is at most this (the stream's --until-std)
 REPORT_STD = {"height_mm": 1.0, "log10_viscosity_cst": 0.1}
+#: resamples of the test trials behind a coverage's 95 % interval
+N_BOOTSTRAP = 400
 #: liquids a sugar-water-only model is judged on
 OTHER_LIQUIDS = ("olive-oil", "corn-oil", "mirin")
 
@@ -82,45 +84,55 @@ def report_time_to_answer(tests: list[dict]) -> None:
     gate = ", ".join(f"{t} std ≤ {v:g}" for t, v in REPORT_STD.items())
     print(
         "\nring-down time [s] until within tolerance for good (height 1 mm, log10 ν 0.1); "
-        f"median p90; reported once {gate}; 'record' = the offline estimate on the full record"
+        "median p90 over the liquid's trials; 'record' = the offline estimate on the full record"
+    )
+    readings = (
+        ("shown", False, "every estimate, as `live` shows it without --until-std (experiment 9)"),
+        ("gated", True, f"an estimate counts once --until-std is met: {gate}"),
     )
     for kind in KINDS:
-        print(f"\n{kind}")
-        head = f"{'liquid':12s} {'n':>2s} {'height':>13s} {'log10 ν':>13s} {'both':>13s}"
-        print(f"{head} {'record':>7s} {'offline |Δh| |Δμ|':>18s} {'offline right: h, ν':>22s}")
-        for liquid in TEST_LIQUIDS:
-            cells = {t: [] for t in (*TARGETS, "both")}
-            record, errs = [], {t: [] for t in TARGETS}
-            right = {t: [] for t in TARGETS}  # the settle time where the final is right
-            for test in (t for t in tests if t["liquid"] == liquid):
-                if not len(test["rows"]):  # no fit: never answered
-                    for c in cells.values():
-                        c.append(math.inf)
-                    for target in TARGETS:
-                        right[target].append(math.nan)
-                    continue
-                t_s, ok_all = test["rows"][:, 0], None
-                for target in TARGETS:
-                    mean, _ = reported(test, kind, target)
-                    with np.errstate(invalid="ignore"):
-                        ok = np.abs(mean - test["truth"][target]) <= TOLERANCES[target]
-                    cells[target].append(settle_time_s(t_s, ok))
-                    ok_all = ok if ok_all is None else ok_all & ok
-                    errs[target].append(abs(mean[-1] - test["truth"][target]))
-                    is_right = errs[target][-1] <= TOLERANCES[target]
-                    right[target].append(cells[target][-1] if is_right else math.nan)
-                cells["both"].append(settle_time_s(t_s, ok_all))
-                record.append(t_s[-1])
-            line = " ".join(f"{quantiles(cells[c]):>13s}" for c in (*TARGETS, "both"))
-            right_cells = " ".join(_median_of_right(right[t]) for t in TARGETS)
-            print(
-                f"{liquid:12s} {len(cells['both']):2d} {line} {np.median(record):7.2f} "
-                f"{np.mean(errs[TARGETS[0]]):8.2f} {np.mean(errs[TARGETS[1]]):8.3f} "
-                f"{right_cells:>22s}"
-            )
+        for name, gated, what in readings:
+            print(f"\n{kind}, {name}: {what}")
+            head = f"{'liquid':12s} {'n':>2s} {'height':>13s} {'log10 ν':>13s} {'both':>13s}"
+            print(f"{head} {'record':>7s} {'offline |Δh| |Δμ|':>18s} {'offline right: h, ν':>22s}")
+            for liquid in TEST_LIQUIDS:
+                liquid_tests = [t for t in tests if t["liquid"] == liquid]
+                print(f"{liquid:12s} {_settle_line(liquid_tests, kind, gated)}")
     print(
         "(offline |Δh| |Δμ|: mean absolute error of the final estimate; offline right: the "
         "median time over the trials whose final estimate is within tolerance, and how many)"
+    )
+
+
+def _settle_line(tests: list[dict], kind: str, gated: bool) -> str:
+    """One liquid's row of the time-to-answer table (``gated``: with the --until-std rule)."""
+    cells = {t: [] for t in (*TARGETS, "both")}
+    record, errs = [], {t: [] for t in TARGETS}
+    right = {t: [] for t in TARGETS}  # the settle time where the final is right
+    for test in tests:
+        if not len(test["rows"]):  # no fit: never answered
+            for c in cells.values():
+                c.append(math.inf)
+            for target in TARGETS:
+                right[target].append(math.nan)
+            continue
+        t_s, ok_all = test["rows"][:, 0], None
+        for target in TARGETS:
+            mean = (reported(test, kind, target) if gated else test["pred"][kind][target].T)[0]
+            with np.errstate(invalid="ignore"):
+                ok = np.abs(mean - test["truth"][target]) <= TOLERANCES[target]
+            cells[target].append(settle_time_s(t_s, ok))
+            ok_all = ok if ok_all is None else ok_all & ok
+            errs[target].append(abs(mean[-1] - test["truth"][target]))
+            is_right = errs[target][-1] <= TOLERANCES[target]
+            right[target].append(cells[target][-1] if is_right else math.nan)
+        cells["both"].append(settle_time_s(t_s, ok_all))
+        record.append(t_s[-1])
+    line = " ".join(f"{quantiles(cells[c]):>13s}" for c in (*TARGETS, "both"))
+    right_cells = " ".join(_median_of_right(right[t]) for t in TARGETS)
+    return (
+        f"{len(cells['both']):2d} {line} {np.median(record):7.2f} "
+        f"{np.mean(errs[TARGETS[0]]):8.2f} {np.mean(errs[TARGETS[1]]):8.3f} {right_cells:>22s}"
     )
 
 
@@ -132,43 +144,59 @@ def _median_of_right(times: list[float]) -> str:
     return f"{median} ({len(right)}/{len(times)})"
 
 
-def coverage_cells(z_rows: list[tuple[float, float, float, float]], lo: float, hi: float) -> str:
-    rows = np.array([r for r in z_rows if lo <= r[0] < hi]).reshape(-1, 4)
+def coverage_cells(z_rows, lo: float, hi: float) -> str:
+    """±1σ, ±2σ, RMS z and count of the (t, mean, std, truth) rows with lo ≤ t < hi."""
+    rows = np.array(z_rows, dtype=float).reshape(-1, 4)
+    rows = rows[(rows[:, 0] >= lo) & (rows[:, 0] < hi)]
     rows = rows[np.isfinite(rows[:, 1]) & np.isfinite(rows[:, 2])]
     if not len(rows):
         return f"{'-':>20s}"
-    cov = coverage(rows[:, 1], rows[:, 2], rows[:, 3])
-    z_rms = math.sqrt(np.mean(((rows[:, 1] - rows[:, 3]) / rows[:, 2]) ** 2))
-    return f"{cov[1.0]:4.0%} {cov[2.0]:4.0%} {z_rms:4.2f} {len(rows):4d}"
+    one, two, z_rms = _z_stats(rows)
+    return f"{one:4.0%} {two:4.0%} {z_rms:4.2f} {len(rows):4d}"
+
+
+def _z_stats(rows: np.ndarray) -> tuple[float, float, float]:
+    """(±1σ, ±2σ coverage, RMS z) of finite (t, mean, std, truth) rows."""
+    cov = coverage(rows[:, 1], rows[:, 2], rows[:, 3], (1.0, 2.0))
+    z_rms = math.sqrt(float(np.mean(((rows[:, 1] - rows[:, 3]) / rows[:, 2]) ** 2)))
+    return cov[1.0], cov[2.0], z_rms
+
+
+def interval_cells(per_trial: list[np.ndarray], liquids: list[str], lo: float, hi: float) -> str:
+    """95 % interval of ±1σ, ±2σ and RMS z over the test trials: :data:`N_BOOTSTRAP`
+    resamples of the trials within each liquid (a trial's refreshes stay together)."""
+    kept = [r[(r[:, 0] >= lo) & (r[:, 0] < hi) & np.isfinite(r[:, 1:3]).all(axis=1)]
+            for r in per_trial]  # fmt: skip
+    if not sum(len(r) for r in kept):
+        return f"{'-':>23s}"
+    rng = np.random.default_rng(0)
+    groups = [np.flatnonzero(np.asarray(liquids) == liquid) for liquid in dict.fromkeys(liquids)]
+    draws = []
+    for _ in range(N_BOOTSTRAP):
+        pick = np.concatenate([rng.choice(g, len(g)) for g in groups])
+        draws.append(_z_stats(np.concatenate([kept[i] for i in pick])))
+    low, high = np.percentile(draws, [2.5, 97.5], axis=0)
+    return (
+        f"{low[0] * 100:3.0f}-{high[0] * 100:<3.0f} {low[1] * 100:3.0f}-{high[1] * 100:<3.0f} "
+        f"{low[2]:.2f}-{high[2]:.2f}"
+    )
 
 
 def report_coverage(tests: list[dict]) -> None:
     bins = [f"{lo:g}-{hi:g} s" if math.isfinite(hi) else f"≥{lo:g} s" for lo, hi in BINS_S]
     nominal = ", ".join(f"±{k:g}σ {nominal_coverage(k):.0%}" for k in COVERAGE_KS)
+    head = " ".join(f"{b:>20s}" for b in [*bins, "final"])
     for title, gated in (("every refresh", False), ("reported values only", True)):
         print(
             f"\ncoverage of the truth, {title} (±1σ ±2σ rms-z n; nominal {nominal}, rms z 1), "
             "by ring-down time; final: the offline estimate"
         )
-        head = " ".join(f"{b:>20s}" for b in [*bins, "final"])
         print(f"{'model / target':30s} {head}")
         for kind in KINDS:
             for target in TARGETS:
-                stream, final = [], []
-                for test in tests:
-                    t_s = test["rows"][:, 0]
-                    if gated:
-                        mean, std = reported(test, kind, target)
-                    else:
-                        mean, std = test["pred"][kind][target].T
-                    truth = test["truth"][target]
-                    stream += [
-                        (t, m, s, truth)
-                        for t, m, s in zip(t_s[:-1], mean[:-1], std[:-1], strict=True)
-                    ]
-                    final.append((0.0, mean[-1], std[-1], truth))
-                cells = [coverage_cells(stream, lo, hi) for lo, hi in BINS_S]
-                cells.append(coverage_cells(final, 0.0, math.inf))
+                stream, final = _coverage_rows(tests, kind, target, gated)
+                cells = [coverage_cells(np.concatenate(stream), lo, hi) for lo, hi in BINS_S]
+                cells.append(coverage_cells(np.concatenate(final), 0.0, math.inf))
                 print(f"{kind + ' ' + target:30s} " + " ".join(cells))
     for col, name in ((1, "λ (of the final λ)"), (3, "ω (of the final ω)")):
         rows = []
@@ -180,6 +208,32 @@ def report_coverage(tests: list[dict]) -> None:
             ]
         cells = [coverage_cells(rows, lo, hi) for lo, hi in BINS_S]
         print(f"{'streamed ' + name:30s} " + " ".join(cells))
+    print(
+        f"\n95 % interval of every refresh's ±1σ [%], ±2σ [%] and rms z over the test trials "
+        f"({N_BOOTSTRAP} resamples of the trials within each liquid; the training set is one draw)"
+    )
+    print(f"{'model / target':30s} " + " ".join(f"{b:>23s}" for b in [*bins, "final"]))
+    liquids = [t["liquid"] for t in tests]
+    for kind in KINDS:
+        for target in TARGETS:
+            stream, final = _coverage_rows(tests, kind, target, False)
+            cells = [interval_cells(stream, liquids, lo, hi) for lo, hi in BINS_S]
+            cells.append(interval_cells(final, liquids, 0.0, math.inf))
+            print(f"{kind + ' ' + target:30s} " + " ".join(cells))
+
+
+def _coverage_rows(
+    tests: list[dict], kind: str, target: str, gated: bool
+) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Per test trial, its streamed (t, mean, std, truth) rows and its final one."""
+    stream, final = [], []
+    for test in tests:
+        t_s = test["rows"][:, 0]
+        mean, std = reported(test, kind, target) if gated else test["pred"][kind][target].T
+        rows = np.column_stack([t_s, mean, std, np.full(len(t_s), test["truth"][target])])
+        stream.append(rows[:-1])
+        final.append(np.column_stack([[0.0], rows[-1:, 1:]]))
+    return stream, final
 
 
 def report_latency(tests: list[dict]) -> None:
