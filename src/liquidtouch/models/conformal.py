@@ -59,6 +59,7 @@ from typing import Any
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.model_selection import GroupKFold, KFold, PredefinedSplit
+from sklearn.utils.validation import has_fit_parameter
 
 from liquidtouch.errors import TableError
 from liquidtouch.models.local_scale import LocalScale, fit_local_scale
@@ -75,6 +76,7 @@ __all__ = [
     "calibrate_regressor",
     "calibration_folds",
     "default_groups",
+    "feature_std_param",
     "min_rows_for_level",
 ]
 
@@ -248,6 +250,14 @@ def calibration_folds(
     return list(folds.split(index, groups=groups))
 
 
+def feature_std_param(estimator: Any, X_std: Any) -> dict[str, Any]:
+    """``{"X_std": X_std}`` for an estimator whose ``fit`` takes the rows' feature std (a GP:
+    each row's own noise), else ``{}``; also ``{}`` without a std."""
+    if X_std is None or not has_fit_parameter(estimator, "X_std"):
+        return {}
+    return {"X_std": X_std}
+
+
 class TotalStdRegressor(RegressorMixin, BaseEstimator):
     """A regressor on (n, 4) rows (λ, ω, σλ, σω) whose std is the total std: the wrapped
     ``estimator``'s std on (λ, ω) and (σλ, σω) propagated through its mean, in quadrature
@@ -257,8 +267,11 @@ class TotalStdRegressor(RegressorMixin, BaseEstimator):
         self.estimator = estimator
 
     def fit(self, X: Any, y: Any) -> TotalStdRegressor:
-        """Fit the wrapped estimator on the features ``X[:, :2]``; return ``self``."""
-        self.estimator_ = clone(self.estimator).fit(np.asarray(X, dtype=float)[:, :2], y)
+        """Fit the wrapped estimator on the features ``X[:, :2]`` (and their std ``X[:, 2:]``
+        when its ``fit`` takes ``X_std``, as the final model is fitted); return ``self``."""
+        X = np.asarray(X, dtype=float)
+        options = feature_std_param(self.estimator, X[:, 2:])
+        self.estimator_ = clone(self.estimator).fit(X[:, :2], y, **options)
         return self
 
     def predict(self, X: Any, return_std: bool = False) -> Any:

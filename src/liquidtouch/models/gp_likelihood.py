@@ -11,8 +11,9 @@ the same value and gradient to rounding (tested against scikit-learn), ~3× fast
 evaluation. The restarts, their random starts and everything after the optimum stay
 scikit-learn's.
 
-With ``K = C·R + (σ² + jitter)·I`` (``R`` the RBF correlation, ``jitter`` the
-regressor's ``alpha`` added to the diagonal) and ``α = K⁻¹ r``::
+With ``K = C·R + σ²·I + diag(jitter)`` (``R`` the RBF correlation, ``jitter`` the
+regressor's ``alpha`` added to the diagonal: one value, or each row's own noise) and
+``α = K⁻¹ r``::
 
     ln p(r | θ) = −½ rᵀα − Σ ln diag(L) − n/2 · ln 2π,   K = L Lᵀ
     ∂ ln p / ∂θ_k = ½ Σ_ij (ααᵀ − K⁻¹)_ij (∂K/∂θ_k)_ji
@@ -34,12 +35,13 @@ _LOG_2PI = math.log(2.0 * math.pi)
 
 
 def log_marginal_likelihood(
-    theta: np.ndarray, squared_steps: np.ndarray, r: np.ndarray, jitter: float
+    theta: np.ndarray, squared_steps: np.ndarray, r: np.ndarray, jitter: float | np.ndarray
 ) -> tuple[float, np.ndarray]:
     """``(ln p(r | θ), its gradient over θ)`` (module docstring).
 
     ``squared_steps``: (d, n, n) squared differences of the training inputs per input
-    dimension; ``r``: (n,) standardised targets; ``jitter``: added to the diagonal.
+    dimension; ``r``: (n,) standardised targets; ``jitter``: added to the diagonal
+    (a scalar, or (n,) per row).
     ``(-inf, 0)`` when ``K`` is not positive definite, as scikit-learn returns.
     """
     params = np.exp(theta)
@@ -71,14 +73,15 @@ class LikelihoodOptimizer:
     scikit-learn's L-BFGS-B call on :func:`log_marginal_likelihood` of ``Z``, ``r``.
 
     ``Z``: (n, d) standardised training inputs; ``r``: (n,) standardised targets;
-    ``jitter``: the regressor's ``alpha``. The kernel's θ must be ``ln(C, ℓ_1 … ℓ_d, σ²)``.
+    ``jitter``: the regressor's ``alpha`` (scalar or (n,)). The kernel's θ must be
+    ``ln(C, ℓ_1 … ℓ_d, σ²)``.
     """
 
-    def __init__(self, Z: np.ndarray, r: np.ndarray, jitter: float) -> None:
+    def __init__(self, Z: np.ndarray, r: np.ndarray, jitter: float | np.ndarray) -> None:
         Z = np.asarray(Z, dtype=float)
         self.squared_steps = (Z.T[:, :, None] - Z.T[:, None, :]) ** 2
         self.r = np.asarray(r, dtype=float)
-        self.jitter = float(jitter)
+        self.jitter = np.asarray(jitter, dtype=float)
 
     def _negative(self, theta: np.ndarray) -> tuple[float, np.ndarray]:
         value, gradient = log_marginal_likelihood(theta, self.squared_steps, self.r, self.jitter)

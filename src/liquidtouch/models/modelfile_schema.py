@@ -3,7 +3,7 @@
 A model file is one JSON document (small arrays — training data, scaling —
 are embedded as lists; JSON floats round-trip exactly)::
 
-    {"format": "liquidtouch-model", "format_version": 6,
+    {"format": "liquidtouch-model", "format_version": 7,
      "kind": "regression" | "classification", "created_by": "liquidtouch 0.1.0",
      "provenance": {"liquidtouch": ..., "scikit_learn": ..., "numpy": ..., "python": ...,
                     "training_sha256": ...},
@@ -19,8 +19,9 @@ are embedded as lists; JSON floats round-trip exactly)::
      "sha256": ...}
 
 Each estimator stores its hyperparameters (GP kernel: constant, RBF length
-scales, white-noise level; SVM: C, gamma; physics prior: wavenumber and
-coefficients), its feature/target scaling and its training data. Features are
+scales, white-noise level, and each training row's own noise when it was fitted with
+the rows' feature std; SVM: C, gamma; physics prior: wavenumber and coefficients), its
+feature/target scaling and its training data. Features are
 λ [1/s] and ω [rad/s]. The format is described in ``docs/formats.md``.
 """
 
@@ -36,10 +37,12 @@ FORMAT_NAME = "liquidtouch-model"
 #: Version 2 adds ``sha256``, ``provenance`` and ``domain``; version 3 ``calibration``
 #: (cross-conformal scores per target); version 4 the classifier's ``unknown`` rule;
 #: version 5 a calibration's ``local`` scale (:mod:`liquidtouch.models.local_scale`);
-#: version 6 its ``normalised_by`` (scores of the total std, :mod:`~liquidtouch.models.conformal`).
+#: version 6 its ``normalised_by`` (scores of the total std,
+#: :mod:`~liquidtouch.models.conformal`); version 7 a GP's ``row_noise`` (each training
+#: row's own noise, :mod:`~liquidtouch.models.regressors`).
 #: Versions 1-4 still load (uncalibrated; a classifier without ``unknown`` gets the
 #: rule at its default false-alarm rate from its training rows).
-FORMAT_VERSION = 6
+FORMAT_VERSION = 7
 
 PositiveFloat = Annotated[float, Field(gt=0)]
 Sha256 = Annotated[str, Field(pattern=r"^[0-9a-f]{64}$")]
@@ -82,10 +85,13 @@ class GPRState(_TrainingData):
     y_mean: float
     y_scale: PositiveFloat
     y_train: list[float]
+    row_noise: list[Annotated[float, Field(ge=0)]] | None = None
 
     @model_validator(mode="after")
     def _consistent(self) -> GPRState:
         self._check_length(self.y_train, "y_train")
+        if self.row_noise is not None:
+            self._check_length(self.row_noise, "row_noise")
         viscosity_prior = self.prior is not None and self.prior.kind == "viscosity"
         n_inputs = 3 if viscosity_prior else 2
         if (self.prior is None) != (self.model == "gpr"):
@@ -241,6 +247,10 @@ class ModelFile(_Strict):
             c.normalised_by != "model-std" for c in self.calibration.values()
         ):
             raise ValueError("scores normalised by the total std need format version 6")
+        if self.format_version < 7 and any(
+            getattr(r, "row_noise", None) is not None for r in self.regressors.values()
+        ):
+            raise ValueError("a GP's row_noise needs format version 7")
         if self.format_version >= 4 and self.classifier is not None:
             if self.classifier.unknown is None:
                 raise ValueError(f"format version {self.format_version} needs classifier.unknown")

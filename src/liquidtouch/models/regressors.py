@@ -19,7 +19,16 @@ several estimators, each with its own hyperparameters (and physics prior):
 target; ``sklearn.multioutput.MultiOutputRegressor`` does the same and returns (n, k).
 
 - :class:`GPRegressor` — Gaussian-process regression with an anisotropic RBF +
-  white-noise kernel on standardised inputs and targets (the paper's model).
+  white-noise kernel on standardised inputs and targets (the paper's model). Given
+  the training rows' own feature std (``fit(X, y, X_std=...)``), each row also gets
+  its own noise: its (λ, ω) std propagated through a first fit, added to the kernel's
+  diagonal before the kernel is fitted again (a noisy-input GP, McHutchon & Rasmussen
+  2011), the common white noise kept at least at the first fit's level (a fit's std
+  under-states its error on some rows: ``benchmarks/RESULTS.md``, fit_std). A row whose
+  fit is uncertain then pulls the model less: one white-noise level for every row let
+  simulated detergent's scattered rows (ω std ~1 %, against 0.01-0.2 % for the other
+  liquids) bend the height surface, its test height error 1.9 mm against 1.2 mm with the
+  rows' own noise (``benchmarks/RESULTS.md``, calibration).
 - :class:`~liquidtouch.models.quadratic.QuadraticRegressor` — the paper's
   6-parameter quadratic in (λ, ω) (:mod:`liquidtouch.models.quadratic`).
 
@@ -47,6 +56,7 @@ from liquidtouch.models.kernel_limits import (
     check_kernel_rows,
     single_threaded_blas,
 )
+from liquidtouch.models.propagation import clean_feature_std, propagated_variance
 from liquidtouch.models.validation import mean_and_scale, validate_X, validate_X_y
 
 __all__ = ["LENGTH_SCALE_BOUNDS", "MIN_ROWS_GPR", "PREDICT_CHUNK_ROWS", "GPRegressor"]
@@ -59,6 +69,8 @@ MIN_ROWS_GPR = 5
 LENGTH_SCALE_BOUNDS = (0.3, 100.0)
 #: added to the kernel's diagonal for numerical stability (scikit-learn's default ``alpha``)
 GP_JITTER = 1e-10
+#: bounds of the white-noise level (standardised target variance)
+MIN_NOISE_LEVEL, MAX_NOISE_LEVEL = 1e-5, 1.0
 #: Rows predicted at once by a GP (bounds the (rows × training rows) cross-kernel matrix).
 PREDICT_CHUNK_ROWS = 2048
 
@@ -88,9 +100,10 @@ class GPRegressor(RegressorMixin, BaseEstimator):
         Seed of the restarts. Saving to a model file needs an int.
 
     Fitted attributes: ``X_train_``, ``y_train_``, ``x_mean_``, ``x_scale_``,
-    ``y_mean_``, ``y_scale_``, ``gp_`` (the inner scikit-learn GP),
-    ``kernel_params_``, ``n_features_in_`` (and ``feature_names_in_`` when fitted on
-    a DataFrame).
+    ``y_mean_``, ``y_scale_``, ``row_noise_`` (each row's own noise variance in
+    standardised target units, ``None`` without ``X_std``), ``gp_`` (the inner
+    scikit-learn GP), ``kernel_params_``, ``n_features_in_`` (and
+    ``feature_names_in_`` when fitted on a DataFrame).
     """
 
     model_name = "gpr"
@@ -125,13 +138,20 @@ class GPRegressor(RegressorMixin, BaseEstimator):
         """Restore the prior's parameters (none for the plain GP)."""
 
     # -------------------------------------------------------------------------
-    def _kernel(self, constant: float, length_scale: list[float], noise_level: float, fixed: bool):
+    def _kernel(
+        self,
+        constant: float,
+        length_scale: list[float],
+        noise_level: float,
+        fixed: bool,
+        min_noise: float = MIN_NOISE_LEVEL,
+    ):
         from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
         bounds = "fixed" if fixed else None
         return ConstantKernel(constant, bounds or (1e-2, 1e2)) * RBF(
             length_scale, bounds or LENGTH_SCALE_BOUNDS
-        ) + WhiteKernel(noise_level, bounds or (1e-5, 1.0))
+        ) + WhiteKernel(noise_level, bounds or (min_noise, MAX_NOISE_LEVEL))
 
     def _fit_gp(self, kernel: Any, optimise: bool) -> None:
         from sklearn.exceptions import ConvergenceWarning
@@ -139,10 +159,11 @@ class GPRegressor(RegressorMixin, BaseEstimator):
 
         Z = (self._inputs(self.X_train_) - self.x_mean_) / self.x_scale_
         r = (self.y_train_ - self._prior_mean(self.X_train_) - self.y_mean_) / self.y_scale_
+        diagonal = GP_JITTER if self.row_noise_ is None else GP_JITTER + self.row_noise_
         self.gp_ = GaussianProcessRegressor(
             kernel=kernel,
-            optimizer=LikelihoodOptimizer(Z, r, GP_JITTER) if optimise else None,
-            alpha=GP_JITTER,
+            optimizer=LikelihoodOptimizer(Z, r, diagonal) if optimise else None,
+            alpha=diagonal,
             n_restarts_optimizer=self.n_restarts if optimise else 0,
             random_state=self.random_state,
         )
@@ -152,8 +173,12 @@ class GPRegressor(RegressorMixin, BaseEstimator):
             self.gp_.fit(Z, r)
         self.gp_.optimizer = None  # fitted: the optimiser's copy of the data is not kept
 
-    def fit(self, X: Any, y: Any) -> GPRegressor:
-        """Fit on (n, d) features ``X`` and one target ``y`` of shape (n,); return ``self``.
+    def fit(self, X: Any, y: Any, X_std: Any = None) -> GPRegressor:
+        """Fit on (n, 2) features ``X`` and one target ``y`` of shape (n,); return ``self``.
+
+        ``X_std`` (n, 2): the rows' own std of (λ, ω) (NaN counts as 0); each row's
+        noise is then its std propagated through a first fit, and the kernel is fitted
+        again with it (module docstring; twice the cost).
 
         Raises :class:`TableError` for bad hyperparameters, a bad shape, NaN or
         infinity, fewer than :data:`MIN_ROWS_GPR` or more than :data:`MAX_KERNEL_ROWS` rows.
@@ -162,13 +187,24 @@ class GPRegressor(RegressorMixin, BaseEstimator):
         X, y = validate_X_y(self, X, y, self.min_rows)
         check_kernel_rows(self, X.shape[0])
         self._check_input(X)
-        self.X_train_, self.y_train_ = X, y
+        X_std = None if X_std is None else clean_feature_std(X_std, X.shape[0])
+        self.X_train_, self.y_train_, self.row_noise_ = X, y, None
         self._fit_prior(self.X_train_, self.y_train_)
         self.x_mean_, self.x_scale_ = mean_and_scale(self._inputs(self.X_train_))
         residual = self.y_train_ - self._prior_mean(self.X_train_)
         self.y_mean_, self.y_scale_ = float(residual.mean()), float(residual.std() or 1.0)
         n_inputs = self.x_mean_.shape[0]
         self._fit_gp(self._kernel(1.0, [1.0] * n_inputs, 0.1, fixed=False), optimise=True)
+        if X_std is not None and np.any(X_std > 0):
+            _, var = propagated_variance(lambda rows: {"y": self.predict(rows)}, X, X_std)
+            self.row_noise_ = var["y"] / self.y_scale_**2
+            # the common noise stays at least the level found without the rows' own:
+            # a fit's std under-states its error on some rows, so it widens, not replaces it
+            k = self.kernel_params_
+            kernel = self._kernel(
+                k["constant"], k["length_scale"], k["noise_level"], False, k["noise_level"]
+            )
+            self._fit_gp(kernel, optimise=True)
         return self
 
     @property
@@ -241,6 +277,7 @@ class GPRegressor(RegressorMixin, BaseEstimator):
             "y_scale": self.y_scale_,
             "X_train": self.X_train_.tolist(),
             "y_train": self.y_train_.tolist(),
+            "row_noise": None if self.row_noise_ is None else self.row_noise_.tolist(),
         }
 
     @classmethod
@@ -253,6 +290,8 @@ class GPRegressor(RegressorMixin, BaseEstimator):
         self = cls._construct(state)
         self.X_train_ = np.asarray(state["X_train"], dtype=float)
         self.y_train_ = np.asarray(state["y_train"], dtype=float)
+        row_noise = state.get("row_noise")  # format version 7
+        self.row_noise_ = None if row_noise is None else np.asarray(row_noise, dtype=float)
         self.n_features_in_ = self.X_train_.shape[1]
         self._set_prior_state(state["prior"])
         self.x_mean_ = np.asarray(state["x_mean"], dtype=float)

@@ -14,7 +14,12 @@ import numpy as np
 
 from liquidtouch.errors import TableError
 from liquidtouch.models.classifier import LiquidClassifier
-from liquidtouch.models.conformal import DEFAULT_FOLDS, calibrate_regressor, calibration_folds
+from liquidtouch.models.conformal import (
+    DEFAULT_FOLDS,
+    calibrate_regressor,
+    calibration_folds,
+    feature_std_param,
+)
 from liquidtouch.models.kernel_limits import MAX_KERNEL_ROWS_TOTAL, check_kernel_rows
 from liquidtouch.models.physics_prior import PhysicsGPRegressor, prior_for_target
 from liquidtouch.models.property_model import MODEL_KINDS, REGRESSORS, PropertyModel
@@ -59,8 +64,10 @@ def train_regression(
     no calibration. ``calibration_groups`` (n,): rows held out together (e.g. the fill
     height of each row: a row is then predicted by a model that never saw its height).
     ``calibration_std`` (n, 2): the rows' own fit std of (λ, ω) (a features table's
-    ``*_std`` columns); the scores are then normalised by the total std the model predicts
-    with (:mod:`~liquidtouch.models.conformal`, ``normalised_by="total-std"``).
+    ``*_std`` columns); a GP then gives each row its own noise
+    (:class:`~liquidtouch.models.regressors.GPRegressor`), and the scores are normalised
+    by the total std the model predicts with (:mod:`~liquidtouch.models.conformal`,
+    ``normalised_by="total-std"``).
     Raises :class:`TableError` for bad input, before any fitting.
     """
     if model not in REGRESSORS:
@@ -88,7 +95,8 @@ def train_regression(
             prior_for_target(target)  # an unknown target fails before the first (slow) fit
     regressors, calibration = {}, {}
     for target, y in targets.items():
-        regressors[target] = make_regressor(model, target).fit(X, y)
+        regressor = make_regressor(model, target)
+        regressors[target] = regressor.fit(X, y, **feature_std_param(regressor, calibration_std))
         if calibration_folds is not None and can_calibrate(
             model, X.shape[0], calibration_folds, calibration_groups
         ):
