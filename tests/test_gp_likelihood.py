@@ -18,17 +18,20 @@ def _kernel(dims: int):
     )
 
 
+@pytest.mark.parametrize("per_row", [False, True])
 @pytest.mark.parametrize("dims", [1, 2, 3])
-def test_value_and_gradient_equal_scikit_learn_s(dims) -> None:
+def test_value_and_gradient_equal_scikit_learn_s(dims, per_row) -> None:
+    """The same value and gradient, with one jitter or each row's own noise on the diagonal."""
     rng = np.random.default_rng(dims)
     Z = rng.normal(size=(40, dims))
     r = np.sin(Z.sum(axis=1)) + rng.normal(0, 0.1, 40)
-    reference = GaussianProcessRegressor(_kernel(dims), optimizer=None, alpha=GP_JITTER).fit(Z, r)
-    steps = LikelihoodOptimizer(Z, r, GP_JITTER).squared_steps
+    diagonal = GP_JITTER + (rng.uniform(0.0, 0.2, 40) if per_row else 0.0)
+    reference = GaussianProcessRegressor(_kernel(dims), optimizer=None, alpha=diagonal).fit(Z, r)
+    steps = LikelihoodOptimizer(Z, r, diagonal).squared_steps
     for _ in range(20):
         theta = rng.uniform(reference.kernel_.bounds[:, 0], reference.kernel_.bounds[:, 1])
         expected, expected_gradient = reference.log_marginal_likelihood(theta, eval_gradient=True)
-        value, gradient = log_marginal_likelihood(theta, steps, r, GP_JITTER)
+        value, gradient = log_marginal_likelihood(theta, steps, r, diagonal)
         assert value == pytest.approx(expected, rel=1e-9, abs=1e-9)
         np.testing.assert_allclose(gradient, expected_gradient, rtol=1e-6, atol=1e-8)
 

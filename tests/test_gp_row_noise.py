@@ -6,14 +6,11 @@ import json
 
 import numpy as np
 import pytest
-from sklearn.gaussian_process import GaussianProcessRegressor
-from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
 from liquidtouch.errors import ModelFileError
 from liquidtouch.models.conformal import TotalStdRegressor
-from liquidtouch.models.gp_likelihood import LikelihoodOptimizer, log_marginal_likelihood
 from liquidtouch.models.modelfile import load_model, model_to_dict, save_model
-from liquidtouch.models.regressors import GP_JITTER, GPRegressor
+from liquidtouch.models.regressors import GPRegressor
 from liquidtouch.models.training import train_regression
 
 
@@ -57,24 +54,6 @@ def test_rows_with_an_uncertain_fit_pull_the_model_less(seed) -> None:
 
     assert rms(knowing, damped) < 0.8 * rms(plain, damped)
     assert rms(knowing, clean) < 1.2 * rms(plain, clean) + 0.05
-
-
-def test_the_likelihood_with_each_row_s_noise_equals_scikit_learn_s() -> None:
-    rng = np.random.default_rng(7)
-    Z = rng.normal(size=(30, 2))
-    r = np.sin(Z.sum(axis=1)) + rng.normal(0, 0.1, 30)
-    diagonal = GP_JITTER + rng.uniform(0.0, 0.2, 30)
-    kernel = ConstantKernel(1.0, (1e-2, 1e2)) * RBF([1.0, 1.0], (0.3, 100.0)) + WhiteKernel(
-        0.1, (1e-5, 1.0)
-    )
-    reference = GaussianProcessRegressor(kernel, optimizer=None, alpha=diagonal).fit(Z, r)
-    steps = LikelihoodOptimizer(Z, r, diagonal).squared_steps
-    for _ in range(10):
-        theta = rng.uniform(reference.kernel_.bounds[:, 0], reference.kernel_.bounds[:, 1])
-        expected, expected_gradient = reference.log_marginal_likelihood(theta, eval_gradient=True)
-        value, gradient = log_marginal_likelihood(theta, steps, r, diagonal)
-        assert value == pytest.approx(expected, rel=1e-9, abs=1e-9)
-        np.testing.assert_allclose(gradient, expected_gradient, rtol=1e-6, atol=1e-8)
 
 
 def test_the_calibration_folds_are_fitted_as_the_final_model_is() -> None:
