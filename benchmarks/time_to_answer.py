@@ -19,16 +19,18 @@ One run, on simulated trials (GelSight Mini videos, 320 × 240 at 25 fps):
    λ, ω and their streamed std (recorded whether or not the λ/ω gates show them)
    go through each model as the stream does
    (:func:`~liquidtouch.live.properties.predict_with_fit_std`; the std without its
-   floors, :mod:`liquidtouch.live.uncertainty`); a property is
-   reported once its std is at most ``--report-std`` (``--until-std``'s rule);
+   floors, :mod:`liquidtouch.live.uncertainty`); a property is reported once its std
+   is at most the tolerance (``REPORT_STD``, ``--until-std``'s rule);
 3. tables: the ring-down time [s] until height is within 1 mm and log10 ν within
    0.1 of the truth and stays there (median, 90th percentile per liquid; ``inf``:
-   the final estimate is still off), against the offline estimate on the full
-   record (the final update refits the whole record as ``extract``); the
-   ±1σ/±2σ coverage of the truth per ring-down time, and of the final λ, ω by
-   the streamed ones; the per-frame latency of ``add_frame`` (refreshes run in
-   the call here; ``benchmarks/live_latency.py`` measures the real-time,
-   threaded case); a PNG of coverage and error vs ring-down time.
+   the final estimate is still off), in two readings — every estimate as ``live``
+   shows it without ``--until-std``, and only once its std is at most the tolerance —
+   against the offline estimate on the full record (the final update refits the
+   whole record as ``extract``); the ±1σ/±2σ coverage of the truth per ring-down
+   time, with a 95 % interval from resampling the test trials within each liquid,
+   and of the final λ, ω by the streamed ones; the per-frame latency of ``add_frame``
+   (refreshes run in the call here; ``benchmarks/live_latency.py`` measures the
+   real-time, threaded case); a PNG of coverage and error vs ring-down time.
 
 The simulated features are saved (``--save data.json``) and a run can be
 re-analysed from them (``--load data.json``; several runs of other ``--seed`` are pooled
