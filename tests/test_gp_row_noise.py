@@ -45,6 +45,7 @@ def test_rows_with_an_uncertain_fit_pull_the_model_less(seed) -> None:
     assert knowing.row_noise_.min() > 0
     assert np.median(knowing.row_noise_[noisy]) > 100 * np.median(knowing.row_noise_[~noisy])
     assert knowing.kernel_params_["noise_level"] >= plain.kernel_params_["noise_level"]
+    assert "own noise" in knowing.describe() and "own noise" not in plain.describe()
     rng = np.random.default_rng(100 + seed)
     damped = np.column_stack([rng.uniform(2.45, 2.95, 200), rng.uniform(10.5, 15.5, 200)])
     clean = np.column_stack([rng.uniform(0.3, 2.1, 200), rng.uniform(10.5, 15.5, 200)])

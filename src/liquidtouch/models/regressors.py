@@ -253,7 +253,11 @@ class GPRegressor(RegressorMixin, BaseEstimator):
         """A one-line summary of the fitted kernel (in standardised units)."""
         k = self.kernel_params_
         scales = ", ".join(f"{v:.3g}" for v in k["length_scale"])
-        return f"{k['constant']:.3g}·RBF(ℓ=[{scales}]) + White({k['noise_level']:.3g})"
+        text = f"{k['constant']:.3g}·RBF(ℓ=[{scales}]) + White({k['noise_level']:.3g})"
+        if self.row_noise_ is None:
+            return text
+        median, largest = np.median(self.row_noise_), np.max(self.row_noise_)
+        return f"{text} + each row's own noise (median {median:.3g}, max {largest:.3g})"
 
     def to_state(self) -> dict[str, Any]:
         """Plain-data state: hyperparameters, scaling, kernel and training data."""
