@@ -52,9 +52,12 @@ def report_calibration(models: dict) -> None:
             )
 
 
-def reported(test: dict, kind: str, target: str) -> tuple[np.ndarray, np.ndarray]:
-    """(mean, std) per refresh, NaN where not reported (std above REPORT_STD); final always."""
+def estimates(test: dict, kind: str, target: str, gated: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(mean, std) per refresh; ``gated``: NaN where not reported (std above REPORT_STD, the
+    --until-std rule), the final always."""
     mean, std = test["pred"][kind][target].T.copy()
+    if not gated:
+        return mean, std
     hide = ~(std <= REPORT_STD[target])
     hide[-1] = False
     mean[hide], std[hide] = np.nan, np.nan
@@ -118,7 +121,7 @@ def _settle_line(tests: list[dict], kind: str, gated: bool) -> str:
             continue
         t_s, ok_all = test["rows"][:, 0], None
         for target in TARGETS:
-            mean = (reported(test, kind, target) if gated else test["pred"][kind][target].T)[0]
+            mean, _ = estimates(test, kind, target, gated)
             with np.errstate(invalid="ignore"):
                 ok = np.abs(mean - test["truth"][target]) <= TOLERANCES[target]
             cells[target].append(settle_time_s(t_s, ok))
@@ -144,11 +147,15 @@ def _median_of_right(times: list[float]) -> str:
     return f"{median} ({len(right)}/{len(times)})"
 
 
+def _in_bin(rows: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """The (t, mean, std, truth) rows with lo ≤ t < hi and a finite mean and std."""
+    keep = (rows[:, 0] >= lo) & (rows[:, 0] < hi) & np.isfinite(rows[:, 1:3]).all(axis=1)
+    return rows[keep]
+
+
 def coverage_cells(z_rows, lo: float, hi: float) -> str:
     """±1σ, ±2σ, RMS z and count of the (t, mean, std, truth) rows with lo ≤ t < hi."""
-    rows = np.array(z_rows, dtype=float).reshape(-1, 4)
-    rows = rows[(rows[:, 0] >= lo) & (rows[:, 0] < hi)]
-    rows = rows[np.isfinite(rows[:, 1]) & np.isfinite(rows[:, 2])]
+    rows = _in_bin(np.array(z_rows, dtype=float).reshape(-1, 4), lo, hi)
     if not len(rows):
         return f"{'-':>20s}"
     one, two, z_rms = _z_stats(rows)
@@ -165,8 +172,7 @@ def _z_stats(rows: np.ndarray) -> tuple[float, float, float]:
 def interval_cells(per_trial: list[np.ndarray], liquids: list[str], lo: float, hi: float) -> str:
     """95 % interval of ±1σ, ±2σ and RMS z over the test trials: :data:`N_BOOTSTRAP`
     resamples of the trials within each liquid (a trial's refreshes stay together)."""
-    kept = [r[(r[:, 0] >= lo) & (r[:, 0] < hi) & np.isfinite(r[:, 1:3]).all(axis=1)]
-            for r in per_trial]  # fmt: skip
+    kept = [_in_bin(r, lo, hi) for r in per_trial]
     if not sum(len(r) for r in kept):
         return f"{'-':>23s}"
     rng = np.random.default_rng(0)
@@ -186,6 +192,11 @@ def report_coverage(tests: list[dict]) -> None:
     bins = [f"{lo:g}-{hi:g} s" if math.isfinite(hi) else f"≥{lo:g} s" for lo, hi in BINS_S]
     nominal = ", ".join(f"±{k:g}σ {nominal_coverage(k):.0%}" for k in COVERAGE_KS)
     head = " ".join(f"{b:>20s}" for b in [*bins, "final"])
+    every = {
+        (kind, target): _coverage_rows(tests, kind, target, False)
+        for kind in KINDS
+        for target in TARGETS
+    }
     for title, gated in (("every refresh", False), ("reported values only", True)):
         print(
             f"\ncoverage of the truth, {title} (±1σ ±2σ rms-z n; nominal {nominal}, rms z 1), "
@@ -194,18 +205,18 @@ def report_coverage(tests: list[dict]) -> None:
         print(f"{'model / target':30s} {head}")
         for kind in KINDS:
             for target in TARGETS:
-                stream, final = _coverage_rows(tests, kind, target, gated)
+                stream, final = (
+                    _coverage_rows(tests, kind, target, True) if gated else every[kind, target]
+                )
                 cells = [coverage_cells(np.concatenate(stream), lo, hi) for lo, hi in BINS_S]
                 cells.append(coverage_cells(np.concatenate(final), 0.0, math.inf))
                 print(f"{kind + ' ' + target:30s} " + " ".join(cells))
     for col, name in ((1, "λ (of the final λ)"), (3, "ω (of the final ω)")):
-        rows = []
-        for test in tests:
-            r, shown = test["rows"], displayed_std(test["rows"], col)
-            rows += [
-                (t, v, s, r[-1, col])
-                for t, v, s in zip(r[:-1, 0], r[:-1, col], shown[:-1], strict=True)
-            ]
+        rows = np.concatenate([
+            np.column_stack([r[:-1, 0], r[:-1, col], displayed_std(r, col)[:-1],
+                             np.full(len(r) - 1, r[-1, col])])
+            for r in (test["rows"] for test in tests)
+        ])  # fmt: skip
         cells = [coverage_cells(rows, lo, hi) for lo, hi in BINS_S]
         print(f"{'streamed ' + name:30s} " + " ".join(cells))
     print(
@@ -214,12 +225,10 @@ def report_coverage(tests: list[dict]) -> None:
     )
     print(f"{'model / target':30s} " + " ".join(f"{b:>23s}" for b in [*bins, "final"]))
     liquids = [t["liquid"] for t in tests]
-    for kind in KINDS:
-        for target in TARGETS:
-            stream, final = _coverage_rows(tests, kind, target, False)
-            cells = [interval_cells(stream, liquids, lo, hi) for lo, hi in BINS_S]
-            cells.append(interval_cells(final, liquids, 0.0, math.inf))
-            print(f"{kind + ' ' + target:30s} " + " ".join(cells))
+    for (kind, target), (stream, final) in every.items():
+        cells = [interval_cells(stream, liquids, lo, hi) for lo, hi in BINS_S]
+        cells.append(interval_cells(final, liquids, 0.0, math.inf))
+        print(f"{kind + ' ' + target:30s} " + " ".join(cells))
 
 
 def _coverage_rows(
@@ -229,7 +238,7 @@ def _coverage_rows(
     stream, final = [], []
     for test in tests:
         t_s = test["rows"][:, 0]
-        mean, std = reported(test, kind, target) if gated else test["pred"][kind][target].T
+        mean, std = estimates(test, kind, target, gated)
         rows = np.column_stack([t_s, mean, std, np.full(len(t_s), test["truth"][target])])
         stream.append(rows[:-1])
         final.append(np.column_stack([[0.0], rows[-1:, 1:]]))
@@ -268,20 +277,11 @@ def plot(tests: list[dict], path: Path) -> Path:
         ax.set(yscale="log", xlabel="ring-down time [s]", ylabel=f"GPR |error| of {target}")
         ax = axes[1, col]
         for kind, style in zip(KINDS, ("-", ":"), strict=True):
+            stream = np.concatenate(_coverage_rows(tests, kind, target, False)[0])
             for k in COVERAGE_KS:
-                fractions = []
-                for lo, hi in BINS_S:
-                    rows = [
-                        (m, s, test["truth"][target])
-                        for test in tests
-                        for tt, (m, s) in zip(
-                            test["rows"][:-1, 0], test["pred"][kind][target][:-1], strict=True
-                        )
-                        if lo <= tt < hi
-                    ]
-                    arr = np.array(rows).reshape(-1, 3)
-                    arr = arr[np.isfinite(arr).all(axis=1)]
-                    fractions.append(coverage(arr[:, 0], arr[:, 1], arr[:, 2], (k,))[k])
+                fractions = [
+                    coverage(*_in_bin(stream, lo, hi)[:, 1:].T, (k,))[k] for lo, hi in BINS_S
+                ]
                 ax.plot(centres, fractions, style, marker="o", label=f"{kind} ±{k:g}σ")
         for k in COVERAGE_KS:
             ax.axhline(nominal_coverage(k), color="grey", lw=0.8)

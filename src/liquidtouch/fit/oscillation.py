@@ -350,8 +350,9 @@ def _identifiable(candidates: dict[str, FitState], model: str) -> tuple[dict[str
     mode further off (e.g. the low-pass filter's ringing) or a transient stays."""
     if model != AUTO:
         return candidates, f"{model} asked for"
-    half_width = float(candidates["single-mode"].rates[0])
-    quality = float(candidates["single-mode"].freqs[0]) / max(half_width, 1e-300)
+    single = candidates["single-mode"]
+    half_width = float(single.rates[0])
+    quality = float(single.freqs[0]) / max(half_width, 1e-300)
     narrowest = 0.0 if quality < MIN_QUALITY_FOR_TWO_MODES else MIN_LINE_WIDTH_SHARE * half_width
 
     def one_drifting_line(state: FitState) -> bool:

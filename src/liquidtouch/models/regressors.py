@@ -202,8 +202,9 @@ class GPRegressor(RegressorMixin, BaseEstimator):
             # a fit's std under-states its error on some rows, so it widens, not replaces it
             k = self.kernel_params_
             kernel = self._kernel(
-                k["constant"], k["length_scale"], k["noise_level"], False, k["noise_level"]
-            )
+                k["constant"], k["length_scale"], k["noise_level"], fixed=False,
+                min_noise=k["noise_level"],
+            )  # fmt: skip
             self._fit_gp(kernel, optimise=True)
         return self
 
