@@ -58,12 +58,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from record_formats import make_writer, render_sensors
 
 from liquidtouch._core.progress import progress_bar
-from liquidtouch.codec_check import frozen_steps
+from liquidtouch.extraction.codec_check import frozen_steps
+from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.fit.oscillation import fit_oscillation
-from liquidtouch.fit_settings import FitSettings
 from liquidtouch.io.frames import iter_frames
-from liquidtouch.segment import free_decay_start
-from liquidtouch.signal import tactile_signal
+from liquidtouch.ring_down.start import free_decay_start
+from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.encode import X264_PARAMS, encode_video
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.tracking.tracks import track_markers

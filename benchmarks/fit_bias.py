@@ -55,11 +55,11 @@ import liquidtouch.fit.oscillation as oscillation
 import liquidtouch.sim.slosh as slosh
 import liquidtouch.sim.trial as sim_trial
 from liquidtouch.errors import LiquidTouchError
+from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.fit.oscillation import MIN_DURATION_S, fit_oscillation
 from liquidtouch.fit.selection import Selection, select_model
-from liquidtouch.fit_settings import FitSettings
-from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ, lowpass
-from liquidtouch.signal import tactile_signal
+from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ, lowpass
+from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.gelsight import sensor_scene
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial

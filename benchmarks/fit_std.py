@@ -23,11 +23,11 @@ import numpy as np
 from scene_tracks import noisy_true_tracks
 
 from liquidtouch.errors import LiquidTouchError
+from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.fit.choices import NOISE_MODELS
 from liquidtouch.fit.model import damped_cosine
 from liquidtouch.fit.oscillation import fit_oscillation
-from liquidtouch.fit_settings import FitSettings
-from liquidtouch.signal import tactile_signal
+from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.gelsight import sensor_scene
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial

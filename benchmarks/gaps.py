@@ -26,7 +26,7 @@ What it does, per run (``--runs``, 40 by default; seed = run number):
 Reported: the share of runs with λ within 5 % and ω within 0.5 % of the gap-free fit
 (a refused fit counts as outside), over all runs and over the runs where the library
 did not report that a gap swallowed the ring-down
-(:func:`~liquidtouch.fit_settings.ring_down_swallowed`: gaps cover half or more of the
+(:func:`~liquidtouch.extraction.fit_settings.ring_down_swallowed`: gaps cover half or more of the
 ring-down above the noise, the CLI warns; or the fit was refused with
 ``SwallowedRingDownError``: no oscillation, and a gap where the ring-down starts), the
 number of such reports and of refusals (both kinds),
@@ -58,8 +58,8 @@ from scene_tracks import keep_frames, noisy_true_tracks
 from scipy.stats import norm
 
 from liquidtouch.errors import LiquidTouchError, SwallowedRingDownError
-from liquidtouch.fit_settings import FitSettings, ring_down_swallowed
-from liquidtouch.signal import tactile_signal
+from liquidtouch.extraction.fit_settings import FitSettings, ring_down_swallowed
+from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.gelsight import SensorScene, sensor_scene
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial

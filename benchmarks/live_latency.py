@@ -29,7 +29,7 @@ def main() -> None:
     parser.add_argument("--trial", type=Path, default=None, help="an existing trial directory")
     args = parser.parse_args()
 
-    from liquidtouch.extraction import track_sources
+    from liquidtouch.extraction.pipeline import track_sources
     from liquidtouch.io.sources import resolve_sources
     from liquidtouch.live import live_updates
 

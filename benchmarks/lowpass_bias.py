@@ -18,8 +18,8 @@ import argparse
 
 import numpy as np
 
-from liquidtouch.fit_settings import FitSettings
-from liquidtouch.signal import tactile_signal
+from liquidtouch.extraction.fit_settings import FitSettings
+from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.tracking.tracks import MarkerTracks
 
 REST_S = 1.0

@@ -32,9 +32,9 @@ import numpy as np
 
 from liquidtouch._core.progress import progress_bar
 from liquidtouch.errors import LiquidTouchError
-from liquidtouch.fit_settings import FitSettings
-from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ, lowpass
+from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.models.physics_prior import stokes_viscosity_feature
+from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ, lowpass
 from liquidtouch.sim.trial import simulate_trial
 
 DEFAULT_PUSH_MM = 15.0
@@ -58,7 +58,7 @@ def force_signal(trial) -> tuple[np.ndarray, np.ndarray]:
 
 def video_signal(trial, root: Path) -> tuple[np.ndarray, np.ndarray]:
     """The tactile signal of the rendered videos (simulate → render → track)."""
-    from liquidtouch.extraction import extract
+    from liquidtouch.extraction.pipeline import extract
     from liquidtouch.sim.trial_io import write_trial
 
     sig = extract(write_trial(trial, root / "trial"), fit=False).signal

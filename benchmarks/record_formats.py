@@ -40,7 +40,7 @@ import numpy as np
 
 from liquidtouch.acquire.cameras import Frame
 from liquidtouch.acquire.recording import Ffv1Writer, PngWriter
-from liquidtouch.extraction import extract
+from liquidtouch.extraction.pipeline import extract
 from liquidtouch.sim.encode import PTS_RATE_HZ, X264_PARAMS
 from liquidtouch.sim.gelsight import SENSOR_NAMES, sensor_scene
 from liquidtouch.sim.render import iter_frames, make_background
@@ -224,7 +224,7 @@ def median_period(t) -> float:
 
 def extract_both(directory: Path) -> tuple[tuple[float, float], tuple[float, float]]:
     """(λ, ω) of ``extract(directory)``, as the library does it and with the median clock."""
-    import liquidtouch.clock as clock
+    import liquidtouch.tracking.clock as clock
 
     result = extract(directory)
     library = (result.fit.decay_rate, result.fit.angular_frequency)

@@ -100,7 +100,7 @@ def simulate(root: Path, name: str, liquid: str, height_mm: float, conc, seed: i
 def training_set(root: Path, n_heights: int, duration_s: float, advance) -> list[dict]:
     """One record per training trial: offline fit (λ, ω, std, κ), labels and the training
     set it belongs to (``all``: every liquid; ``sugar-paper``: the paper's sugar design)."""
-    from liquidtouch.extraction import extract
+    from liquidtouch.extraction.pipeline import extract
 
     entries = [("all", liq, None) for liq in TEST_LIQUIDS if liq != "sugar-water"]
     entries += [("all", "sugar-water", c) for c in TRAIN_SUGAR]
@@ -286,7 +286,7 @@ def main() -> None:
 
 def simulate_all(args) -> dict:
     from liquidtouch._core.progress import progress_bar
-    from liquidtouch.extraction import extract
+    from liquidtouch.extraction.pipeline import extract
 
     rng = np.random.default_rng(args.seed)
     n_train = len(TEST_LIQUIDS) - 1 + len(TRAIN_SUGAR) + len(TRAIN_CONCENTRATIONS)

@@ -3,7 +3,7 @@
 For each simulated trial (usual seeded variability, several liquids and fill
 heights; ``--clean`` adds the same cases with ``Variability.none()``) the slow
 mode's λ and ω are fitted (``free_decay`` + ``fit_oscillation``, the defaults
-of ``liquidtouch.extraction``) on four signals:
+of ``liquidtouch.extraction.pipeline``) on four signals:
 
 - ``force``: the total lateral gel force, 3 Hz zero-phase low-pass, every 8th
   sample (30 Hz) — what the sensor would see if tracking were perfect;
@@ -28,10 +28,10 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
-from liquidtouch.extraction import extract
+from liquidtouch.extraction.pipeline import extract
 from liquidtouch.fit.oscillation import fit_oscillation
-from liquidtouch.ring_down import free_decay
-from liquidtouch.signal import tactile_signal
+from liquidtouch.ring_down.segments import free_decay
+from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.trial_io import write_trial
 from liquidtouch.sim.variability import Variability

@@ -264,3 +264,15 @@ def test_a_module_exports_only_what_it_defines(module: str) -> None:
         for alias in node.names
     }
     assert [name for name in _all_names(MODULES[module]) if name in imported] == []
+
+
+def test_the_ring_down_stage_is_used_through_its_face() -> None:
+    """Stages above the ring-down import ``liquidtouch.ring_down``, not its modules."""
+    reaching_in = [
+        f"{module}:{line} imports {target}"
+        for module, found in IMPORTS.items()
+        if not module.startswith("liquidtouch.ring_down")
+        for target, _, line, _, _ in found
+        if target.startswith("liquidtouch.ring_down.")
+    ]
+    assert reaching_in == []

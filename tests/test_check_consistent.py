@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from liquidtouch.clock import check_consistent
 from liquidtouch.errors import VideoError
+from liquidtouch.tracking.clock import check_consistent
 from liquidtouch.tracking.tracks import MarkerTracks
 
 

@@ -201,8 +201,8 @@ def test_fit_and_signal_options_are_declared_once(command: str) -> None:
 
 def test_choices_are_the_librarys_and_listed_in_help(capsys) -> None:
     from liquidtouch.batch.features import SOURCES
+    from liquidtouch.extraction.fit_settings import FitSettings
     from liquidtouch.fit.choices import LOSSES, MODELS, NOISE_MODELS
-    from liquidtouch.fit_settings import FitSettings
     from liquidtouch.models.property_model import MODEL_KINDS
 
     assert [c.value for c in options.LossChoice] == list(LOSSES)
@@ -294,8 +294,8 @@ def test_extract_prints_formatted_table(dataset: Path, capsys) -> None:
 
 
 def test_extraction_plot_draws_the_fit_only_over_its_window(dataset: Path) -> None:
-    from liquidtouch.extraction import extract
-    from liquidtouch.extraction_plot import plot_extraction
+    from liquidtouch.extraction.pipeline import extract
+    from liquidtouch.extraction.plot import plot_extraction
 
     result = extract(dataset / TRIALS[0][0])
     fig = plot_extraction(result)
@@ -383,7 +383,7 @@ def test_features_json_settings_cache_and_provenance(fresh: Path, tmp_path: Path
 
 def test_features_options_change_the_features(fresh: Path, capsys) -> None:
     from liquidtouch.batch.features import extract_features
-    from liquidtouch.fit_settings import FitSettings
+    from liquidtouch.extraction.fit_settings import FitSettings
 
     base = extract_features(fresh, write=False, progress=False)
     left = extract_features(fresh, write=False, progress=False, sensors=["left"])

@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 
 from liquidtouch.cli import main
-from liquidtouch.codec_check import (
+from liquidtouch.extraction.codec_check import (
     X264_CRF_BIAS,
     check_codec,
     expected_lambda_bias,
     frozen_steps,
     x264_settings,
 )
-from liquidtouch.extraction import extract
+from liquidtouch.extraction.pipeline import extract
 from liquidtouch.io.frames import video_info
 from liquidtouch.sim.encode import encode_video
 from liquidtouch.sim.trial import simulate_trial

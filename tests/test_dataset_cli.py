@@ -42,7 +42,7 @@ def _snapshot(root: Path) -> dict[str, bytes]:
 @pytest.fixture(scope="module")
 def simulated(tmp_path_factory: pytest.TempPathFactory):
     """A simulated water trial (9 s, GelSight Mini videos) and its own extraction."""
-    from liquidtouch.extraction import extract_trial
+    from liquidtouch.extraction.pipeline import extract_trial
     from liquidtouch.sim.trial import simulate_trial
     from liquidtouch.sim.trial_io import write_trial
 

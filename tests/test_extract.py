@@ -63,7 +63,7 @@ def test_extract_errors(tmp_path, capsys):
 
 def test_extract_checks_signal_options_before_reading_any_video(tmp_path):
     from liquidtouch.errors import SignalError
-    from liquidtouch.extraction import extract
+    from liquidtouch.extraction.pipeline import extract
 
     missing = tmp_path / "missing.mp4"  # would be a VideoError if it were read
     with pytest.raises(SignalError, match="n_markers must be a whole number >= 1"):
@@ -73,8 +73,8 @@ def test_extract_checks_signal_options_before_reading_any_video(tmp_path):
 
 
 def test_extract_sensor_choice_and_fit_options(tmp_path, capsys):
-    from liquidtouch.extraction import extract
-    from liquidtouch.fit_settings import FitSettings
+    from liquidtouch.extraction.fit_settings import FitSettings
+    from liquidtouch.extraction.pipeline import extract
 
     a = write_video(tmp_path / "a.mp4")
     b = write_video(tmp_path / "b.mp4", amplitude=1.0)

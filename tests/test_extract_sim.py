@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from liquidtouch.extraction import extract
+from liquidtouch.extraction.pipeline import extract
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.trial_io import write_trial
 from liquidtouch.sim.variability import Variability

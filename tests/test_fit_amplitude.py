@@ -16,11 +16,11 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.signal import butter, sosfiltfilt
 
+from liquidtouch.extraction.fit_settings import FitSettings, fit_window
 from liquidtouch.fit import amplitude as am
 from liquidtouch.fit.model import damped_cosine
 from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.fit.synthetic import cubic_damper_signal, quadratic_damper_signal
-from liquidtouch.fit_settings import FitSettings, fit_window
 from liquidtouch.sim.trial import simulate_trial
 
 T = np.arange(390) / 30.0  # 13 s at 30 Hz, as the tactile signal

@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.fit import oscillation
 from liquidtouch.fit.choices import AUTO_CANDIDATES, DEFAULT_MODEL
 from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.fit.synthetic import cubic_damper_signal, quadratic_damper_signal
-from liquidtouch.fit_settings import FitSettings
 from liquidtouch.io.signal_csv import read_signal_csv
 
 DATA = Path(__file__).parent / "data" / "detergent_short_ringdown.csv"

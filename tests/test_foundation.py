@@ -98,7 +98,7 @@ PUBLIC_API = {
 def test_public_api_is_pinned() -> None:
     """The restructure moved modules; every public name of ``lt`` must stay as it was."""
     assert set(liquidtouch.__all__) == PUBLIC_API
-    importlib.import_module("liquidtouch.extraction")  # a module once shadowed lt.extract
+    importlib.import_module("liquidtouch.extraction.pipeline")  # a module once shadowed lt.extract
 
     assert callable(liquidtouch.extract) and liquidtouch.extract.__name__ == "extract"
     assert liquidtouch.fit_oscillation.__module__ == "liquidtouch.fit.oscillation"
@@ -112,7 +112,7 @@ def test_each_public_name_is_its_stages_own() -> None:
         stage = importlib.import_module(f"liquidtouch.{liquidtouch._EXPORTS[name]}")
         assert getattr(liquidtouch, name) is getattr(stage, name), name
         assert name in stage.__all__, f"{name} not in {stage.__name__}.__all__"
-    assert liquidtouch.plot_extraction.__module__ == "liquidtouch.extraction_plot"
+    assert liquidtouch.plot_extraction.__module__ == "liquidtouch.extraction.plot"
 
 
 def _is_private(name: str) -> bool:

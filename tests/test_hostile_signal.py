@@ -27,7 +27,7 @@ from helpers import grid, render_blobs
 
 from liquidtouch.cli import main
 from liquidtouch.errors import OutputError, SignalError, TableError, VideoError
-from liquidtouch.extraction import extract, extract_signal
+from liquidtouch.extraction.pipeline import extract, extract_signal
 from liquidtouch.fit.oscillation import MAX_SAMPLES, fit_oscillation
 from liquidtouch.io.frame_times import TIMESTAMPS_NAME, read_folder_timestamps
 from liquidtouch.io.frames import iter_video
@@ -323,14 +323,14 @@ def test_extract_output_that_is_a_directory_fails_before_the_work(tmp_path, caps
 
 
 def test_extract_writes_no_output_when_a_later_step_fails(tmp_path, capsys, monkeypatch) -> None:
-    import liquidtouch.extraction_plot
+    import liquidtouch.extraction.plot
 
     video = _write_video(tmp_path / "left.mp4", _frames(150, 30.0), 30.0)
 
     def broken_plot(*args, **kwargs):
         raise OutputError("cannot draw the figure")
 
-    monkeypatch.setattr(liquidtouch.extraction_plot, "plot_extraction", broken_plot)
+    monkeypatch.setattr(liquidtouch.extraction.plot, "plot_extraction", broken_plot)
     outputs = {"--signal-out": tmp_path / "u.csv", "--tracks-out": tmp_path / "t.npz"}
     args = [x for pair in outputs.items() for x in pair]
     status, err = _run(capsys, "extract", video, "--json", "--plot", tmp_path / "f.png", *args)
@@ -465,8 +465,8 @@ def _lowpassed_noise(n: int, fps: float, seed: int) -> np.ndarray:
 
 
 def test_no_push_found_in_a_still_signal() -> None:
-    from liquidtouch.ring_down import free_decay
-    from liquidtouch.segment import MIN_PUSH_SNR, push_snr
+    from liquidtouch.ring_down.segments import free_decay
+    from liquidtouch.ring_down.start import MIN_PUSH_SNR, push_snr
 
     fps, n = 25.0, 325
     t = np.arange(n) / fps

@@ -34,7 +34,7 @@ def _run(capsys: pytest.CaptureFixture[str], *argv: object) -> tuple[int, str, s
 @pytest.fixture(scope="module")
 def simulated(tmp_path_factory: pytest.TempPathFactory):
     """A clean simulated water trial (9 s, GelSight Mini videos) and its video extraction."""
-    from liquidtouch.extraction import extract
+    from liquidtouch.extraction.pipeline import extract
     from liquidtouch.sim.trial import simulate_trial
     from liquidtouch.sim.trial_io import write_trial
     from liquidtouch.sim.variability import Variability
@@ -422,7 +422,7 @@ def test_topic_sensor_names() -> None:
 def test_marker_trial_copies_cleanly(simulated, tmp_path: Path) -> None:
     """A tracks trial is self-contained: copied elsewhere it extracts the same."""
     _, directory, _ = simulated
-    from liquidtouch.extraction import extract_trial
+    from liquidtouch.extraction.pipeline import extract_trial
     from liquidtouch.io.dataset_dir import init_dataset
     from liquidtouch.io.recordings import add_trial
 

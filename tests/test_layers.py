@@ -19,7 +19,7 @@ import pytest
 import liquidtouch
 from benchmarks.synthetic_tables import PAPER_CONCENTRATIONS, PAPER_HEIGHTS_MM, sugar_table
 
-FORBIDDEN = ("av", "cv2", "liquidtouch.tracking", "liquidtouch.extraction")
+FORBIDDEN = ("av", "cv2", "liquidtouch.tracking", "liquidtouch.extraction.pipeline")
 SRC = Path(liquidtouch.__file__).resolve().parents[1]
 
 # Runs in a fresh interpreter: train, save and load through the public models API.
@@ -79,7 +79,7 @@ def test_models_train_save_load_without_video_stages(tmp_path) -> None:
     assert (tmp_path / "model.json").is_file()
 
 
-@pytest.mark.parametrize("module", ["liquidtouch.tracking", "liquidtouch.extraction"])
+@pytest.mark.parametrize("module", ["liquidtouch.tracking", "liquidtouch.extraction.pipeline"])
 def test_the_layer_check_catches_a_forbidden_import(tmp_path, module) -> None:
     """The check itself works: the same run with a forbidden import must fail."""
     result = _run(tmp_path, preamble=f"import {module}")

@@ -24,7 +24,7 @@ from liquidtouch.live.uncertainty import window_rel_std
 @pytest.fixture(scope="module")
 def trial(tmp_path_factory: pytest.TempPathFactory):
     """A simulated water trial (8 s, GelSight Mini videos), its offline extraction and truth."""
-    from liquidtouch.extraction import extract
+    from liquidtouch.extraction.pipeline import extract
     from liquidtouch.sim.trial import simulate_trial
     from liquidtouch.sim.trial_io import write_trial
 

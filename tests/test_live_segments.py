@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from liquidtouch.live.estimator import LiveEstimator
-from liquidtouch.ring_down import chosen_ring_down, free_decay, trial_segments
-from liquidtouch.ring_down_check import ring_down_reason
-from liquidtouch.signal import tactile_signal
+from liquidtouch.ring_down.check import ring_down_reason
+from liquidtouch.ring_down.segments import chosen_ring_down, free_decay, trial_segments
+from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.protocol_scene import ProtocolTimings, protocol_scene
 from liquidtouch.tracking.tracks import MarkerTracks
 

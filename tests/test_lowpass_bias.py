@@ -12,9 +12,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from liquidtouch.fit_settings import FitSettings
-from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ, max_bridged_gap_s
-from liquidtouch.signal import tactile_signal
+from liquidtouch.extraction.fit_settings import FitSettings
+from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ, max_bridged_gap_s
+from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.tracking.tracks import MarkerTracks
 
 OMEGA = 14.5  # rad/s: detergent's slosh in the simulator's 20-30 mm fills

@@ -292,8 +292,8 @@ def test_recording_a_replayed_trial_gives_the_same_fit(tmp_path) -> None:
     gives the λ and ω of the original videos."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from liquidtouch.extraction import extract
-    from liquidtouch.fit_settings import FitSettings
+    from liquidtouch.extraction.fit_settings import FitSettings
+    from liquidtouch.extraction.pipeline import extract
     from liquidtouch.sim.trial import simulate_trial
     from liquidtouch.sim.trial_io import write_trial
 

@@ -218,7 +218,7 @@ def test_frames_follow_the_markers(rig_factory):
 
 def test_rig_rendering_with_exact_timestamps_recovers_the_truth(rig_factory, tmp_path):
     """The rig alone (physics, time alignment, rendering), timed exactly: λ within 5 %."""
-    from liquidtouch.extraction import extract
+    from liquidtouch.extraction.pipeline import extract
 
     rig = rig_factory(sensor="mini")
     lifted = grasp_and_lift(rig)
@@ -295,7 +295,7 @@ def test_end_to_end_on_loopback(tmp_path, capsys):
     machine's load): frames lost, not mistimed. Such a run is skipped, with its numbers.
     """
     from liquidtouch.cli import main
-    from liquidtouch.extraction import extract
+    from liquidtouch.extraction.pipeline import extract
 
     serve = [
         sys.executable,

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from liquidtouch.clock import uniform_clock
 from liquidtouch.errors import MarkerError, SignalError
 from liquidtouch.fit.oscillation import fit_oscillation
-from liquidtouch.lowpass_filter import lowpass
-from liquidtouch.signal import tactile_signal
+from liquidtouch.signal.lowpass import lowpass
+from liquidtouch.signal.tactile import tactile_signal
+from liquidtouch.tracking.clock import uniform_clock
 from liquidtouch.tracking.tracks import MarkerTracks
 
 LAM, OMEGA = 0.6, 2 * np.pi * 1.3
@@ -81,8 +81,8 @@ def test_errors():
 
 
 def test_free_decay_starts_at_the_push_not_at_the_end_of_a_slip_drift():
-    from liquidtouch.ring_down import free_decay
-    from liquidtouch.segment import free_decay_start
+    from liquidtouch.ring_down.segments import free_decay
+    from liquidtouch.ring_down.start import free_decay_start
 
     t = np.arange(0, 13, 1 / 30)
     ring = np.where(t >= 1.2, np.exp(-3.5 * (t - 1.2)) * np.cos(15.0 * (t - 1.2)), 0.0)
@@ -173,7 +173,7 @@ def test_tactile_signal_checks_its_arguments(change, exc, match):
 
 
 def test_signal_helpers_check_their_arguments():
-    from liquidtouch.signal import first_component
+    from liquidtouch.signal.tactile import first_component
 
     with pytest.raises(SignalError, match="end_s must be a finite time after"):
         uniform_clock(np.arange(10.0), end_s=-1.0)
@@ -203,8 +203,8 @@ def test_signal_helpers_check_their_arguments():
     ],
 )
 def test_free_decay_checks_its_arguments(args, kwargs, match):
-    from liquidtouch.ring_down import free_decay
-    from liquidtouch.segment import free_decay_start
+    from liquidtouch.ring_down.segments import free_decay
+    from liquidtouch.ring_down.start import free_decay_start
 
     with pytest.raises(SignalError, match=match):
         free_decay_start(*args, **kwargs)
@@ -218,8 +218,8 @@ def test_plot_extraction_draws_into_given_axes_without_touching_the_backend(tmp_
     from matplotlib.figure import Figure
 
     from liquidtouch.errors import LiquidTouchError
-    from liquidtouch.extraction import Extraction
-    from liquidtouch.extraction_plot import plot_extraction
+    from liquidtouch.extraction.pipeline import Extraction
+    from liquidtouch.extraction.plot import plot_extraction
 
     def no_backend_switch(*args, **kwargs):
         raise AssertionError("a library must not call matplotlib.use")

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from liquidtouch.clock import frame_period, uniform_clock
 from liquidtouch.errors import SignalError
-from liquidtouch.signal import tactile_signal
+from liquidtouch.signal.tactile import tactile_signal
+from liquidtouch.tracking.clock import frame_period, uniform_clock
 from liquidtouch.tracking.tracks import MarkerTracks, load_tracks, save_tracks
 
 PERIOD_S = 1 / 29.55  # a real camera's rate, not the nominal 30 fps

@@ -12,9 +12,9 @@ import pytest
 from benchmarks.scene_tracks import keep_frames, noisy_true_tracks
 from liquidtouch.cli.format import gap_warning
 from liquidtouch.errors import SwallowedRingDownError
-from liquidtouch.fit_settings import FitSettings, ring_down_swallowed
-from liquidtouch.lowpass_filter import lowpass, lowpass_frames, observed_samples
-from liquidtouch.signal import tactile_signal
+from liquidtouch.extraction.fit_settings import FitSettings, ring_down_swallowed
+from liquidtouch.signal.lowpass import lowpass, lowpass_frames, observed_samples
+from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.gelsight import sensor_scene
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial

@@ -196,7 +196,7 @@ def test_frame_gaps_are_left_out_of_the_fit(tmp_path):
     """
     from dataclasses import replace
 
-    from liquidtouch.extraction import extract
+    from liquidtouch.extraction.pipeline import extract
 
     lab = Realism.lab()
     world = replace(

@@ -9,8 +9,8 @@ import pytest
 
 from liquidtouch.batch.features import extract_features
 from liquidtouch.errors import NoOscillationError
+from liquidtouch.extraction.wrench import wrench_features
 from liquidtouch.io.dataset import write_manifest
-from liquidtouch.wrench import wrench_features
 
 
 @pytest.fixture(scope="module")

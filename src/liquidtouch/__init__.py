@@ -39,7 +39,7 @@ _EXPORTS: dict[str, str] = {
     "extract_signal": "extraction",
     "Extraction": "extraction",
     "free_decay": "ring_down",
-    "plot_extraction": "extraction_plot",
+    "plot_extraction": "extraction",
     # properties
     "GPRegressor": "models",
     "QuadraticRegressor": "models",

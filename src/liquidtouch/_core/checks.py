@@ -14,7 +14,7 @@ import numbers
 
 import numpy as np
 
-from liquidtouch.errors import LiquidTouchError, TableError
+from liquidtouch.errors import LiquidTouchError, SignalError, TableError
 
 MAX_ABS_SIGNAL = 1e12
 """Largest magnitude of a signal value taken in (``fit``'s ``u``, any unit; pixels in
@@ -117,3 +117,26 @@ def check_time_steps(t: np.ndarray, what: str, error: type[LiquidTouchError] = T
             f"{what} has steps of {float(np.min(steps)):.3g} s; consecutive times must be at "
             f"least {MIN_TIME_STEP_S:g} s apart (at most {MAX_RATE_HZ:g} Hz)"
         )
+
+
+def finite_array(x: object, what: str, min_ndim: int) -> np.ndarray:
+    try:
+        x = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise SignalError(f"{what} must be an array of real numbers") from None
+    if x.ndim < min_ndim or x.size == 0:
+        raise SignalError(f"{what} must be a non-empty {min_ndim}-D array, got shape {x.shape}")
+    if not np.isfinite(x).all():
+        raise SignalError(f"{what} holds NaN/inf values; interpolate or drop them first")
+    return x
+
+
+def check_times(t: object, what: str) -> np.ndarray:
+    """Timestamps [s] as a 1-D float array: finite, strictly increasing, at least 2."""
+    t = finite_array(t, what, min_ndim=1)
+    if t.ndim != 1 or t.size < 2 or not np.all(np.diff(t) > 0):
+        raise SignalError(
+            f"{what} must be a 1-D array of at least 2 strictly increasing times [s] "
+            f"(got shape {t.shape}); sort the frames and drop duplicates"
+        )
+    return t

@@ -25,8 +25,9 @@ from liquidtouch._core import atomic
 from liquidtouch._core.pool import open_executor, run_each
 from liquidtouch._core.progress import progress_bar
 from liquidtouch.errors import LiquidTouchError
-from liquidtouch.extraction import extract_trial
-from liquidtouch.fit_settings import FitSettings
+from liquidtouch.extraction.fit_settings import FitSettings
+from liquidtouch.extraction.pipeline import extract_trial
+from liquidtouch.extraction.wrench import wrench_features
 from liquidtouch.io.dataset import (
     FEATURES_NAME,
     META_NAME,
@@ -36,9 +37,8 @@ from liquidtouch.io.dataset import (
     trial_path,
 )
 from liquidtouch.io.tables import FEATURE_COLUMNS
-from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ
-from liquidtouch.signal import check_signal_options
-from liquidtouch.wrench import wrench_features
+from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
+from liquidtouch.signal.tactile import check_signal_options
 
 __all__ = [
     "CACHE_DIR",
@@ -98,7 +98,7 @@ def feature_settings(
     """Every setting the features of ``source`` depend on, JSON-ready (validated).
 
     ``gelsight``: ``lowpass_hz``, ``n_markers``, ``sensors`` (None: all) and ``fit``
-    (:meth:`~liquidtouch.fit_settings.FitSettings.to_dict`); ``wrench``: ``lowpass_hz``
+    (:meth:`~liquidtouch.extraction.fit_settings.FitSettings.to_dict`); ``wrench``: ``lowpass_hz``
     (a number: the wrist forces are always low-passed) and ``fit``; ``wrench-best-effort``:
     the same, fitted even where the wrist signal shows no oscillation.
     """
@@ -273,7 +273,7 @@ def extract_features(
     filled). ``on_trial(trial, result)`` is called as each trial is computed (not
     for trials read from the cache; used by tests and progress reports).
     ``lowpass_hz``, ``n_markers``, ``sensors`` and ``fit_settings``
-    (:class:`~liquidtouch.fit_settings.FitSettings`) are the extraction and fit
+    (:class:`~liquidtouch.extraction.fit_settings.FitSettings`) are the extraction and fit
     settings (:func:`feature_settings`); they are checked before any work, and a
     trial cached under other settings is recomputed.
     """

@@ -14,13 +14,13 @@ import pandas as pd
 
 from liquidtouch.batch.features import extract_features, feature_settings
 from liquidtouch.errors import TableError
-from liquidtouch.extraction import extract
-from liquidtouch.fit_settings import FitSettings
+from liquidtouch.extraction.fit_settings import FitSettings
+from liquidtouch.extraction.pipeline import extract
 from liquidtouch.io.dataset import MANIFEST_NAME, META_NAME
 from liquidtouch.io.frames import VIDEO_SUFFIXES
 from liquidtouch.io.tables import feature_matrix, read_table
-from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ
 from liquidtouch.models.feature_rows import error_messages, failed_rows
+from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
 
 
 def read_prediction_input(

@@ -79,7 +79,7 @@ def extract(
     "warning: ..." line on stderr.
     """
     from liquidtouch.errors import SignalError
-    from liquidtouch.extraction import extract as run_extract
+    from liquidtouch.extraction.pipeline import extract as run_extract
 
     if n_markers < 1:
         raise SignalError(f"--markers must be at least 1, got {n_markers}")
@@ -259,7 +259,7 @@ def write_outputs(
 
     figure = None
     if plot is not None:
-        from liquidtouch.extraction_plot import plot_extraction
+        from liquidtouch.extraction.plot import plot_extraction
 
         figure = plot_extraction(result)
     with contextlib.ExitStack() as stack:

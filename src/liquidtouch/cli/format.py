@@ -87,7 +87,7 @@ def fit_quality(result: object) -> str:
 def gap_warning(result: object) -> str | None:
     """A line when a gap swallowed the ring-down, or a gap in the samples ends where the
     fitted free decay starts; else None."""
-    from liquidtouch.fit_settings import ring_down_swallowed
+    from liquidtouch.extraction.fit_settings import ring_down_swallowed
 
     if ring_down_swallowed(result):
         return (

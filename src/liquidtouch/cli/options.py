@@ -4,7 +4,7 @@ A command takes e.g. ``loss: options.Loss = options.DEFAULT_LOSS``: the flags an
 the help text live here only, so ``fit``, ``extract``, ``features`` and
 ``predict`` offer the same fit options, and every ``--out``/``--jobs`` has the
 same short flag. Choices are enums, so ``--help`` lists them and typer refuses
-anything else. Nothing heavy is imported (``--help`` stays fast; ``liquidtouch.signal``,
+anything else. Nothing heavy is imported (``--help`` stays fast; ``liquidtouch.signal.tactile``,
 for its one default cut-off, brings only numpy); the choice
 lists and defaults equal the library's (``tests/test_cli_consistency.py`` checks).
 
@@ -22,10 +22,10 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from liquidtouch.fit import choices as fit_choices
-from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ as DEFAULT_LOWPASS_HZ  # the one default
+from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ as DEFAULT_LOWPASS_HZ  # the one default
 
 if TYPE_CHECKING:
-    from liquidtouch.fit_settings import FitSettings
+    from liquidtouch.extraction.fit_settings import FitSettings
 
 OUT = ("--out", "-o")
 """The flags of every output-file option (``typer.Option(*OUT, help=...)``)."""
@@ -261,11 +261,11 @@ def fit_settings(
     noise: str,
     start: str | float | None,
 ) -> FitSettings:
-    """The :class:`~liquidtouch.fit_settings.FitSettings` of the fit options (SignalError if bad).
+    """The :class:`~liquidtouch.extraction.FitSettings` of the fit options (SignalError if bad).
 
     ``start`` None (not given) is ``auto``.
     """
-    from liquidtouch.fit_settings import FitSettings
+    from liquidtouch.extraction.fit_settings import FitSettings
 
     start = parse_start(start)
     return FitSettings(

@@ -23,9 +23,9 @@ from liquidtouch.experiments.classification import classify, correct_note
 from liquidtouch.experiments.common import pyplot, save_figure, split, usable
 from liquidtouch.experiments.paper import FORCE_TORQUE_ACCURACY
 from liquidtouch.experiments.report import ExperimentResult, Headline
-from liquidtouch.extraction import extract_signal
+from liquidtouch.extraction.pipeline import extract_signal
+from liquidtouch.extraction.wrench import wrench_signal
 from liquidtouch.io.dataset import WRENCH_NAME, read_wrench_csv
-from liquidtouch.wrench import wrench_signal
 
 SENSORS = ("GelSight", "wrist F/T", "wrist F/T, best-effort fit")
 

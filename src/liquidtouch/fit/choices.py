@@ -1,7 +1,7 @@
 """The oscillation fit's choices and its one default model (no heavy imports: the CLI reads it).
 
 ``DEFAULT_MODEL`` is the model of :func:`~liquidtouch.fit.oscillation.fit_oscillation`,
-of :class:`~liquidtouch.fit_settings.FitSettings` (``extract``, ``features``, ``live``)
+of :class:`~liquidtouch.extraction.fit_settings.FitSettings` (``extract``, ``features``, ``live``)
 and of the command line's ``--model``: defined here only.
 """
 

@@ -41,11 +41,11 @@ class OscillationFit:
     criterion used. Gaps: ``gap_share`` is the share of the fitted time span with
     no samples (0-1), ``gap_before_start_s`` [s] the gap that ends where the fitted
     window starts (0 when there is none; set by
-    :meth:`~liquidtouch.fit_settings.FitSettings.fit`: the ring-down may have
+    :meth:`~liquidtouch.extraction.fit_settings.FitSettings.fit`: the ring-down may have
     started inside it), ``ring_down_gap_share`` the share (0-1) of the ring-down
     above the noise (from ``t0`` for ``ln(|amplitude| / noise_std) / decay_rate``)
     that lies in gaps (also set by ``FitSettings.fit``; from a half on, the gap
-    swallowed the ring-down: :func:`~liquidtouch.fit_settings.ring_down_swallowed`).
+    swallowed the ring-down: :func:`~liquidtouch.extraction.fit_settings.ring_down_swallowed`).
 
     Its repr is one short line: λ and ω rounded to their std, the model and R².
     """

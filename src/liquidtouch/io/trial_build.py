@@ -21,7 +21,6 @@ from pathlib import Path
 
 from liquidtouch._core.checks import MAX_RATE_HZ
 from liquidtouch._core.progress import progress_bar
-from liquidtouch.clock import check_consistent
 from liquidtouch.errors import DatasetError
 from liquidtouch.io.dataset import FEATURES_NAME, MANIFEST_NAME, META_NAME, trial_path
 from liquidtouch.io.frame_times import TIMESTAMPS_NAME, read_folder_timestamps
@@ -30,6 +29,7 @@ from liquidtouch.io.labels import MAX_NAME
 from liquidtouch.io.marker_csv import read_marker_csv
 from liquidtouch.io.rosbag import import_bag
 from liquidtouch.io.trial_tracks import TRACKS_NAME
+from liquidtouch.tracking.clock import check_consistent
 from liquidtouch.tracking.tracks import MAX_FRAMES, save_tracks
 
 TRIAL_PREFIX = "trial-"

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from liquidtouch.clock import check_consistent
 from liquidtouch.errors import DatasetError, VideoError
 from liquidtouch.io.dataset import META_NAME, read_trial_meta
+from liquidtouch.tracking.clock import check_consistent
 from liquidtouch.tracking.tracks import MarkerTracks, load_tracks
 
 TRACKS_NAME = "tracks.npz"

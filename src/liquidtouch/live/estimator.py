@@ -27,7 +27,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from liquidtouch.errors import LiquidTouchError, VideoError
-from liquidtouch.fit_settings import FitSettings
+from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.live.emission import emitted_update
 from liquidtouch.live.properties import (
     check_live_model,
@@ -48,11 +48,15 @@ from liquidtouch.live.ring_downs import (
 from liquidtouch.live.stopping import check_until_std
 from liquidtouch.live.tracks import GrowingTracks
 from liquidtouch.live.updates import LiveUpdate
-from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ
-from liquidtouch.ring_down import GUARD_S, Segment, trial_segments
-from liquidtouch.ring_down_check import ring_down_reason
-from liquidtouch.segment import MIN_FREE_DECAY_S
-from liquidtouch.signal import check_signal_options
+from liquidtouch.ring_down import (
+    GUARD_S,
+    MIN_FREE_DECAY_S,
+    Segment,
+    ring_down_reason,
+    trial_segments,
+)
+from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
+from liquidtouch.signal.tactile import check_signal_options
 
 logger = logging.getLogger(__name__)
 

@@ -28,11 +28,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from liquidtouch.errors import LiquidTouchError, NoOscillationError
+from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.fit.choices import AUTO as AUTO_MODEL
 from liquidtouch.fit.oscillation import fit_oscillation
-from liquidtouch.fit_settings import FitSettings
-from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ
-from liquidtouch.signal import TactileSignal, tactile_signal
+from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
+from liquidtouch.signal.tactile import TactileSignal, tactile_signal
 from liquidtouch.tracking.tracks import MarkerTracks
 
 #: signal within this much of the newest sample is not trusted while streaming [s]: the

@@ -11,11 +11,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from liquidtouch.errors import LiquidTouchError
-from liquidtouch.fit_settings import FitSettings
+from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.live.refresh import EDGE_S, MIN_WINDOW_S, Refreshed, fit_ring_down, shared_signal
 from liquidtouch.live.updates import LiveUpdate
 from liquidtouch.ring_down import Segment
-from liquidtouch.signal import TactileSignal
+from liquidtouch.signal.tactile import TactileSignal
 
 __all__ = [
     "RingDown",

@@ -21,15 +21,15 @@ import numpy as np
 
 from liquidtouch.acquire.cameras import default_names
 from liquidtouch.errors import LiquidTouchError, SignalError, VideoError
-from liquidtouch.fit_settings import FitSettings
+from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.io.sources import resolve_sources
 from liquidtouch.live.estimator import MAX_TIMED_FRAMES, REFRESH_S, LiveEstimator
 from liquidtouch.live.sources import LiveFrame, is_recording, open_frames
 from liquidtouch.live.stopping import parse_until_std, stop_reached
 from liquidtouch.live.updates import LiveUpdate
-from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ
 from liquidtouch.models.kernel_limits import single_threaded_blas
 from liquidtouch.models.modelfile import load_model
+from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
 
 PathLike = str | os.PathLike[str]
 #: ``on_frame(frame, positions (N, 2) [px], reference (N, 2) [px])`` after each tracked frame

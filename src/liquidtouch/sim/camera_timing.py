@@ -1,7 +1,7 @@
 """Simulated camera timing: when each frame of a GelSight recording was taken.
 
 Real sensor clocks run slightly off nominal, jitter and drop frames; the signal
-stage must cope with all three (:mod:`liquidtouch.clock`), so the simulator
+stage must cope with all three (:mod:`liquidtouch.tracking.clock`), so the simulator
 produces them (:attr:`~liquidtouch.sim.sensors.SensorProfile.rate_factor`,
 ``jitter_std_s``, ``drop_probability``).
 """

@@ -21,7 +21,7 @@ The whole recording is smoothed at once: cutting it into stretches at its gaps, 
 smoothed on its own, lost the short stretches between gaps and bent the ends of the
 others (15-18 fps streams: 65 % of runs within 5 % of the gap-free λ, against 80 % at
 once; ``benchmarks/gaps.py``). Eilers (2003), "A perfect smoother", Analytical Chemistry
-75, 3631, is the method with zero weights for missing data. :mod:`liquidtouch.signal`
+75, 3631, is the method with zero weights for missing data. :mod:`liquidtouch.signal.tactile`
 builds ``u(t)`` with it.
 """
 
@@ -31,8 +31,7 @@ import math
 
 import numpy as np
 
-from liquidtouch._core.checks import as_number
-from liquidtouch.clock import finite_array
+from liquidtouch._core.checks import as_number, finite_array
 from liquidtouch.errors import SignalError
 
 __all__ = [

@@ -6,19 +6,19 @@
    0 for videos given on their own, which are then aligned on their first frames). The
    clock starts at the first frame of the sensor that started last and steps at
    that sensor's frame period fitted to all its timestamps
-   (:func:`~liquidtouch.clock.frame_period`, :mod:`liquidtouch.clock` says why).
+   (:func:`~liquidtouch.tracking.clock.frame_period`, :mod:`liquidtouch.tracking.clock` says why).
 2. **Gaps**: a marker lost in more than ``max_lost_fraction`` of the frames, or
    for longer than ``max_gap_s`` at a stretch, is not used; a marker's shorter losses
    are bridged like dropped frames. Markers cut by the image border in the first frame
    are not used either (their centroid sees only part of the blob). **Frames that never
    came** (a camera stall, dropped frames) are not invented: a clock sample inside a
    stretch without frames longer than half the period of the low-pass cut-off, at most
-   3 Hz (:func:`~liquidtouch.lowpass_filter.max_bridged_gap_s`: the low-passed slosh
+   3 Hz (:func:`~liquidtouch.signal.lowpass.max_bridged_gap_s`: the low-passed slosh
    is then sampled below its Nyquist rate; 0.17 s), in any sensor, is *not observed*.
 3. **Low-pass**: each sensor's motion is the low-pass of the frames that came, at
-   their own times (:func:`~liquidtouch.lowpass_filter.lowpass_frames`, a smoother
+   their own times (:func:`~liquidtouch.signal.lowpass.lowpass_frames`, a smoother
    with the response of a zero-phase 4th-order Butterworth,
-   :data:`~liquidtouch.lowpass_filter.DEFAULT_LOWPASS_HZ` (4 Hz) by default). A dropped
+   :data:`~liquidtouch.signal.lowpass.DEFAULT_LOWPASS_HZ` (4 Hz) by default). A dropped
    frame or three leave no sample to invent: the smoother reads through them from the
    frames on both sides. Without a low-pass (``lowpass_hz=None``) the motion is read
    linearly between consecutive frames.
@@ -43,16 +43,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from liquidtouch._core.checks import as_number
+from liquidtouch._core.checks import as_number, check_times, finite_array
 from liquidtouch._core.numbers import fixed, number
-from liquidtouch.clock import check_times, finite_array, uniform_clock
 from liquidtouch.errors import MarkerError, SignalError
-from liquidtouch.lowpass_filter import (
+from liquidtouch.signal.lowpass import (
     DEFAULT_LOWPASS_HZ,
     lowpass_frames,
     max_bridged_gap_s,
     observed_samples,
 )
+from liquidtouch.tracking.clock import uniform_clock
 from liquidtouch.tracking.tracks import MarkerTracks
 
 __all__ = [
@@ -140,10 +140,10 @@ def resample_displacement(
 
     ``t_clock`` [s] is uniform at ``fps`` [Hz], on the sensor's own clock from its first
     frame (``tracks.t - tracks.t[0]``). With a low-pass, it is the low-pass of the frames
-    that came, at their own times (:func:`~liquidtouch.lowpass_filter.lowpass_frames`:
+    that came, at their own times (:func:`~liquidtouch.signal.lowpass.lowpass_frames`:
     nothing is interpolated first); without one, the motion is read linearly between
     consecutive frames. Samples in a gap get values too: the caller leaves them out
-    (:func:`~liquidtouch.lowpass_filter.observed_samples`). A marker lost in some frames
+    (:func:`~liquidtouch.signal.lowpass.observed_samples`). A marker lost in some frames
     is read from the frames where it was found. Unusable markers (too often or too long
     lost, cut by the border) get zeros.
     """

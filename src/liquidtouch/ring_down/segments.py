@@ -17,7 +17,7 @@ for ``extract``, ``features`` and ``live``:
 2. **Ring-downs**: after each transient, from its largest excursion (within
    ``PEAK_S``: the push and the liquid's lag) to ``GUARD_S`` before the next transient
    (or the end of the signal), the candidate is a ring-down when it is a decaying
-   oscillation in the slosh band (:func:`~liquidtouch.ring_down_check.ring_down_reason`:
+   oscillation in the slosh band (:func:`~liquidtouch.ring_down.check.ring_down_reason`:
    the single-mode fit finds an oscillation above the noise, ω ≥ 3 λ, three half-cycles
    stand out, and the signal follows the fitted free decay) — not "the largest
    excursion".
@@ -46,10 +46,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from liquidtouch.clock import check_times, finite_array
+from liquidtouch._core.checks import check_times, finite_array
 from liquidtouch.errors import SignalError
-from liquidtouch.ring_down_check import MIN_CANDIDATE_S, ring_down_reason
-from liquidtouch.segment import (
+from liquidtouch.ring_down.check import MIN_CANDIDATE_S, ring_down_reason
+from liquidtouch.ring_down.start import (
     MIN_FREE_DECAY_S,
     MIN_PUSH_SNR,
     check_signal,

@@ -3,7 +3,7 @@
 :func:`ring_down_reason` judges a candidate stretch by a quick single-mode fit: an
 oscillation in the slosh band that decays and whose envelope follows the fit, not a
 transient, a lowering, the low-pass's ringing after a release or the noise of a still
-gel. :mod:`liquidtouch.ring_down` uses it to find the trial's ring-downs.
+gel. :mod:`liquidtouch.ring_down.segments` uses it to find the trial's ring-downs.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import numpy as np
 
 from liquidtouch.errors import LiquidTouchError, NoOscillationError
 from liquidtouch.fit.oscillation import fit_oscillation
-from liquidtouch.lowpass_filter import SLOSH_MAX_HZ
+from liquidtouch.signal.lowpass import SLOSH_MAX_HZ
 
 __all__ = [
     "ENVELOPE_FLOOR",
@@ -59,7 +59,7 @@ def ring_down_reason(t: np.ndarray, u: np.ndarray) -> tuple[str, object | None]:
     A ring-down is a decaying oscillation in the slosh band: the single-mode fit (least
     squares, as a quick check) finds an oscillation above the noise that is not
     overdamped (``fit_oscillation``'s own check), with ω ≥ ``MIN_OMEGA_OVER_LAMBDA`` λ
-    and ω/2π ≤ :data:`~liquidtouch.lowpass_filter.SLOSH_MAX_HZ` (faster is the low-pass's own
+    and ω/2π ≤ :data:`~liquidtouch.signal.lowpass.SLOSH_MAX_HZ` (faster is the low-pass's own
     ringing after a step), and at least ``MIN_LOBES`` half-cycles (between zero
     crossings of the detrended signal) reach ``LOBE_FRACTION`` of the largest; the
     window spans ``MIN_LOBES`` half-cycles of the fitted ω; the fit explains

@@ -11,8 +11,8 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from liquidtouch.extraction import Extraction, PathLike
-    from liquidtouch.signal import TactileSignal
+    from liquidtouch.extraction.pipeline import Extraction, PathLike
+    from liquidtouch.signal.tactile import TactileSignal
     from liquidtouch.tracking.tracks import MarkerTracks
 
 __all__ = ["plot_extraction"]

@@ -4,7 +4,7 @@ The paper compares GelSight with a wrist F/T sensor (its noise is far larger
 than the slosh force). We treat the wrist signal exactly like the markers:
 zero-phase low-pass, then the first principal component of the force
 channels, resampled to the camera's rate (:data:`WRENCH_FPS`), then the
-oscillation fit (:class:`~liquidtouch.fit_settings.FitSettings`). A wrist signal
+oscillation fit (:class:`~liquidtouch.extraction.fit_settings.FitSettings`). A wrist signal
 with no oscillation above its noise is refused, unless ``best_effort`` asks for the
 fit anyway, as the paper did for its F/T baseline.
 """
@@ -17,14 +17,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from liquidtouch.errors import SignalError
+from liquidtouch.extraction.fit_settings import AUTO, FitSettings
 from liquidtouch.fit.oscillation import fit_oscillation
-from liquidtouch.fit_settings import AUTO, FitSettings
 from liquidtouch.io.dataset import WRENCH_NAME, read_trial_meta, read_wrench_csv
-from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ, lowpass
-from liquidtouch.signal import first_component
+from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ, lowpass
+from liquidtouch.signal.tactile import first_component
 
 if TYPE_CHECKING:
-    from liquidtouch.fit_settings import FitSettings
+    from liquidtouch.extraction.fit_settings import FitSettings
 
 WRENCH_FPS = 30.0
 """The clock the wrist signal is resampled to [Hz] (the cameras' frame rate)."""
@@ -64,7 +64,7 @@ def wrench_features(
 
     ``lowpass_hz`` [Hz]: the low-pass of the wrist forces (:func:`wrench_signal`);
     ``fit_settings``: how the signal is fitted (default
-    :class:`~liquidtouch.fit_settings.FitSettings`: the free decay, the paper's fit);
+    :class:`~liquidtouch.extraction.fit_settings.FitSettings`: the free decay, the paper's fit);
     ``best_effort``: fit even a signal that shows no oscillation above its noise
     (and where no push stands out of it, from the end of the push the trial's
     ``meta.json`` records, ``push_end_s``: the robot knows when it pushed).

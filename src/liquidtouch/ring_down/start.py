@@ -24,7 +24,7 @@ largest excursion reaches at most 10.5× (filter edge effects), a still
 simulated GelSight video 4.8×.
 
 A whole trial (grasp, lift, push, hold, lower, release) is split by
-:mod:`liquidtouch.ring_down`, which also chooses the ring-down that
+:mod:`liquidtouch.ring_down.segments`, which also chooses the ring-down that
 :func:`~liquidtouch.ring_down.free_decay` fits.
 """
 
@@ -35,8 +35,7 @@ import math
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
-from liquidtouch._core.checks import as_number
-from liquidtouch.clock import check_times, finite_array
+from liquidtouch._core.checks import as_number, check_times, finite_array
 from liquidtouch.errors import SignalError
 from liquidtouch.fit.oscillation import GAP_STEPS
 

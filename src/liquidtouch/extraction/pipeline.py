@@ -3,10 +3,10 @@
 ``extract_signal(paths)`` gives the :class:`~liquidtouch.signal.TactileSignal`;
 ``extract(paths)`` also keeps the tracks and runs
 :func:`~liquidtouch.fit.oscillation.fit_oscillation` on the free decay
-(:class:`~liquidtouch.fit_settings.FitSettings`: the fit's options and where the
+(:class:`~liquidtouch.extraction.fit_settings.FitSettings`: the fit's options and where the
 fitted window starts, shared with the ``fit`` command); ``extract_trial(trial_dir)``
 gives the feature row used by dataset feature tables. Its figure:
-:func:`~liquidtouch.extraction_plot.plot_extraction`.
+:func:`~liquidtouch.extraction.plot.plot_extraction`.
 """
 
 from __future__ import annotations
@@ -18,15 +18,15 @@ from pathlib import Path
 
 from liquidtouch._core.numbers import fixed, number, with_uncertainty
 from liquidtouch._core.progress import progress_bar
-from liquidtouch.clock import check_consistent
-from liquidtouch.codec_check import check_codec
-from liquidtouch.fit_settings import FitSettings
+from liquidtouch.extraction.codec_check import check_codec
+from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.io.dataset import trial_sensor_starts
 from liquidtouch.io.frames import iter_frames, video_info
 from liquidtouch.io.sources import resolve_sources, select_sensors
 from liquidtouch.io.trial_tracks import stored_tracks
-from liquidtouch.lowpass_filter import DEFAULT_LOWPASS_HZ
-from liquidtouch.signal import TactileSignal, check_signal_options, tactile_signal
+from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
+from liquidtouch.signal.tactile import TactileSignal, check_signal_options, tactile_signal
+from liquidtouch.tracking.clock import check_consistent
 from liquidtouch.tracking.tracks import MarkerTracks, track_markers
 
 __all__ = [
@@ -50,7 +50,7 @@ class Extraction:
     tracks: list[MarkerTracks]
     signal: TactileSignal
     fit: object  # liquidtouch.fit.oscillation.OscillationFit
-    #: is the recording's codec biasing λ? (``liquidtouch.codec_check.CodecCheck``)
+    #: is the recording's codec biasing λ? (``liquidtouch.extraction.codec_check.CodecCheck``)
     diagnostics: object = None
 
     def __repr__(self) -> str:

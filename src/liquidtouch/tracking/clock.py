@@ -5,7 +5,7 @@ The signal stage resamples every sensor onto one uniform clock whose step is the
 period fitted to *all* timestamps (:func:`frame_period`), not the median interval:
 the median misses the real period by ~0.3 % under jitter or rounding, and the
 interpolation's phase against the frames then drifts through the decay and moves
-λ by several per cent. Also the input checks of time arrays shared by the stages.
+λ by several per cent.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from liquidtouch._core.checks import as_number
+from liquidtouch._core.checks import as_number, check_times
 from liquidtouch.errors import SignalError, VideoError
 
 if TYPE_CHECKING:
@@ -24,29 +24,6 @@ if TYPE_CHECKING:
 
 RATE_TOLERANCE = 0.01  # relative frame-rate difference allowed between the videos of a trial
 SPAN_TOLERANCE = 0.05  # fraction of the longest video the others may not cover
-
-
-def finite_array(x: object, what: str, min_ndim: int) -> np.ndarray:
-    try:
-        x = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        raise SignalError(f"{what} must be an array of real numbers") from None
-    if x.ndim < min_ndim or x.size == 0:
-        raise SignalError(f"{what} must be a non-empty {min_ndim}-D array, got shape {x.shape}")
-    if not np.isfinite(x).all():
-        raise SignalError(f"{what} holds NaN/inf values; interpolate or drop them first")
-    return x
-
-
-def check_times(t: object, what: str) -> np.ndarray:
-    """Timestamps [s] as a 1-D float array: finite, strictly increasing, at least 2."""
-    t = finite_array(t, what, min_ndim=1)
-    if t.ndim != 1 or t.size < 2 or not np.all(np.diff(t) > 0):
-        raise SignalError(
-            f"{what} must be a 1-D array of at least 2 strictly increasing times [s] "
-            f"(got shape {t.shape}); sort the frames and drop duplicates"
-        )
-    return t
 
 
 def frame_period(t: np.ndarray) -> float:
@@ -86,7 +63,7 @@ def check_consistent(tracks: Sequence[MarkerTracks]) -> None:
     """The videos of one trial must be one recording: VideoError otherwise.
 
     Their frame rates (the period fitted to all timestamps,
-    :func:`~liquidtouch.clock.frame_period`) agree within :data:`RATE_TOLERANCE`,
+    :func:`~liquidtouch.tracking.clock.frame_period`) agree within :data:`RATE_TOLERANCE`,
     and their time spans (on the trial's shared clock, ``MarkerTracks.start_s``)
     overlap over all but :data:`SPAN_TOLERANCE` of the longest (at least two frame
     periods). Frame counts may differ: sensors drop frames independently.

@@ -1,0 +1,38 @@
+"""Extraction: videos (or a trial) in, tracks, signal and fit out.
+
+``pipeline`` runs frames → marker tracks → u(t) → fit (:func:`extract`,
+:class:`Extraction`), ``fit_settings`` is the trial's fit (the free decay, the model,
+the loss), ``codec_check`` warns of codecs that freeze small motion, ``wrench`` fits the
+wrist force-torque signal, and ``plot`` draws an extraction.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+__all__ = [
+    "Extraction",
+    "FitSettings",
+    "extract",
+    "extract_signal",
+    "extract_trial",
+    "plot_extraction",
+]
+
+_LAZY = {
+    "Extraction": "liquidtouch.extraction.pipeline",
+    "FitSettings": "liquidtouch.extraction.fit_settings",
+    "extract": "liquidtouch.extraction.pipeline",
+    "extract_signal": "liquidtouch.extraction.pipeline",
+    "extract_trial": "liquidtouch.extraction.pipeline",
+    "plot_extraction": "liquidtouch.extraction.plot",
+}
+
+
+def __getattr__(name: str) -> Any:
+    # lazy (PEP 562), so that importing one module of the stage (the command line reads
+    # its defaults) does not import the rest of it, nor SciPy, OpenCV or PyAV
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
