@@ -22,6 +22,12 @@ from scipy.special import erf
 
 from liquidtouch.experiments import data_efficiency, reproduce, transfer
 
+#: the repository's root
+REPO = Path(__file__).resolve().parents[1]
+#: the workplace's shared files (real recordings, the independent validation set): tests
+#: that read them skip when they are absent
+SHARED = REPO.parent / "shared"
+
 
 def render_blobs(positions: np.ndarray, shape=(160, 200), radius=4.5, gain=1.0, noise=0.0, seed=0):
     """Soft dark discs (anti-aliased edge) on a lit gradient background, uint8."""

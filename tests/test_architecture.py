@@ -276,3 +276,15 @@ def test_the_ring_down_stage_is_used_through_its_face() -> None:
         if target.startswith("liquidtouch.ring_down.")
     ]
     assert reaching_in == []
+
+
+def test_the_tests_mirror_the_stages() -> None:
+    """``tests/<stage>/`` holds the tests of ``liquidtouch.<stage>``; the root holds the
+    whole-repository ones (architecture, README, notebook)."""
+    folders = {
+        p.name
+        for p in (ROOT / "tests").iterdir()
+        if p.is_dir() and not p.name.startswith((".", "_")) and p.name != "data"
+    }
+    stages = {p.name for p in SRC.iterdir() if (p / "__init__.py").exists()}
+    assert folders and folders <= stages, sorted(folders - stages)

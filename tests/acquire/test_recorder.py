@@ -30,7 +30,7 @@ from liquidtouch.io.frames import read_frames
 from liquidtouch.sim.rig.mjpeg import MjpegServer
 
 FPS = 30.0
-SRC = Path(__file__).resolve().parents[1] / "src"
+SRC = Path(__file__).resolve().parents[2] / "src"
 RUN_CLI = "import sys; from liquidtouch.cli import main; sys.exit(main(sys.argv[1:]))"
 
 

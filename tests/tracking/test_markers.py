@@ -2,18 +2,15 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
-from helpers import grid, render_blobs
+from helpers import SHARED, grid, render_blobs
 from scipy.spatial import cKDTree
 
 from liquidtouch.errors import MarkerError, VideoError
 from liquidtouch.tracking.detect import detect_markers
 from liquidtouch.tracking.tracks import MarkerTracks, load_tracks, save_tracks, track_markers
 
-SHARED = Path(__file__).resolve().parents[2] / "shared"
 REAL = SHARED / "data" / "real"
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 import av
 import numpy as np
 import pytest
+from helpers import SHARED
 
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.sim.realism import NUISANCES, Realism, get_realism
@@ -21,7 +22,7 @@ from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.trial_io import write_trial
 
-REAL_VIDEO = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
+REAL_VIDEO = SHARED / "data" / "real"
 REAL_VIDEO = REAL_VIDEO / "gelsight_mini_press.avi"
 
 # digests of the simulator before Realism (main at af48236), see _digest

@@ -8,6 +8,7 @@ from pathlib import Path
 import av
 import numpy as np
 import pytest
+from helpers import SHARED
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -430,7 +431,6 @@ def test_recording_is_reproducible_and_seed_dependent(tmp_path):
     np.testing.assert_allclose(c.timestamps_s, np.arange(c.n_frames) / 25.0, atol=1e-5)
 
 
-SHARED = Path(__file__).resolve().parents[2] / "shared"
 REAL_MINI = SHARED / "data" / "real" / "gelsight_mini_press.avi"
 
 
