@@ -399,7 +399,11 @@ def test_features_options_change_the_features(fresh: Path, capsys) -> None:
 
 
 def test_predict_json(tmp_path: Path, capsys) -> None:
-    from benchmarks.synthetic_tables import PAPER_CONCENTRATIONS, PAPER_HEIGHTS_MM, sugar_table
+    from liquidtouch.testing.synthetic_tables import (
+        PAPER_CONCENTRATIONS,
+        PAPER_HEIGHTS_MM,
+        sugar_table,
+    )
 
     train = tmp_path / "train.csv"
     test = tmp_path / "test.csv"
@@ -429,7 +433,11 @@ def test_predict_json(tmp_path: Path, capsys) -> None:
 
 def test_predict_extracts_a_dataset_with_the_features_options(fresh: Path, tmp_path, capsys):
     """``predict DATASET`` takes ``-j``, ``--dask`` and the extraction and fit options."""
-    from benchmarks.synthetic_tables import PAPER_CONCENTRATIONS, PAPER_HEIGHTS_MM, sugar_table
+    from liquidtouch.testing.synthetic_tables import (
+        PAPER_CONCENTRATIONS,
+        PAPER_HEIGHTS_MM,
+        sugar_table,
+    )
 
     train = tmp_path / "train.csv"
     sugar_table(PAPER_HEIGHTS_MM[::2], PAPER_CONCENTRATIONS[::3], seed=3).to_csv(train, index=False)

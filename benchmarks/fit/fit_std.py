@@ -20,7 +20,6 @@ import sys
 import time
 
 import numpy as np
-from scene_tracks import noisy_true_tracks
 
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.extraction.fit_settings import FitSettings
@@ -31,6 +30,7 @@ from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.gelsight import sensor_scene
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
+from liquidtouch.testing.scene_tracks import noisy_true_tracks
 
 LIQUIDS = ("water", "olive-oil", "mirin", "corn-oil", "sugar-water", "detergent")
 NOISE_PX = 0.02

@@ -30,12 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
-from liquidtouch._core.progress import progress_bar
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.models.physics_prior import stokes_viscosity_feature
 from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ, lowpass
 from liquidtouch.sim.trial import simulate_trial
+from liquidtouch.testing import progress_bar
 
 DEFAULT_PUSH_MM = 15.0
 PUSH_FACTORS = (0.5, 1.0, 2.0)

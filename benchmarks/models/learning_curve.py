@@ -25,7 +25,10 @@ import time
 
 import numpy as np
 import pandas as pd
-from synthetic_tables import (
+
+from liquidtouch.models.conformal import default_groups
+from liquidtouch.models.training import train_regression
+from liquidtouch.testing.synthetic_tables import (
     CONTAINER_A,
     LAMBDA_NOISE,
     LIQUID_VISCOSITY_CST,
@@ -33,9 +36,6 @@ from synthetic_tables import (
     paper_split,
     sloshing_features,
 )
-
-from liquidtouch.models.conformal import default_groups
-from liquidtouch.models.training import train_regression
 
 LIQUIDS = ("water", "mirin", "corn-oil", "olive-oil", "detergent")
 TARGETS = ("height_mm", "log10_viscosity_cst")

@@ -285,8 +285,8 @@ def main() -> None:
 
 
 def simulate_all(args) -> dict:
-    from liquidtouch._core.progress import progress_bar
     from liquidtouch.extraction.pipeline import extract
+    from liquidtouch.testing import progress_bar
 
     rng = np.random.default_rng(args.seed)
     n_train = len(TEST_LIQUIDS) - 1 + len(TRAIN_SUGAR) + len(TRAIN_CONCENTRATIONS)

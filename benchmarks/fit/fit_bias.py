@@ -48,7 +48,6 @@ from collections.abc import Iterator
 from unittest import mock
 
 import numpy as np
-from scene_tracks import noisy_true_tracks
 
 import liquidtouch.fit.amplitude_solve as amplitude_solve
 import liquidtouch.fit.oscillation as oscillation
@@ -64,6 +63,7 @@ from liquidtouch.sim.gelsight import sensor_scene
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.variability import Variability
+from liquidtouch.testing.scene_tracks import noisy_true_tracks
 
 LIQUIDS = ("water", "olive-oil", "mirin", "corn-oil", "sugar-water 60", "sugar-water 140",
            "detergent")  # fmt: skip

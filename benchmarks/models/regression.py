@@ -21,18 +21,18 @@ import time
 from pathlib import Path
 
 import numpy as np
-from synthetic_tables import (
+
+from liquidtouch.io.tables import FEATURE_COLUMNS
+from liquidtouch.models.property_model import MODEL_KINDS
+from liquidtouch.models.training import train_regression
+from liquidtouch.models.transfer import fit_transfer
+from liquidtouch.testing.synthetic_tables import (
     CONTAINER_B,
     PAPER_CONCENTRATIONS,
     PAPER_HEIGHTS_MM,
     paper_split,
     sugar_table,
 )
-
-from liquidtouch.io.tables import FEATURE_COLUMNS
-from liquidtouch.models.property_model import MODEL_KINDS
-from liquidtouch.models.training import train_regression
-from liquidtouch.models.transfer import fit_transfer
 
 FEATURES = list(FEATURE_COLUMNS)
 TARGETS = ["height_mm", "sugar_concentration", "log10_viscosity_cst"]
@@ -180,7 +180,7 @@ def plot_curves(
     """
     from matplotlib.figure import Figure
 
-    from liquidtouch._core import atomic
+    from liquidtouch.io.figures import save_figure
 
     if ax is None:
         fig = Figure(figsize=(9, 3.6))
@@ -204,8 +204,7 @@ def plot_curves(
     if ax is None:
         fig.tight_layout()
     if path is not None:
-        with atomic.atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=110, format="png")
+        save_figure(fig, path)
     return fig
 
 

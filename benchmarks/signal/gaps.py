@@ -54,7 +54,6 @@ import time
 from typing import NamedTuple
 
 import numpy as np
-from scene_tracks import keep_frames, noisy_true_tracks
 from scipy.stats import norm
 
 from liquidtouch.errors import LiquidTouchError, SwallowedRingDownError
@@ -63,6 +62,7 @@ from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.gelsight import SensorScene, sensor_scene
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
+from liquidtouch.testing.scene_tracks import keep_frames, noisy_true_tracks
 from liquidtouch.tracking.tracks import MarkerTracks
 
 LIQUIDS = ("water", "olive-oil", "mirin", "corn-oil", "detergent")

@@ -1,8 +1,5 @@
 """Synthetic feature tables shaped like the paper's sugar-water experiment (tests, benchmarks).
 
-Imported as ``benchmarks.synthetic_tables`` by the tests (the repository root is on
-pytest's ``pythonpath``) and as ``synthetic_tables`` by the scripts beside it.
-
 Physics: first sloshing mode (linear potential theory) of a rectangular container
 of inner length L along the slosh and width b, fill height h:
 
@@ -97,7 +94,9 @@ LIQUID_VISCOSITY_CST = {
 }
 
 
-def liquid_table(liquids: list[str], heights_mm: np.ndarray, repeats: int, seed: int = 0):
+def liquid_table(
+    liquids: list[str], heights_mm: np.ndarray, repeats: int, seed: int = 0
+) -> pd.DataFrame:
     """Trials of catalogued liquids at the given heights (``repeats`` noisy trials each)."""
     rng = np.random.default_rng(seed)
     rows = []

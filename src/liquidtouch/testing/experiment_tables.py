@@ -1,6 +1,6 @@
 """Synthetic feature tables for all seven experiments (tests of the experiments and the report).
 
-Built from the sloshing formulas of :mod:`synthetic_tables` (no video): the
+Built from the sloshing formulas of :mod:`liquidtouch.testing.synthetic_tables` (no video): the
 ``features`` mapping that :func:`liquidtouch.experiments.suite.run_experiments`
 takes, with one classification test trial that gave no features and a wrist
 F/T table where no trial did. A report from these tables takes seconds.
@@ -11,24 +11,14 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-try:  # imported as benchmarks.experiment_tables (tests) or experiment_tables (scripts)
-    from benchmarks.synthetic_tables import (
-        CONTAINER_A,
-        CONTAINER_B,
-        PAPER_HEIGHTS_MM,
-        liquid_table,
-        paper_split,
-        sugar_table,
-    )
-except ImportError:  # pragma: no cover - run from benchmarks/
-    from synthetic_tables import (
-        CONTAINER_A,
-        CONTAINER_B,
-        PAPER_HEIGHTS_MM,
-        liquid_table,
-        paper_split,
-        sugar_table,
-    )
+from liquidtouch.testing.synthetic_tables import (
+    CONTAINER_A,
+    CONTAINER_B,
+    PAPER_HEIGHTS_MM,
+    liquid_table,
+    paper_split,
+    sugar_table,
+)
 
 FAILED = "the free decay after the push lasts only 1.2 s"
 NO_OSCILLATION = "no oscillation above the noise"

@@ -9,30 +9,30 @@ own); it is stopped a few seconds after ``run-trial`` has put the bottle down an
 released it, and its final update is compared with the rig's truth.
 
 A run succeeds when the standing estimate is within 5 % (λ) and 1 % (ω) of the truth, or
-says "no ring-down found"; any other number is a wrong answer. ``tests/test_live_rig.py``
-runs one or two; ``python benchmarks/rig_live.py --runs 10`` gives the statistics in
-``benchmarks/RESULTS.md``.
+says "no ring-down found"; any other number is a wrong answer. ``tests/live/test_live_rig.py``
+runs one or two; ``benchmarks/live/rig_live.py --runs 10`` gives the statistics.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
-import random
 import re
 import select
 import subprocess
 import sys
-import tempfile
 import threading
 import time
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
 from liquidtouch.live.stream import live_updates
+from liquidtouch.models import save_model, train_classifier
+from liquidtouch.sim import simulate_trial
+from liquidtouch.testing.live_page import attribute, estimate_text, watch
 
 LIQUID = {"liquid": "mirin", "height_mm": 25.0, "seed": 1}
 STARTS = ("before", "lifted", "push")
@@ -45,7 +45,7 @@ CLI = [sys.executable, "-c", "from liquidtouch.cli import run; run()"]
 
 
 @contextmanager
-def rig_serving(**liquid):
+def rig_serving(**liquid: object) -> Iterator[dict]:
     """``rig serve --json`` in a subprocess; yields its endpoints (and truth)."""
     spec = {**LIQUID, **liquid}
     argv = [
@@ -189,8 +189,6 @@ def served_run_trial(endpoints: dict, out: Path, png: Path, *, browser: str | No
                      hold_s: float = 9.0, model: Path | None = None) -> dict:  # fmt: skip
     """``run-trial --live --serve 127.0.0.1:0`` watched in headless Chromium from the moment
     it serves; the page's DOM (dumped once the stream ended), a screenshot and the trial."""
-    from benchmarks.live_browser import _attribute, _estimate, watch
-
     argv = [*CLI, "-v", "run-trial", "--gripper", endpoints["gripper"], "--arm",
             endpoints["arm"], "--out", str(out), "--seconds", str(hold_s), "--live",
             "--serve", "127.0.0.1:0"]  # fmt: skip
@@ -229,17 +227,17 @@ def served_run_trial(endpoints: dict, out: Path, png: Path, *, browser: str | No
     dom = page["dom"]
     live = json.loads((out / "live.json").read_text())
     body = re.search(r"<body[^>]*>", dom).group(0)
-    shown = {key: _estimate(dom, key) for key in ("decay_rate", "angular_frequency")}
+    shown = {key: estimate_text(dom, key) for key in ("decay_rate", "angular_frequency")}
     return {
         "dom": dom,
         "live": live,
         "ended": 'data-ended="1"' in body,
         "updates_shown": int(re.search(r'data-updates="(\d+)"', body).group(1)),
-        "signal_points": int(_attribute(dom, "signal", "data-points") or 0),
-        "events_drawn": int(_attribute(dom, "signal", "data-events") or 0),
+        "signal_points": int(attribute(dom, "signal", "data-points") or 0),
+        "events_drawn": int(attribute(dom, "signal", "data-events") or 0),
         "shown": shown,
-        "phase": _attribute(dom, "phase", "class"),
-        "liquid": _estimate(dom, "predicted_liquid"),
+        "phase": attribute(dom, "phase", "class"),
+        "liquid": estimate_text(dom, "predicted_liquid"),
         "domain": re.search(r'<span id="domain">([^<]*)</span>', dom).group(1),
         "out_of_domain": ood[1]
         if (ood := re.search(r'data-out-of-domain="([01]?)"', body))
@@ -247,13 +245,11 @@ def served_run_trial(endpoints: dict, out: Path, png: Path, *, browser: str | No
     }
 
 
-def simulated_classifier(path: Path, liquids=("water", "olive-oil", "detergent")) -> Path:
+def simulated_classifier(
+    path: Path, liquids: tuple[str, ...] = ("water", "olive-oil", "detergent")
+) -> Path:
     """A classifier file trained on the simulator's truth (4 trials at each of 8 heights
     20-40 mm per liquid, with the fit's typical noise: λ 4 %, ω 0.3 %)."""
-    from liquidtouch.models.modelfile import save_model
-    from liquidtouch.models.training import train_classifier
-    from liquidtouch.sim.trial import simulate_trial
-
     rng = np.random.default_rng(3)
     X, labels = [], []
     for liquid in liquids:
@@ -266,38 +262,3 @@ def simulated_classifier(path: Path, liquids=("water", "olive-oil", "detergent")
                 X.append((lam, omega))
                 labels.append(liquid)
     return save_model(train_classifier(np.array(X), labels), path)
-
-
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--runs", type=int, default=10)
-    parser.add_argument("--seed", type=int, default=0, help="of the random start moments")
-    parser.add_argument("--hold", type=float, default=9.0, help="run-trial --seconds")
-    parser.add_argument("--json", type=Path, help="write every run's summary here")
-    args = parser.parse_args()
-    rng = random.Random(args.seed)
-    rows = []
-    with rig_serving() as endpoints, tempfile.TemporaryDirectory() as tmp:
-        for k in range(args.runs):
-            start = STARTS[k % len(STARTS)] if k < len(STARTS) else rng.choice(STARTS)
-            began = time.monotonic()
-            row = run_once(endpoints, start, Path(tmp) / f"trial{k}", hold_s=args.hold)
-            row["seconds"] = time.monotonic() - began
-            rows.append(row)
-            print(json.dumps({key: row[key] for key in row if key != "events"}), flush=True)
-    right = [r for r in rows if r["outcome"] == "right"]
-    print(f"{len(right)}/{len(rows)} right, "
-          f"{sum(r['outcome'] == 'none found' for r in rows)} none found, "
-          f"{sum(r['outcome'] == 'wrong' for r in rows)} wrong")  # fmt: skip
-    if right:
-        lam = np.array([r["err_decay_rate"] for r in right]) * 100
-        om = np.array([r["err_angular_frequency"] for r in right]) * 100
-        print(f"λ error {lam.min():+.1f} .. {lam.max():+.1f} % (median {np.median(lam):+.1f}), "
-              f"ω error {om.min():+.2f} .. {om.max():+.2f} %")  # fmt: skip
-    if args.json:
-        args.json.write_text(json.dumps(rows, indent=1))
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

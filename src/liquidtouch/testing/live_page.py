@@ -1,30 +1,28 @@
-"""Watch a replayed trial in the live view in headless Chromium and check what the page shows.
+"""The live view in headless Chromium: a replayed trial served on 127.0.0.1 and what the
+page shows of it.
 
-    python benchmarks/live_browser.py OUT_DIR [--png docs/live_view.png --palette 256]
-
-Simulates a short trial (water, 25 mm, GelSight Mini videos) and a small
-property model (fill height and viscosity from the simulator's ground truth),
-serves the live view (:mod:`liquidtouch.live.web`) on 127.0.0.1, and replays
-the trial through :func:`liquidtouch.live.stream.live_updates` in real time
-once a browser watches. Chromium (Debian's ``chromium``) loads the page while
-the updates stream and dumps its DOM when the stream has ended
-(``--virtual-time-budget`` holds the dump while the stream is open); a second
-Chromium, arriving late, gets the history and takes the screenshot. Checks:
+:func:`simulated_trial` simulates a short trial (water, 25 mm, GelSight Mini videos) and a
+small property model (fill height and viscosity from the simulator's ground truth);
+:func:`run_check` serves the live view (:mod:`liquidtouch.live.web`) and replays the trial
+through :func:`liquidtouch.live.stream.live_updates` in real time once a browser watches.
+Chromium loads the page while the updates stream and dumps its DOM when the stream has
+ended (``--virtual-time-budget`` holds the dump while the stream is open); a second
+Chromium, arriving late, gets the history and takes the screenshot. Checks
+(:func:`check_page`):
 
 - every update reached the page and the page saw the end;
 - each sensor's frame image loaded (``data-loaded`` = its decoded width);
 - the signal plot and each time plot were drawn (``data-points`` on each SVG);
 - λ, ω and each predicted property are on the page, as the last update says.
 
-Used by ``tests/test_live_browser.py``; exit status 1 when a check fails.
+Used by ``tests/live/test_live_browser.py``, ``tests/live/test_live_web.py``,
+:mod:`liquidtouch.testing.rig_runs` and ``benchmarks/live/live_browser.py``.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import re
-import sys
 import threading
 import time
 from dataclasses import dataclass, field
@@ -32,11 +30,19 @@ from pathlib import Path
 
 import numpy as np
 
-try:  # imported as benchmarks.live_browser (tests) or run as a script
-    from benchmarks.report_browser import ATTEMPTS, _chromium, _screenshot_colours, find_chromium
-except ModuleNotFoundError:
-    from report_browser import ATTEMPTS, _chromium, _screenshot_colours, find_chromium
+from liquidtouch.live.hub import LiveHub
+from liquidtouch.live.stream import live_updates, sensor_names
+from liquidtouch.live.web import start_server
+from liquidtouch.models import save_model, train_regression
+from liquidtouch.sim import simulate_trial, write_trial
+from liquidtouch.testing.chromium import (
+    ATTEMPTS,
+    find_chromium,
+    run_chromium,
+    screenshot_colours,
+)
 
+#: the browser window, width and height [px]
 WINDOW = (1280, 900)
 #: how long Chromium may keep the page open, in virtual time [ms]; paused while the stream is open
 BUDGET_MS = 4000
@@ -49,14 +55,11 @@ def simulated_trial(out: Path, *, duration_s: float = 6.0) -> tuple[Path, Path, 
     The model is a GP on the simulator's true (λ, ω) of water and olive oil at
     16–40 mm (no videos: seconds).
     """
-    import liquidtouch as lt
-    from liquidtouch.live.stream import sensor_names
-
     out = Path(out)
-    trial = lt.simulate_trial("water", height_mm=25.0, seed=1, duration_s=duration_s)
-    trial_dir = lt.write_trial(trial, out / "trial", sensor="mini")
+    trial = simulate_trial("water", height_mm=25.0, seed=1, duration_s=duration_s)
+    trial_dir = write_trial(trial, out / "trial", sensor="mini")
     sims = [
-        lt.simulate_trial(liquid, height_mm=h, seed=h, duration_s=3.0)
+        simulate_trial(liquid, height_mm=h, seed=h, duration_s=3.0)
         for liquid in ("water", "olive-oil")
         for h in range(16, 41, 4)
     ]
@@ -66,18 +69,19 @@ def simulated_trial(out: Path, *, duration_s: float = 6.0) -> tuple[Path, Path, 
         "log10_viscosity_cst": [s.labels()["log10_viscosity_cst"] for s in sims],
     }
     model_path = out / "model.json"
-    lt.save_model(lt.train_regression(features, targets, model="gpr"), model_path)
+    save_model(train_regression(features, targets, model="gpr"), model_path)
     meta = json.loads((trial_dir / "meta.json").read_text(encoding="utf-8"))
     meta["sensor_names"] = sensor_names([trial_dir])
     return trial_dir, model_path, meta
 
 
-def replay_into(hub, trial_dir: Path, *, model=None, realtime: bool = True) -> list[dict]:
+def replay_into(
+    hub: LiveHub, trial_dir: Path, *, model: Path | None = None, realtime: bool = True
+) -> list[dict]:
     """Feed ``hub`` the live estimate of ``trial_dir`` (updates and frames); close it at the end.
 
     Returns the updates published (``to_dict(include_signal=True)``).
     """
-    from liquidtouch.live.stream import live_updates
 
     def on_frame(frame, positions_px, reference_px) -> None:
         hub.publish_frame(frame.sensor, frame.image, reference_px, positions_px)
@@ -105,13 +109,14 @@ class LiveCheck:
     problems: list[str] = field(default_factory=list)
 
 
-def _attribute(dom: str, element_id: str, name: str) -> str | None:
+def attribute(dom: str, element_id: str, name: str) -> str | None:
+    """The value of attribute ``name`` of the element with id ``element_id`` in ``dom``."""
     tag = re.search(rf"<[^>]*\bid=\"{re.escape(element_id)}\"[^>]*>", dom)
     value = re.search(rf"\b{name}=\"([^\"]*)\"", tag.group(0)) if tag else None
     return value.group(1) if value else None
 
 
-def _estimate(dom: str, key: str) -> str | None:
+def estimate_text(dom: str, key: str) -> str | None:
     """The text of the big value of estimate card ``key`` (e.g. ``decay_rate``)."""
     found = re.search(rf"id=\"est-{re.escape(key)}\".*?<div class=\"value\">([^<]*)</div>", dom)
     return found.group(1) if found else None
@@ -141,20 +146,20 @@ def check_page(dom: str, updates: list[dict], sensors: list[str]) -> list[str]:
         loaded = re.search(r"data-loaded=\"(\d+)\"", img.group(0)) if img else None
         if not loaded or int(loaded.group(1)) <= 0:
             problems.append(f"the frame of {sensor} did not load")
-    points = int(_attribute(dom, "signal", "data-points") or 0)
+    points = int(attribute(dom, "signal", "data-points") or 0)
     if points < 50:
         problems.append(f"the signal plot has {points} points")
     last = updates[-1] if updates else {}
     keys = ["decay_rate", "angular_frequency"]
     keys += [k for k in last if k.startswith("predicted_") and not k.endswith("_std")]
     for key in keys:
-        text, value = _estimate(dom, key), last.get(key)
+        text, value = estimate_text(dom, key), last.get(key)
         if text is None or (isinstance(value, float) and not _shows(text, value)):
             problems.append(f"estimate {key}: the page shows {text!r}, the stream {value!r}")
         expected = sum(
             isinstance(u.get("t_s"), float) and isinstance(u.get(key), float) for u in updates
         )
-        drawn = int(_attribute(dom, f"plot-{key}", "data-points") or 0)
+        drawn = int(attribute(dom, f"plot-{key}", "data-points") or 0)
         if drawn != expected or not expected:
             problems.append(f"the plot of {key} over time has {drawn} of {expected} points")
     if last.get("final") and "stopped:" not in dom:
@@ -176,12 +181,14 @@ def watch(url: str, png: Path, *, browser: str | None = None, timeout_s: float =
 
     def screenshot() -> None:
         png.unlink(missing_ok=True)
-        done = _chromium(browser, *common, f"--screenshot={png.resolve()}", url, timeout=timeout_s)
+        done = run_chromium(
+            browser, *common, f"--screenshot={png.resolve()}", url, timeout=timeout_s
+        )
         shot["stderr"] = done.stderr
 
     thread = threading.Thread(target=screenshot)
     thread.start()
-    done = _chromium(browser, *common, "--dump-dom", url, timeout=timeout_s)
+    done = run_chromium(browser, *common, "--dump-dom", url, timeout=timeout_s)
     thread.join(timeout_s * ATTEMPTS + 10)
     if not done.stdout.strip():
         raise RuntimeError(f"chromium dumped no DOM (exit {done.returncode}): {done.stderr}")
@@ -190,11 +197,10 @@ def watch(url: str, png: Path, *, browser: str | None = None, timeout_s: float =
     return done.stdout
 
 
-def run_check(trial, png: Path, *, browser: str | None = None) -> LiveCheck:
+def run_check(
+    trial: tuple[Path, Path, dict], png: Path, *, browser: str | None = None
+) -> LiveCheck:
     """Serve ``trial`` = (trial dir, model, meta) live, watch it in Chromium, check the page."""
-    from liquidtouch.live.hub import LiveHub
-    from liquidtouch.live.web import start_server
-
     trial_dir, model_path, meta = trial
     hub = LiveHub()
     published: list[dict] = []
@@ -216,42 +222,9 @@ def run_check(trial, png: Path, *, browser: str | None = None) -> LiveCheck:
     check = LiveCheck(png=Path(png), problems=check_page(dom, published, meta["sensor_names"]))
     check.updates = len(published)
     check.final = published[-1] if published else {}
-    check.signal_points = int(_attribute(dom, "signal", "data-points") or 0)
+    check.signal_points = int(attribute(dom, "signal", "data-points") or 0)
     check.frames_loaded = len(re.findall(r"data-loaded=\"[1-9]\d*\"", dom))
-    check.colours = _screenshot_colours(check.png)
+    check.colours = screenshot_colours(check.png)
     if check.colours < 500:
         check.problems.append(f"the screenshot has {check.colours} colours: blank?")
     return check
-
-
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path, help="work directory (trial, model)")
-    parser.add_argument("--png", type=Path, default=None, help="screenshot (default OUT/live.png)")
-    parser.add_argument(
-        "--palette", type=int, default=0, help="then save the PNG with this many colours (docs)"
-    )
-    args = parser.parse_args()
-    started = time.monotonic()
-    trial = simulated_trial(args.out)
-    check = run_check(trial, args.png or args.out / "live.png")
-    print(
-        f"updates {check.updates}, signal points {check.signal_points}, frames loaded "
-        f"{check.frames_loaded}, screenshot colours {check.colours}, "
-        f"{time.monotonic() - started:.1f} s; screenshot {check.png}"
-    )
-    if args.palette:
-        from PIL import Image
-
-        with Image.open(check.png) as im:  # an octree palette keeps the green arrows;
-            rgb = im.convert("RGB")  # dithering keeps the gel's shading free of bands
-        palette = rgb.quantize(colors=args.palette, method=Image.Quantize.FASTOCTREE)
-        small = rgb.quantize(palette=palette, dither=Image.Dither.FLOYDSTEINBERG)
-        small.save(check.png, optimize=True)
-    for problem in check.problems:
-        print("problem:", problem)
-    return 1 if check.problems else 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -32,22 +32,16 @@ import os
 import shutil
 import tempfile
 import time
-from fractions import Fraction
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from liquidtouch.acquire.cameras import Frame
-from liquidtouch.acquire.recording import Ffv1Writer, PngWriter
 from liquidtouch.extraction.pipeline import extract
-from liquidtouch.sim.encode import PTS_RATE_HZ, X264_PARAMS
-from liquidtouch.sim.gelsight import SENSOR_NAMES, sensor_scene
-from liquidtouch.sim.render import iter_frames, make_background
-from liquidtouch.sim.sensors import get_sensor_profile
+from liquidtouch.sim.gelsight import SENSOR_NAMES
 from liquidtouch.sim.trial import simulate_trial
+from liquidtouch.testing.video_formats import make_writer, render_sensors
 
-SENSOR = "default"
 NEEDED_FPS = 60.0  # two sensors at 30 fps
 CASES = [  # (liquid, sugar concentration, fill height [mm], seed)
     ("water", None, 32.0, 1),  # the slowest decay: the hardest case for lossy video
@@ -55,107 +49,6 @@ CASES = [  # (liquid, sugar concentration, fill height [mm], seed)
     ("sugar-water", 60.0, 30.0, 3),
 ]
 FORMATS = ("png", "ffv1", "x264 no dead zone", "x264 default")
-
-
-# --- encoders ---------------------------------------------------------------------------
-
-
-class X264Writer:
-    """H.264 in MP4 via PyAV, as ``liquidtouch.sim.encode.encode_video`` writes it."""
-
-    def __init__(self, path: Path, fps: float, x264_params: str) -> None:
-        import av
-
-        self.path = path
-        self.container = av.open(str(path), mode="w")
-        self.stream = self.container.add_stream("libx264", rate=Fraction(fps).limit_denominator())
-        self.stream.pix_fmt = "yuv420p"
-        self.stream.time_base = Fraction(1, PTS_RATE_HZ)
-        self.stream.codec_context.time_base = Fraction(1, PTS_RATE_HZ)
-        self.stream.codec_context.thread_count = 1
-        options = {"preset": "ultrafast", "crf": "20"}
-        if x264_params:
-            options["x264-params"] = x264_params
-        self.stream.options = options
-        self.started = False
-
-    def write(self, rgb: np.ndarray, t_s: float) -> None:
-        import av
-
-        if not self.started:
-            self.stream.height, self.stream.width = rgb.shape[:2]
-            self.started = True
-        yuv = cv2.cvtColor(rgb, cv2.COLOR_RGB2YUV_I420)
-        frame = av.VideoFrame.from_numpy_buffer(yuv, format="yuv420p")
-        frame.pts = round(t_s * PTS_RATE_HZ)
-        frame.time_base = Fraction(1, PTS_RATE_HZ)
-        for packet in self.stream.encode(frame):
-            self.container.mux(packet)
-
-    def close(self) -> None:
-        for packet in self.stream.encode():
-            self.container.mux(packet)
-        self.container.close()
-
-
-class RecorderFormat:
-    """The recorder's own FFV1 / PNG writer for one sensor, grey or colour."""
-
-    def __init__(self, kind: str, directory: Path, name: str, fps: float, grey: bool) -> None:
-        if kind == "ffv1":
-            self.writer = Ffv1Writer(directory, name, 0.0)
-            self.writer.fps_hint = fps
-        else:
-            self.writer = PngWriter(directory, name, 0.0)
-        self.grey = grey
-        self.index = 0
-
-    @property
-    def entry(self) -> str:
-        return self.writer.entry
-
-    def write(self, rgb: np.ndarray, t_s: float) -> None:
-        code = cv2.COLOR_RGB2GRAY if self.grey else cv2.COLOR_RGB2BGR
-        image = cv2.cvtColor(rgb, code)
-        self.writer.write(Frame("s", self.index, t_s, image), image)
-        self.index += 1
-
-    def close(self) -> None:
-        self.writer.close()
-
-
-def make_writer(fmt: str, directory: Path, name: str, fps: float, *, grey: bool = True):
-    """An encoder of ``fmt`` for sensor ``name`` in ``directory``: ``write(rgb, t_s)``, ``close()``;
-    ``entry`` is the file or folder it writes."""
-    if fmt in ("ffv1", "png"):
-        return RecorderFormat(fmt, directory, name, fps, grey)
-    params = X264_PARAMS if fmt == "x264 no dead zone" else ""
-    writer = X264Writer(directory / f"{name}.mp4", fps, params)
-    writer.entry = f"{name}.mp4"
-    return writer
-
-
-# --- rendering --------------------------------------------------------------------------
-
-
-def render_sensors(trial, seed: int):
-    """The two sensors' RGB frames (lists) and timestamps [s], as the simulator renders them."""
-    profile = get_sensor_profile(SENSOR)
-    scene = sensor_scene(trial.loads, profile, np.random.default_rng(seed))
-    sensors = []
-    for s in range(2):
-        sensor_rng = np.random.default_rng([seed, s + 1])
-        frames = iter_frames(
-            scene.positions_px[s],
-            profile,
-            sensor_rng,
-            background=make_background(profile, sensor_rng),
-            contact_center_px=scene.geometry.center_px[s],
-            contact_radius_px=float(scene.geometry.radius_px[s]),
-            contact_offsets_px=scene.offsets_px[s],
-        )
-        sensors.append([frame.copy() for frame in frames])  # the renderer reuses its buffer
-    return sensors, scene.timestamps_s, profile.fps
 
 
 # --- 1. encode speed --------------------------------------------------------------------

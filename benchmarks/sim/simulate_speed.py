@@ -10,7 +10,8 @@ Videos (issue 27): one ``simulate trial`` with videos (default sensor, 640 × 48
 13 s; ``simulate_trial`` + ``write_trial`` in this process) against decoding its
 own two videos (decode-only: the grey frames ``extract`` reads, ``io.frames.iter_video``,
 and the RGB frames, PyAV ``rgb24``), and the same trial with the renderer before
-issue 27 (``benchmarks/render_v0.py``, sensors one after the other), alternating
+issue 27 (``src/liquidtouch/sim/render.py`` at git revision 675ffb2, loaded from git by
+:func:`renderer_at`; sensors one after the other), alternating
 old and new; then the renderer alone, frames per second per core (process CPU
 time) before and after, and the ``liquidtouch simulate trial`` command's wall time
 (a fresh process: imports included).
@@ -21,6 +22,7 @@ time) before and after, and the ``liquidtouch simulate trial`` command's wall ti
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import os
 import subprocess
 import sys
@@ -28,20 +30,16 @@ import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from liquidtouch._core.containers import get_container
-from liquidtouch._core.liquids import get_liquid
+import liquidtouch.sim.gelsight as gelsight
+from liquidtouch.sim import get_container, get_liquid
 from liquidtouch.sim.slosh import accelerations, integrate, slosh_system
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.trial_io import write_trial
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import render_v0  # the renderer before issue 27
-
-import liquidtouch.sim.gelsight as gelsight
 
 CASES = [
     ("water", None, 28.0, "grooved-cuboid"),
@@ -51,6 +49,10 @@ CASES = [
     ("olive-oil", None, 20.0, "cylinder"),
 ]
 REPEATS = 5
+#: main at the merge of issue 25: its renderer is the one before issue 27 (``render.py``
+#: there is what the frozen ``benchmarks/render_v0.py`` copied)
+OLD_RENDERER_REVISION = "675ffb2"
+REPO = Path(__file__).resolve().parents[2]
 CLI = "import sys; from liquidtouch.cli import run; sys.argv[0] = 'liquidtouch'; run()"
 
 
@@ -121,6 +123,27 @@ def since(start: tuple[float, float]) -> tuple[float, float]:
     return wall - start[0], cpu - start[1]
 
 
+def renderer_at(revision: str) -> ModuleType:
+    """``liquidtouch.sim.render`` as it was at git ``revision``, loaded as a module of its own
+    (``git show`` of the repository this script is in); it imports the rest of liquidtouch
+    from the working tree (the sensor profiles, the errors)."""
+    path = "src/liquidtouch/sim/render.py"
+    shown = subprocess.run(
+        ["git", "-C", str(REPO), "show", f"{revision}:{path}"], capture_output=True, text=True
+    )
+    if shown.returncode != 0:
+        raise SystemExit(f"cannot read {path} at {revision} from git: {shown.stderr.strip()}")
+    name = f"render_at_{revision}"
+    with tempfile.TemporaryDirectory(prefix="render-at-") as tmp:
+        source = Path(tmp) / f"{name}.py"
+        source.write_text(shown.stdout, encoding="utf-8")
+        spec = importlib.util.spec_from_file_location(name, source)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module  # dataclasses look their module up while it loads
+        spec.loader.exec_module(module)
+    return module
+
+
 def decode_grey(paths: list[Path]) -> None:
     from liquidtouch.io.frames import iter_video
 
@@ -143,17 +166,18 @@ class _Sequential(ThreadPoolExecutor):
         super().__init__(max_workers=1)
 
 
-def write_old(trial, out: Path) -> None:
-    """``write_trial`` with the renderer before issue 27 and the sensors in sequence."""
+def write_old(trial, out: Path, old_renderer: ModuleType) -> None:
+    """``write_trial`` with the renderer ``old_renderer`` (:func:`renderer_at`) and the sensors in
+    sequence."""
     saved = gelsight.iter_frames, gelsight.ThreadPoolExecutor
-    gelsight.iter_frames, gelsight.ThreadPoolExecutor = render_v0.iter_frames, _Sequential
+    gelsight.iter_frames, gelsight.ThreadPoolExecutor = old_renderer.iter_frames, _Sequential
     try:
         write_trial(trial, out)
     finally:
         gelsight.iter_frames, gelsight.ThreadPoolExecutor = saved
 
 
-def video_section(repeats: int) -> None:
+def video_section(repeats: int, old_renderer: ModuleType) -> None:
     import cv2
 
     from liquidtouch.sim.sensors import get_sensor_profile
@@ -176,7 +200,7 @@ def video_section(repeats: int) -> None:
         keep("simulate trial (new)", since(start))
         start = clocks()
         trial = simulate_trial("water", **kwargs)
-        write_old(trial, work / f"old{i}")
+        write_old(trial, work / f"old{i}", old_renderer)
         keep("simulate trial (before issue 27)", since(start))
         videos = [work / f"new{i}" / f"{s}.mp4" for s in ("left", "right")]
         start = clocks()
@@ -222,14 +246,14 @@ def video_section(repeats: int) -> None:
         )
         times: dict[str, float] = {}
         for _ in range(repeats):
-            for label, fn in (("old", render_v0.iter_frames), ("new", gelsight.iter_frames)):
+            for label, fn in (("old", old_renderer.iter_frames), ("new", gelsight.iter_frames)):
                 start = clocks()
                 for _frame in fn(scene.positions_px[0], profile, np.random.default_rng(3), **args):
                     pass
                 times[label] = min(times.get(label, np.inf), since(start)[1])
         pos, rng = scene.positions_px[0], np.random.default_rng
         pairs = zip(
-            render_v0.iter_frames(pos, profile, rng(3), **args),
+            old_renderer.iter_frames(pos, profile, rng(3), **args),
             gelsight.iter_frames(pos, profile, rng(3), **args),
             strict=True,
         )
@@ -245,7 +269,7 @@ def main() -> None:
     parser.add_argument("--videos-only", action="store_true", help="only the video sections")
     parser.add_argument("--repeats", type=int, default=3, help="repeats of the video sections")
     args = parser.parse_args()
-    video_section(args.repeats)
+    video_section(args.repeats, renderer_at(OLD_RENDERER_REVISION))
     if args.videos_only:
         return
     print()

@@ -2,9 +2,9 @@
 and the same tracks with frames taken out.
 
 Shared by the benchmarks that study the signal and the fit apart from the tracker
-(``gaps.py``, ``fit_std.py``, ``fit_bias.py``) and by the tests (imported as
-``benchmarks.scene_tracks``; the scripts beside it import ``scene_tracks``). Not in the
-simulator: ``liquidtouch.sim`` must not load the estimation pipeline (``MarkerTracks``).
+(``benchmarks/signal/gaps.py``, ``benchmarks/fit/fit_std.py``, ``benchmarks/fit/fit_bias.py``)
+and by the tests. Not in the simulator: ``liquidtouch.sim`` must not load the estimation
+pipeline (``MarkerTracks``).
 """
 
 from __future__ import annotations

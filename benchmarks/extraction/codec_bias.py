@@ -54,10 +54,6 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from record_formats import make_writer, render_sensors
-
-from liquidtouch._core.progress import progress_bar
 from liquidtouch.extraction.codec_check import frozen_steps
 from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.fit.oscillation import fit_oscillation
@@ -66,6 +62,8 @@ from liquidtouch.ring_down.start import free_decay_start
 from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.encode import X264_PARAMS, encode_video
 from liquidtouch.sim.trial import simulate_trial
+from liquidtouch.testing import progress_bar
+from liquidtouch.testing.video_formats import make_writer, render_sensors
 from liquidtouch.tracking.tracks import track_markers
 
 CASES = [  # (liquid, sugar concentration, fill height [mm], push scale)
