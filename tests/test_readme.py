@@ -149,6 +149,22 @@ def _help(args: list[str], capsys: pytest.CaptureFixture[str]) -> Help:
     return Help(status, out, err)
 
 
+README_MAX_LINES = 170  # a front door, not a manual: the rest lives in docs/ (issue 37)
+DATE = re.compile(r"\b20\d\d-\d\d-\d\d\b")
+LINK = re.compile(r"\]\(([^)#\s]+)(?:#[^)]*)?\)")
+
+
+def test_the_readme_is_a_front_door() -> None:
+    """Short, no dated timings, and every relative link leads to a file of the repository."""
+    text = page_text(README)
+    assert len(text.splitlines()) <= README_MAX_LINES
+    assert not DATE.findall(text), "dated numbers belong in benchmarks/RESULTS.md"
+    targets = [t for t in LINK.findall(text) if "://" not in t]
+    assert "docs/getting-started.md" in targets and "docs/api/index.md" in targets
+    missing = [t for t in targets if not (REPO / t).exists()]
+    assert not missing, f"README links to files that do not exist: {missing}"
+
+
 @pytest.mark.parametrize("page", list(TOUR_LANGUAGES), ids=lambda p: p.name)
 def test_the_tours_mark_runnable_blocks(page: Path) -> None:
     blocks = runnable_blocks(page_text(page))
