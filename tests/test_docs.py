@@ -119,6 +119,14 @@ def test_the_results_page_includes_benchmarks_results(site: Path) -> None:
     assert "Benchmark results" in html and first_heading.split(" — ")[0] in html
 
 
+@pytest.mark.slow(seconds=8)
+def test_the_command_line_page_has_every_commands_help(site: Path) -> None:
+    html = page_html(site, "cli.md")
+    for command in ("fit", "dataset add", "simulate trial", "rig serve", "run-trial", "live"):
+        assert f"Usage: liquidtouch {command} [OPTIONS]" in html, command
+    assert "&lt;!-- cli-reference --&gt;" not in html and "cli-reference" not in html
+
+
 @pytest.mark.slow(seconds=20)
 def test_the_home_page_and_an_api_page_render_in_a_browser(site: Path, tmp_path: Path) -> None:
     browser = chromium_or_skip()
