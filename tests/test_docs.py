@@ -25,7 +25,7 @@ from helpers import REPO, chromium_or_skip
 from PIL import Image
 
 import liquidtouch
-from benchmarks.report_browser import dump_dom, screenshot
+from liquidtouch.testing.report_page import dump_dom, screenshot
 
 BIN = Path(sys.executable).parent  # the venv's bin: mkdocs
 API_PAGES = REPO / "docs" / "api"
