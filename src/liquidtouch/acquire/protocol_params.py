@@ -59,6 +59,11 @@ class ProtocolParameters(BaseModel):
     """The cameras' sensor profile (``acquire.cameras.PROFILES``: ``raw``, ``mini``, ``r15``,
     ``digit``; ``run-trial --sensor``)."""
     recording_format: Literal["ffv1", "png"] = "ffv1"
+    start_pose: tuple[float, float, float, float, float, float] | None = None
+    """The tool pose [x, y, z m; rx, ry, rz rad] the bottle is grasped at, on the table;
+    the trial starts and ends there (default: the arm's own start pose, e.g. the
+    simulated rig's; an arm without one starts wherever it is:
+    :mod:`liquidtouch.acquire.start_state`)."""
 
     def model_post_init(self, _context: Any) -> None:
         if abs(self.push_distance_mm) < 1.0:

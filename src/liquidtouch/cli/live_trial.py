@@ -31,13 +31,16 @@ class LiveTrial:
     """The live estimate beside a ``run-trial`` (module docstring)."""
 
     def __init__(self, names, *, model_file=None, until_std=(), serve=None, quiet=False):
-        from liquidtouch.live import parse_until_std
+        """Check everything (model file, targets, serve address) before a robot moves."""
+        from liquidtouch.live import check_live_request, parse_until_std
         from liquidtouch.models.modelfile import load_model
 
         self.names = list(names)
-        self.model = load_model(model_file) if model_file is not None else None
         self.limits = parse_until_std(list(until_std))
         self.address = parse_serve(serve) if serve else None
+        self.model = load_model(model_file) if model_file is not None else None
+        #: the --until-std targets this model can never meet {target: its std floor}
+        self.unreachable = check_live_request(self.model, self.limits)
         self.quiet = quiet
         self.frames: queue.Queue = queue.Queue(maxsize=MAX_QUEUED)
         self.events: queue.Queue = queue.Queue()
@@ -59,15 +62,20 @@ class LiveTrial:
         self.all_events.append((name, t_s))
 
     def start(self) -> None:
+        """Say what cannot be met, start serving (``--serve``) and estimating."""
+        from liquidtouch.cli.format import note, warn
+        from liquidtouch.live import unreachable_message
+
+        if self.unreachable:
+            warn(unreachable_message(self.unreachable, self.limits))
         if self.address is not None:
-            from liquidtouch.cli.format import warn
             from liquidtouch.live.hub import LiveHub
             from liquidtouch.live.web import start_server
 
             self.hub = LiveHub()
             self.server = start_server(self.hub, host=self.address[0], port=self.address[1])
             self.url = self.server.url
-            warn(f"serving the live view at {self.server.url}")
+            note(f"serving the live view at {self.server.url}")
         self._thread = threading.Thread(target=self._run, name="live-trial", daemon=True)
         self._thread.start()
 

@@ -13,13 +13,11 @@ no trial directory is left.
 
 from __future__ import annotations
 
-import functools
 import json
 import math
 import signal
 import sys
 import threading
-from pathlib import Path
 
 import typer
 
@@ -148,137 +146,63 @@ def serve_command(
 
 
 def run_trial_command(
-    gripper: str = typer.Option(
-        ..., "--gripper", help="Gripper URL: wsg50://HOST[:PORT] (a WSG-50; port 1000) or sim://."
-    ),
-    arm: str = typer.Option(
-        ...,
-        "--arm",
-        help="Arm URL: ur-rtde://HOST (a UR arm, needs liquidtouch[robot]), sim://HOST:PORT "
-        "(the simulated rig) or sim://.",
-    ),
-    camera: list[str] = typer.Option(
-        ...,
-        "--camera",
-        help="A camera source, repeated (left first): a device index, /dev/videoN, "
-        "name:GelSight Mini, an http/rtsp stream URL.",
-    ),
-    out: Path = typer.Option(
-        ..., "--out", "-o", file_okay=False, help="Trial directory to create (new or empty)."
-    ),
-    protocol: Path | None = typer.Option(
-        None,
-        "--protocol",
-        dir_okay=False,
-        help="Protocol TOML file (grasp force, lift, push, hold, ...); default: the paper's.",
-    ),
+    gripper: options.GripperUrl,
+    arm: options.ArmUrl,
+    camera: options.Cameras,
+    out: options.TrialOut,
+    protocol: options.ProtocolFile = None,
     label: options.Labels = [],  # noqa: B006 - typer reads the default, never mutates it
-    name: list[str] = typer.Option(
-        [],
-        "--name",
-        help="Sensor names, one per camera, in order (default left, right).",
-        show_default=False,
-    ),
-    seconds: float | None = typer.Option(
-        None, "--seconds", help="Recording after the push [s] (the protocol's hold_s)."
-    ),
-    as_json: bool = typer.Option(
-        False, "--json", help="Print one JSON object on stdout (trial, push times, summary)."
-    ),
-    model_file: Path | None = typer.Option(
-        None,
-        "--model",
-        help="Estimate live from the frames being recorded (the push and the end of the hold "
-        "from the protocol), with this model file; writes live.json into the trial.",
-        show_default=False,
-    ),
-    live: bool = typer.Option(
-        False, "--live", help="Estimate live (as --model, without a model).", show_default=False
-    ),
-    serve: str | None = typer.Option(
-        None,
-        "--serve",
-        metavar="HOST:PORT",
-        help="Show the live estimate in a browser at http://HOST:PORT (implies --live).",
-        show_default=False,
-    ),
-    until_std: list[str] = typer.Option(
-        [],
-        "--until-std",
-        metavar="TARGET=STD",
-        help="Live: the estimate is final once every TARGET's std is below STD.",
-        show_default=False,
-    ),
-    sensor: options.SensorChoice | None = typer.Option(
-        None,
-        "--sensor",
-        help="Sensor profile of the cameras (as record --sensor: mini, r15, digit, raw); "
-        "default: the protocol file's camera_profile, else raw.",
-        show_default=False,
-    ),
+    name: options.SensorNames = [],  # noqa: B006
+    seconds: options.HoldSeconds = None,
+    as_json: options.Json = False,
+    model_file: options.LiveModel = None,
+    live: bool = typer.Option(False, "--live", help="Estimate live (as --model, without one)."),
+    serve: options.Serve = None,
+    until_std: options.UntilStd = [],  # noqa: B006
+    sensor: options.TrialSensor = None,
+    recover: options.Recover = False,
     open_timeout_s: options.OpenTimeout = DEFAULT_OPEN_TIMEOUT_S,
     read_timeout_s: options.ReadTimeout = TRIAL_READ_TIMEOUT_S,
     warmup_timeout_s: options.WarmupTimeout = DEFAULT_WARMUP_TIMEOUT_S,
 ) -> None:
-    """Run one trial on a robot: grasp, lift, record, push, hold, lower, release.
+    """Run one trial on a robot: grasp, lift, record, push, hold, return, lower, release.
 
-    The cameras are opened first; then the gripper grasps the bottle, the arm lifts
-    it, the recording starts, the arm pushes, holds still for the ring-down, and the
-    bottle is put down and released. meta.json gets the protocol, the push's times
-    and the arm's and gripper's readings. On any error or Ctrl-C the arm stops, the
-    gripper KEEPS holding the bottle (put it down yourself) and no trial is written.
+    Every option is checked before anything is connected. The gripper's and arm's state
+    is read first: a held bottle, an arm off its start pose or a fault is refused (with
+    what to do), or put right with --recover. Then the cameras are opened, the gripper
+    grasps the bottle, the arm lifts it, the recording starts, the arm pushes, holds
+    still for the ring-down, carries the bottle back over its start, puts it down and
+    releases it. --model/--live/--serve estimate live from the frames (live.json). On any
+    error or Ctrl-C the arm stops, the gripper KEEPS holding the bottle and no trial is
+    written; the next run-trial refuses to start until --recover (or you) put it down.
     """
     from liquidtouch._core.progress import on_terminal
-    from liquidtouch.acquire.protocol_params import (
-        ProtocolParameters,
-        load_protocol,
-        protocol_from_mapping,
-    )
-    from liquidtouch.errors import LiquidTouchError
+    from liquidtouch.acquire.bench import run_trial_at, trial_parameters
     from liquidtouch.io.labels import typed_labels
 
-    params = load_protocol(protocol) if protocol is not None else ProtocolParameters()
-    if seconds is not None:
-        if not math.isfinite(seconds):
-            raise LiquidTouchError(f"--seconds must be a finite number, got {seconds}")
-        params = protocol_from_mapping({**params.model_dump(), "hold_s": seconds}, "--seconds")
-    if sensor is not None:
-        params = protocol_from_mapping(
-            {**params.model_dump(), "camera_profile": str(sensor)}, "--sensor"
-        )
+    params = trial_parameters(protocol, hold_s=seconds, camera_profile=sensor)
     labels = {k: v for k, v in typed_labels(label).items() if v is not None}
-    if name and len(name) != len(camera):
-        raise LiquidTouchError(f"{len(camera)} --camera but {len(name)} --name")
-    verbose = on_terminal() and not as_json
-
-    def on_step(step: str) -> None:
-        if verbose:
-            print(f"{step} ...", file=sys.stderr, flush=True)
-
-    from liquidtouch.acquire.protocol import make_recorder
-
     live_run = None
-    factory = functools.partial(
-        make_recorder,
-        open_timeout_s=open_timeout_s,
-        read_timeout_s=read_timeout_s,
-        warmup_timeout_s=warmup_timeout_s,
-    )
     if live or model_file is not None or serve or until_std:
         from liquidtouch.cli.live_trial import LiveTrial
 
-        live_run = LiveTrial(
-            name
-            or ["left", "right"][: len(camera)] + [f"sensor{i}" for i in range(2, len(camera))],
-            model_file=model_file,
-            until_std=until_std,
-            serve=serve,
-            quiet=as_json,
-        )
-        factory = functools.partial(factory, on_frame=live_run.tap)
+        names = name or ["left", "right"][: len(camera)]
+        names += [f"sensor{i}" for i in range(len(names), len(camera))]
+        live_run = LiveTrial(names, model_file=model_file, until_std=until_std, serve=serve)
+    verbose = on_terminal() and not as_json
+    timeouts = {"open_timeout_s": open_timeout_s, "read_timeout_s": read_timeout_s}
+    timeouts["warmup_timeout_s"] = warmup_timeout_s
+    if live_run is not None:
         live_run.start()
     try:
-        run = _run(gripper, arm, camera, out, params, labels, name, on_step, factory, live_run)
+        run = run_trial_at(
+            gripper, arm, camera, out, params, labels, names=name, recover=recover,
+            on_step=(lambda step: print(f"{step} ...", file=sys.stderr, flush=True))
+            if verbose else None,
+            on_frame=None if live_run is None else live_run.tap,
+            on_event=None if live_run is None else live_run.event,
+            camera_timeouts=timeouts,
+        )  # fmt: skip
     finally:
         if live_run is not None:
             live_run.end()
@@ -287,40 +211,10 @@ def run_trial_command(
     _report(run, as_json, live_run)
 
 
-def _run(gripper, arm, camera, out, params, labels, name, on_step, factory, live_run):
-    from liquidtouch.acquire.arms import RigArm, open_arm
-    from liquidtouch.acquire.grippers import open_gripper
-    from liquidtouch.acquire.protocol import run_trial
-
-    with open_gripper(gripper) as grip, open_arm(arm) as robot:
-        extra: dict[str, object] = {}
-        if isinstance(robot, RigArm):  # the simulated rig knows the truth
-            truth = robot.truth()
-            extra = {
-                "true_decay_rate": truth["true_decay_rate"],
-                "true_angular_frequency": truth["true_angular_frequency"],
-                "simulated_rig": truth,
-            }
-        run = run_trial(
-            grip,
-            robot,
-            camera,
-            out,
-            params,
-            labels,
-            names=name or None,
-            extra_meta=extra,
-            on_step=on_step,
-            recorder_factory=factory,
-            on_event=None if live_run is None else live_run.event,
-        )
-    return run
-
-
 def _report(run, as_json: bool, live_run) -> None:
-    summary = run.summary
     from liquidtouch.cli.format import warn
 
+    summary = run.summary
     for message in summary.warnings:
         warn(message)
     result = {
@@ -329,8 +223,9 @@ def _report(run, as_json: bool, live_run) -> None:
         "push_end_s": run.push_end_s,
         "recording": summary.to_dict(),
     }
-    if live_run is not None and live_run.final is not None:
-        result["live"] = live_run.final
+    final = None if live_run is None else live_run.final
+    if final is not None:
+        result["live"] = final
     if as_json:
         typer.echo(json.dumps(result, default=str))
         return
@@ -338,10 +233,33 @@ def _report(run, as_json: bool, live_run) -> None:
         fps = f"{s.measured_fps:.2f}" if s.measured_fps else "—"
         typer.echo(f"{s.name}: {s.frames} frames at {fps} fps, {s.drops} dropped ({s.source})")
     typer.echo(f"push {run.push_start_s:.2f}-{run.push_end_s:.2f} s; wrote {run.trial_dir}")
-    if live_run is not None and live_run.final is not None:
-        final = live_run.final
-        typer.echo(
-            f"live: λ = {final['decay_rate']} ± {final['decay_rate_std']} 1/s, "
-            f"ω = {final['angular_frequency']} ± {final['angular_frequency_std']} rad/s "
-            f"(segment {final['segment']}; {final['message'] or 'final'}); wrote live.json"
+    if final is not None:
+        typer.echo(f"{live_line(final)}; wrote live.json")
+
+
+def live_line(final: dict) -> str:
+    """The live estimate's final update in one line: λ, ω and every predicted target, each
+    rounded to its std (``1.234 ± 0.012``), the liquid with its probability."""
+    from liquidtouch._core.numbers import with_uncertainty
+
+    if "error" in final:
+        return f"live: the estimate failed: {final['error']}"
+
+    def value(key: str) -> str:
+        mean, std = final.get(key), final.get(f"{key}_std")
+        return with_uncertainty(
+            math.nan if mean is None else mean, math.nan if std is None else std
         )
+
+    parts = [f"λ = {value('decay_rate')} 1/s", f"ω = {value('angular_frequency')} rad/s"]
+    for key, mean in final.items():
+        target = key.removeprefix("predicted_")
+        if key == target or target.endswith(("_std", "_lower", "_upper")):
+            continue
+        if isinstance(mean, str):
+            share = final.get(f"probability_{mean}")
+            parts.append(f"{target} = {mean}" + (f" (p {share:.2f})" if share else ""))
+        else:
+            parts.append(f"{target} = {value(key)}")
+    why = final.get("message") or "final"
+    return f"live: {', '.join(parts)} (segment {final.get('segment')}; {why})"

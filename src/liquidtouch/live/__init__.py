@@ -35,7 +35,13 @@ Example::
 
 from liquidtouch.live.estimator import REFRESH_S, LiveEstimator
 from liquidtouch.live.sources import LiveFrame, camera_frames, open_frames, replay_frames
-from liquidtouch.live.stopping import check_until_std, parse_until_std, stop_reached
+from liquidtouch.live.stopping import (
+    check_live_request,
+    check_until_std,
+    parse_until_std,
+    stop_reached,
+    unreachable_message,
+)
 from liquidtouch.live.stream import live_updates, sensor_names
 from liquidtouch.live.updates import PHASES, LiveUpdate
 
@@ -46,6 +52,7 @@ __all__ = [
     "LiveFrame",
     "LiveUpdate",
     "camera_frames",
+    "check_live_request",
     "check_until_std",
     "live_updates",
     "open_frames",
@@ -53,4 +60,5 @@ __all__ = [
     "replay_frames",
     "sensor_names",
     "stop_reached",
+    "unreachable_message",
 ]

@@ -34,6 +34,7 @@ from liquidtouch.live.uncertainty import (
     streamed_frequency_std,
 )
 from liquidtouch.live.updates import LiveUpdate
+from liquidtouch.models.predictions import unknown_rule
 
 __all__ = ["MAX_DECAY_REL_STD", "MAX_FREQ_REL_STD", "emitted_update"]
 
@@ -101,6 +102,7 @@ def emitted_update(
             }
         elif model is not None and show_omega and show_lam:
             update.classified = classify_with_fit_std(model, *features)
+            update.unknown_rule = unknown_rule(model)
         if update.predicted or update.classified:  # an answer: is it one the model knows?
             update.out_of_domain = out_of_domain(model, lam, omega, update.classified)
     if math.isfinite(due_s):

@@ -32,6 +32,7 @@ import math
 import numpy as np
 
 from liquidtouch.errors import ModelFileError
+from liquidtouch.models import predictions
 from liquidtouch.models.classifier import UNKNOWN
 from liquidtouch.models.propagation import MIN_DECAY_RATE
 
@@ -121,9 +122,9 @@ def out_of_domain(
     angular_frequency: float,
     classified: dict[str, tuple[str, dict[str, float]]] | None = None,
 ) -> bool:
-    """(λ, ω) is outside what ``model`` knows: outside its training domain (range plus
-    margin, as ``predict``'s ``out_of_domain`` column), or a classifier's answer in
+    """(λ, ω) is outside what ``model`` knows (:func:`liquidtouch.models.predictions.out_of_domain`,
+    the definition ``predict`` uses): outside its training domain, or a classifier's answer in
     ``classified`` is ``"unknown"``."""
-    outside = not bool(model.in_domain([[float(decay_rate), float(angular_frequency)]])[0])
-    unknown = any(name == UNKNOWN for name, _ in (classified or {}).values())
-    return outside or unknown
+    answers = [name for name, _ in (classified or {}).values()][:1] or None
+    X = [[float(decay_rate), float(angular_frequency)]]
+    return bool(predictions.out_of_domain(model, X, answers)[0])

@@ -13,11 +13,17 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 
+import numpy as np
+
 from liquidtouch._core.checks import as_number
 from liquidtouch.errors import ModelFileError, SignalError
+from liquidtouch.live.properties import check_live_model
 
 #: targets the fit itself reports, without a model
 FIT_TARGETS = ("decay_rate", "angular_frequency")
+#: points per feature of the grid over the training domain on which a model's smallest
+#: calibrated std is found (:func:`std_floors`; 30 × 30 rows: a few ms of a GP's predict)
+FLOOR_GRID_POINTS = 30
 
 
 def parse_until_std(items: Sequence[str]) -> dict[str, float]:
@@ -46,23 +52,76 @@ def parse_until_std(items: Sequence[str]) -> dict[str, float]:
     return out
 
 
-def check_until_std(until_std: Mapping[str, float], model_targets: Sequence[str] = ()) -> None:
+def check_until_std(
+    until_std: Mapping[str, float],
+    model_targets: Sequence[str] = (),
+    model_kind: str = "",
+) -> None:
     """Refuse targets that are neither fit targets nor ``model_targets`` (before streaming).
 
-    A model target without a model, or one the model file does not predict, raises
-    :class:`ModelFileError`; a bad threshold raises :class:`SignalError`.
+    ``model_kind`` is the model's (``"regression"``, ``"classification"``, ``""`` for none).
+    A model target without a model, one the model file does not predict, or any model
+    target with a classifier (its answer has no std) raises :class:`ModelFileError`; a bad
+    threshold raises :class:`SignalError`.
     """
     for target, std in until_std.items():
         if not 0 < as_number(std) < math.inf:
             raise SignalError(f"the std threshold of {target!r} must be a number > 0, got {std!r}")
         if target in FIT_TARGETS or target in model_targets:
             continue
-        known = ", ".join([*FIT_TARGETS, *model_targets])
-        where = "the model predicts" if model_targets else "without --model the stream reports"
+        fit = ", ".join(FIT_TARGETS)
+        if model_kind == "classification":
+            raise ModelFileError(
+                f"--until-std {target}: the --model is a classifier (from classify): it names "
+                f"the liquid with probabilities, no std; the targets are {fit}, or give a "
+                "regression model (from train) for properties such as height_mm"
+            )
+        if model_targets:
+            known = ", ".join([*FIT_TARGETS, *model_targets])
+            raise ModelFileError(
+                f"--until-std {target}: unknown target; the model predicts {known}"
+            )
         raise ModelFileError(
-            f"--until-std {target}: unknown target; {where} {known}"
-            + ("" if model_targets else " (give --model for properties such as height_mm)")
+            f"--until-std {target}: unknown target; without --model the stream reports {fit} "
+            "(give --model for properties such as height_mm)"
         )
+
+
+def std_floors(model: object, targets: Sequence[str]) -> dict[str, float]:
+    """``{target: the smallest std the regression ``model`` gives anywhere in its training
+    domain}`` [the target's unit]: its calibrated predictive std with exact λ and ω, on a
+    :data:`FLOOR_GRID_POINTS`² grid over the domain (the fit's std only adds to it), so a
+    streamed prediction's std never falls below it."""
+    bounds = model.input_domain()
+    if bounds is None or not targets:
+        return {}
+    (lam0, lam1), (om0, om1) = bounds
+    lam, omega = np.meshgrid(
+        np.linspace(max(lam0, 1e-9), lam1, FLOOR_GRID_POINTS),
+        np.linspace(om0, om1, FLOOR_GRID_POINTS),
+    )
+    X = np.column_stack([lam.ravel(), omega.ravel()])
+    predicted = model.predict(X)
+    return {t: float(np.min(predicted[t][1])) for t in targets if t in predicted}
+
+
+def unreachable_targets(model: object | None, until_std: Mapping[str, float]) -> dict[str, float]:
+    """``{target: floor}`` of the ``until_std`` targets whose threshold lies below the regression
+    ``model``'s calibrated std floor (:func:`std_floors`): their std can never meet it."""
+    if model is None or getattr(model, "kind", "") != "regression":
+        return {}
+    wanted = [t for t in until_std if t in model.targets]
+    return {t: f for t, f in std_floors(model, wanted).items() if until_std[t] <= f}
+
+
+def unreachable_message(unreachable: Mapping[str, float], until_std: Mapping[str, float]) -> str:
+    """One sentence per unreachable target: its threshold, the model's floor, what happens."""
+    return " ".join(
+        f"--until-std {t}={until_std[t]:g} cannot be met: this model's calibrated std of {t} "
+        f"is at least {floor:.3g} anywhere in its training domain; {t} is shown as it comes "
+        "and the stream runs to its end."
+        for t, floor in unreachable.items()
+    )
 
 
 def stop_reached(until_std: Mapping[str, float], stds: Mapping[str, float]) -> bool:
@@ -76,3 +135,12 @@ def stop_reached(until_std: Mapping[str, float], stds: Mapping[str, float]) -> b
         math.isfinite(stds.get(target, math.nan)) and stds[target] < limit
         for target, limit in until_std.items()
     )
+
+
+def check_live_request(model: object | None, until_std: Mapping[str, float]) -> dict[str, float]:
+    """Check a live estimate's model and ``until_std`` before any frame is read (or any robot
+    moves): the model's kind, every target; return :func:`unreachable_targets`."""
+    kind = check_live_model(model) if model is not None else ""
+    targets = list(model.targets) if kind == "regression" else []
+    check_until_std(until_std, targets, kind)
+    return unreachable_targets(model, until_std)

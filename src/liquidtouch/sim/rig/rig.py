@@ -28,9 +28,7 @@ from liquidtouch.sim.rig.arm_server import ArmServer
 from liquidtouch.sim.rig.gcl_server import GclServer
 from liquidtouch.sim.rig.interfaces import ArmMove, Motion
 from liquidtouch.sim.rig.mjpeg import MjpegServer
-from liquidtouch.sim.rig.state import (
-    Rig,
-)
+from liquidtouch.sim.rig.state import HOME_POSE, Rig
 
 __all__ = ["RigArmModel", "RigGripper", "RigServer"]
 
@@ -44,12 +42,15 @@ class RigGripper:
         self.rig = rig
 
     def begin(self, command: str, args: list[float]) -> Motion:
+        self.rig.note(f"gripper {command}")
         return self.rig.begin(command, args)
 
     def query(self, key: str) -> float:
+        self.rig.note(f"gripper {key}?")
         return self.rig.query(key)
 
     def acknowledge(self) -> None:
+        self.rig.note("gripper FSACK")
         self.rig.acknowledge()
 
     def fast_stop(self) -> None:
@@ -63,12 +64,19 @@ class RigArmModel:
         self.rig = rig
 
     def begin_move(self, pose: list[float], speed: float, acceleration: float) -> ArmMove:
+        self.rig.note("arm moveL")
         return self.rig.begin_move(pose, speed, acceleration)
 
     def pose(self) -> list[float]:
+        self.rig.note("arm get_pose")
         return self.rig.pose()
 
+    def start_pose(self) -> list[float]:
+        self.rig.note("arm start_pose")
+        return list(HOME_POSE)
+
     def stop(self) -> None:
+        self.rig.note("arm stop")
         self.rig.stop_arm()
 
     def truth(self) -> dict[str, Any]:
