@@ -45,9 +45,7 @@ logger = logging.getLogger(__name__)
 #: the tool's rotation vector may differ from the start pose's by this much [rad] (0.6°,
 #: far above a UR's repeatability of ~0.1 mm at the tool, far below a visibly tilted tool)
 ROTATION_TOLERANCE_RAD = 0.01
-#: grasping states in which the fingers hold (or are closing on) a part
-HOLDING_STATES = (gcl.HOLDING, gcl.GRASPING)
-#: grasping states of a finger motion under way (stopped before recovering)
+#: grasping states of a finger motion under way, or one stopped half-way (a GRIP cut short)
 MOVING_STATES = (gcl.GRASPING, gcl.RELEASING, gcl.POSITIONING)
 RECOVER_HINT = "run the same run-trial with --recover to fix it (or do it by hand)"
 
@@ -68,7 +66,7 @@ class StartState:
 
     @property
     def holding(self) -> bool:
-        return self.grip_state in HOLDING_STATES
+        return self.grip_state == gcl.HOLDING
 
     def offset_mm(self) -> tuple[float, float, float]:
         """The tool's position minus the start pose's (x, y, z) [mm]."""
@@ -106,6 +104,8 @@ class StartState:
             )
         elif self.grip_state == gcl.PART_LOST:
             out.append(f"the gripper lost its part ({name}): the bottle may have fallen")
+        elif self.grip_state in MOVING_STATES:
+            out.append(f"the fingers were stopped mid-motion ({name})")
         elif self.finger_mm < part_width_mm:
             out.append(
                 f"the fingers are at {self.finger_mm:.1f} mm, narrower than the bottle "
@@ -177,21 +177,24 @@ def recover_start_state(gripper: Gripper, arm: Arm, params: ProtocolParameters) 
         return state
     if state.grip_state in MOVING_STATES:
         gripper.stop()
+    unsettled = state.grip_state in (gcl.PART_LOST, *MOVING_STATES)
     if state.holding and not state.start_known:
         raise StartStateError(
             "cannot recover: the gripper holds a part but the arm's start pose is unknown; "
             "give start_pose in the protocol file, or put the bottle down by hand"
         )
-    closed = state.finger_mm < params.part_width_mm or state.grip_state == gcl.PART_LOST
-    if not state.holding and closed:
+    if not state.holding and (state.finger_mm < params.part_width_mm or unsettled):
         logger.info("recover: opening the fingers")
         gripper.home()  # open before the arm moves: closed fingers would meet the bottle
-    if state.start_known and not state.at_start():
-        # over the start at the height the tool is at, then straight down: a held bottle
-        # goes back where it was picked up, open fingers come down around it
+    if state.holding or (state.start_known and not state.at_start()):
+        # over the start at the height the tool is at, then straight down onto it — exactly,
+        # with a bottle held: a tool "at" the start within the arm's tolerance may still hold
+        # the bottle a millimetre off the table
         start = list(state.start)
         logger.info("recover: moving the arm back over its start pose, then down to it")
-        _move(arm, [start[0], start[1], max(state.pose[2], start[2]), *start[3:]], params)
+        over = [start[0], start[1], max(state.pose[2], start[2]), *start[3:]]
+        if math.dist(over[:3], state.pose[:3]) > 0:
+            _move(arm, over, params)
         _move(arm, start, params)
     if state.holding:
         logger.info("recover: releasing the bottle on the table")
