@@ -26,11 +26,13 @@ import pandas as pd
 from liquidtouch.errors import TableError
 from liquidtouch.io.tables import feature_matrix
 from liquidtouch.models.classifier import UNKNOWN
+from liquidtouch.models.conformal import min_rows_for_level
 from liquidtouch.models.feature_rows import error_messages, failed_rows
 
 __all__ = [
     "PROBABILITY_PREFIX",
     "Predictions",
+    "check_level",
     "out_of_domain",
     "predict_rows",
     "unknown_rule",
@@ -54,6 +56,35 @@ def out_of_domain(model: object, X: np.ndarray, predicted: np.ndarray | None = N
     if predicted is not None:
         outside |= np.asarray(predicted, dtype=object) == UNKNOWN
     return outside
+
+
+def check_level(model: object, level: float | None) -> str | None:
+    """Check ``predict --level`` against ``model`` before any feature is extracted.
+
+    :class:`TableError` for a classifier, a level outside (0, 1) or outside what the
+    model's calibration resolves, or a model without calibration; returns a warning
+    (``None``: none) when no level is asked and the model's std is not calibrated.
+    """
+    if level is None:
+        if model.kind == "regression" and not model.calibrated:
+            return (
+                "the model's std is not calibrated (an older model file or --calibration-folds "
+                "0); retrain it with `liquidtouch train` for a calibrated std and --level"
+            )
+        return None
+    if model.kind != "regression":
+        raise TableError("--level needs a regression model (from train), not a classifier")
+    need = min_rows_for_level(level)  # refuses a level outside (0, 1), NaN too
+    for target in model.targets:
+        cal = model.calibration.get(target)
+        if cal is None:
+            raise TableError(
+                f"--level: the model has no interval calibration for {target} (an older "
+                f"model file, or --calibration-folds 0); retrain it with `liquidtouch "
+                f"train` on at least {need} rows"
+            )
+        cal.quantile(level)  # refuses a calibration on too few rows, or a level too low
+    return None
 
 
 @dataclass
