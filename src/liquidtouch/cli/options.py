@@ -366,7 +366,7 @@ SensorNames = Annotated[
     list[str],
     typer.Option(
         "--name",
-        help="Sensor names, one per camera, in order (default left, right).",
+        help="Sensor names, one per camera, in order (default left, right, sensor2, ...).",
         show_default=False,
     ),
 ]

@@ -31,20 +31,28 @@ Level = Annotated[
 ]
 
 
+ModelArg = Annotated[
+    Path, typer.Argument(help="Model file from train, classify or transfer.", show_default=False)
+]
+InputArg = Annotated[
+    Path,
+    typer.Argument(
+        metavar="INPUT", help="Features CSV, dataset directory, trial directory or video."
+    ),
+]
+PredictionsOut = Annotated[
+    Path | None,
+    typer.Option(
+        *options.OUT, show_default=False, help="Predictions CSV to write (default: print the "
+        "CSV, or with --json put the rows in the JSON object).",
+    ),
+]  # fmt: skip
+
+
 def predict(
-    model_file: Path = typer.Argument(
-        ..., help="Model file from train, classify or transfer.", show_default=False
-    ),
-    input_path: Path = typer.Argument(
-        ..., metavar="INPUT", help="Features CSV, dataset directory, trial directory or video."
-    ),
-    out: Path | None = typer.Option(
-        None,
-        *options.OUT,
-        show_default=False,
-        help="Predictions CSV to write (default: "
-        "print the CSV, or with --json put the rows in the JSON object).",
-    ),
+    model_file: ModelArg,
+    input_path: InputArg,
+    out: PredictionsOut = None,
     as_json: options.Json = False,
     jobs: options.Jobs = 1,
     dask: options.Dask = None,
@@ -71,6 +79,7 @@ def predict(
     std propagated through the model. --json prints the counts, the output path (or the
     rows) as one JSON object. The columns: liquidtouch.models.predictions.
     """
+    _check_paths(model_file, input_path)  # before the heavy imports: answered at once
     from liquidtouch.batch.inputs import read_prediction_input
     from liquidtouch.models.modelfile import load_model
     from liquidtouch.models.predictions import check_level, predict_rows
@@ -98,6 +107,16 @@ def predict(
         n_failed = int(result.failed.sum())
         extra = f", {n_failed} without features" if n_failed else ""
         typer.echo(f"wrote {out} ({len(table)} rows{extra}; predicted {', '.join(fitted.targets)})")
+
+
+def _check_paths(model_file: Path, input_path: Path) -> None:
+    """A missing model file or input, said before anything heavy is imported."""
+    from liquidtouch.errors import DatasetError, ModelFileError
+
+    if not model_file.is_file():
+        raise ModelFileError(f"{model_file}: no such model file")
+    if not input_path.exists():
+        raise DatasetError(f"{input_path}: no such features CSV, dataset, trial or video")
 
 
 def _warn_rows(result, fitted) -> None:

@@ -15,9 +15,8 @@ from __future__ import annotations
 
 import json
 import math
-import signal
 import sys
-import threading
+from typing import Annotated
 
 import typer
 
@@ -56,22 +55,13 @@ def serve_command(
     sensor: str = typer.Option(
         "default", "--sensor", help="GelSight profile: default (640x480, 30 fps) or mini."
     ),
-    host: str = typer.Option(
-        "127.0.0.1", "--host", help="Address to listen on (default: this machine only)."
-    ),
-    gripper_port: int = typer.Option(
-        0, "--gripper-port", help="TCP port of the gripper (GCL); 0: any free port."
-    ),
-    arm_port: int = typer.Option(0, "--arm-port", help="TCP port of the arm; 0: any free port."),
-    camera_port: int = typer.Option(
-        0,
-        "--camera-port",
-        help="HTTP port of the left camera's stream, the right one's is the next; "
-        "0: any free ports.",
-    ),
-    as_json: bool = typer.Option(
-        False, "--json", help="Print one JSON object (endpoints and truth) on stdout."
-    ),
+    host: str = typer.Option("127.0.0.1", "--host", help="Address to listen on."),
+    gripper_port: Annotated[int, typer.Option(help="The gripper's TCP port; 0: any free.")] = 0,
+    arm_port: Annotated[int, typer.Option(help="The arm's TCP port; 0: any free port.")] = 0,
+    camera_port: Annotated[
+        int, typer.Option(help="The left camera's HTTP port, the right one's the next; 0: any.")
+    ] = 0,
+    as_json: options.Json = False,
 ) -> None:
     """Serve a simulated rig until Ctrl-C: print the gripper, arm and camera URLs.
 
@@ -81,68 +71,32 @@ def serve_command(
     that push; the liquid's true decay rate and angular frequency are printed (and
     answered by the arm's "truth" request). Give these URLs to run-trial.
     """
-    from liquidtouch.errors import LiquidTouchError
-    from liquidtouch.sim.rig.rig import RigServer
+    from liquidtouch.sim.rig.rig import check_ports, serve_rig
     from liquidtouch.sim.rig.state import Rig
 
-    for name, port in (
-        ("--gripper-port", gripper_port),
-        ("--arm-port", arm_port),
-        ("--camera-port", camera_port),
-    ):
-        if not 0 <= port <= (65534 if name == "--camera-port" else 65535):
-            raise LiquidTouchError(f"{name} {port} is not a TCP port (0-65535)")
+    check_ports(gripper_port, arm_port, camera_port)
     rig = Rig(
-        liquid,
-        height_mm=height_mm,
-        container=container,
+        liquid, height_mm=height_mm, container=container, seed=seed, sensor=sensor,
         sugar_concentration=sugar_concentration,
-        seed=seed,
-        sensor=sensor,
-    )
-    cameras = (camera_port, camera_port + 1 if camera_port else 0)
-    stop = threading.Event()
-    previous = signal.getsignal(signal.SIGTERM)
-    try:
-        signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    except ValueError:  # not the main thread (e.g. called from a test's thread)
-        previous = None
-    server = RigServer(
-        rig, host=host, gripper_port=gripper_port, arm_port=arm_port, camera_ports=cameras
-    )
-    try:
-        try:
-            server.start()
-        except OSError as exc:
-            raise LiquidTouchError(f"cannot listen on {host}: {exc.strerror or exc}") from None
-        endpoints = server.endpoints()
+    )  # fmt: skip
+
+    def show(endpoints: dict) -> None:
         if as_json:
             typer.echo(json.dumps(endpoints))
         else:
             truth = endpoints["truth"]
-            typer.echo(f"gripper  {endpoints['gripper']}")
-            typer.echo(f"arm      {endpoints['arm']}")
+            typer.echo(f"gripper  {endpoints['gripper']}\narm      {endpoints['arm']}")
             for name, url in endpoints["cameras"].items():
                 typer.echo(f"camera   {url}  ({name})")
             typer.echo(
                 f"truth    λ = {truth['true_decay_rate']:.5f} 1/s, "
-                f"ω = {truth['true_angular_frequency']:.4f} rad/s "
-                f"({truth['liquid']}, {truth['height_mm']:g} mm, {truth['container']}, "
-                f"seed {truth['seed']})"
+                f"ω = {truth['true_angular_frequency']:.4f} rad/s ({truth['liquid']}, "
+                f"{truth['height_mm']:g} mm, {truth['container']}, seed {truth['seed']})"
+                "\nserving; Ctrl-C stops"
             )
-            typer.echo("serving; Ctrl-C stops")
         sys.stdout.flush()
-        try:
-            while not stop.wait(0.5):
-                for stream in server.streams:
-                    if stream.error is not None:
-                        raise LiquidTouchError(f"a camera stream failed: {stream.error}")
-        except KeyboardInterrupt:
-            pass
-    finally:
-        server.stop()
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+
+    serve_rig(rig, host, (gripper_port, arm_port, camera_port), on_ready=show)
 
 
 def run_trial_command(
@@ -184,11 +138,7 @@ def run_trial_command(
     labels = {k: v for k, v in typed_labels(label).items() if v is not None}
     live_run = None
     if live or model_file is not None or serve or until_std:
-        from liquidtouch.cli.live_trial import LiveTrial
-
-        names = name or ["left", "right"][: len(camera)]
-        names += [f"sensor{i}" for i in range(len(names), len(camera))]
-        live_run = LiveTrial(names, model_file=model_file, until_std=until_std, serve=serve)
+        live_run = _live_trial(name, len(camera), model_file, until_std, serve)
     verbose = on_terminal() and not as_json
     timeouts = {"open_timeout_s": open_timeout_s, "read_timeout_s": read_timeout_s}
     timeouts["warmup_timeout_s"] = warmup_timeout_s
@@ -209,6 +159,15 @@ def run_trial_command(
     if live_run is not None:
         live_run.write(run.trial_dir)
     _report(run, as_json, live_run)
+
+
+def _live_trial(names: list[str], n_cameras: int, model_file, until_std, serve):
+    """The live estimate beside the trial (its model and targets checked now)."""
+    from liquidtouch.acquire.cameras.capture import default_names
+    from liquidtouch.cli.live_trial import LiveTrial
+
+    names = list(names) or default_names(n_cameras)
+    return LiveTrial(names, model_file=model_file, until_std=until_std, serve=serve)
 
 
 def _report(run, as_json: bool, live_run) -> None:

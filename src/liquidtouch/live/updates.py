@@ -7,6 +7,7 @@ and unsupported estimates as ``null``): the keys are documented in
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 
@@ -18,6 +19,10 @@ from liquidtouch.models.predictions import PROBABILITY_PREFIX
 #: the stream's phases: no push yet, a push (or another transient) is under way, the free
 #: decay is being fitted, the hold ended (the ring-down's estimate is final), the stream ended
 PHASES = ("waiting", "push", "decay", "ended", "done")
+
+
+#: what changes with every refresh whatever the estimate (left out of :func:`repeat_key`)
+VOLATILE_FIELDS = ("frames", "elapsed_s", "lag_s", "timing")
 
 
 def _number(value: float | None) -> float | None:
@@ -188,3 +193,10 @@ class LiveUpdate:
                 "fit": _numbers(self.signal_fit),
             }
         return out
+
+
+def repeat_key(update: LiveUpdate) -> str:
+    """The update's JSON without :data:`VOLATILE_FIELDS`: equal for a repeat of the same
+    estimate (a stream whose ring-down ended repeats it every refresh until it stops)."""
+    out = {k: v for k, v in update.to_dict().items() if k not in VOLATILE_FIELDS}
+    return json.dumps(out, sort_keys=True, default=str)
