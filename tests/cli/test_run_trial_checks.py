@@ -80,3 +80,24 @@ def test_a_bad_option_moves_nothing(rig, models, tmp_path, capsys):
         assert "Traceback" not in err, case
         assert rig.commands == [], (case, rig.commands)
         assert not (tmp_path / "trial").exists() and not (tmp_path / "trial.failed").exists()
+
+
+def test_the_live_line_is_rounded_and_has_the_height():
+    from liquidtouch.cli.rig import live_line
+
+    final = {
+        "decay_rate": 0.71234567890123, "decay_rate_std": 0.0123456789,
+        "angular_frequency": 13.3456789012345, "angular_frequency_std": 0.00456789,
+        "predicted_height_mm": 25.123456789, "predicted_height_mm_std": 0.8765432,
+        "segment": 1, "message": "",
+    }  # fmt: skip
+    line = live_line(final)
+    assert "λ = 0.712 ± 0.012 1/s" in line and "ω = 13.3457 ± 0.0046 rad/s" in line
+    assert "height_mm = 25.12 ± 0.88" in line and "456789" not in line
+    assert live_line({"error": "no frames"}) == "live: the estimate failed: no frames"
+
+
+def test_live_with_a_classifier_and_a_property_target_says_why(models, capsys):
+    status = main(["live", "0", "--model", str(models["liquid"]), "--until-std", "height_mm=1"])
+    err = capsys.readouterr().err
+    assert status == 2 and "is a classifier" in err and "without --model" not in err
