@@ -173,3 +173,23 @@ def test_a_repeated_estimate_is_printed_once(capsys):
     lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert [u["phase"] for u in lines] == ["ended", "done"]
     assert sum(u["final"] for u in lines) == 1
+
+
+def test_a_threshold_below_the_models_std_here_is_found_where_the_trial_is():
+    """A GP on few, spread rows: small std at its rows, large between them. A threshold the
+    model meets near its rows is unreachable between them (the README tour's height.json:
+    0.11 mm at its rows, 0.86 mm at the tour's 25 mm trial)."""
+    from liquidtouch.live.stopping import unreachable_here
+
+    omega = np.array([12.2, 13.4, 14.6, 15.8] * 2)
+    lam = np.repeat([0.15, 1.2], 4)
+    height = 18.0 + 2.0 * (omega - 12.2) ** 2
+    model = train_regression(np.column_stack([lam, omega]), {"height_mm": height})
+    floor = std_floors(model, ["height_mm"])["height_mm"]
+    middle = model.predict(np.array([[0.15, 14.0]]))["height_mm"][1][0]
+    assert middle > 2 * floor  # between rows the GP knows less
+    threshold = (floor + middle) / 2
+    assert unreachable_targets(model, {"height_mm": threshold}) == {}  # met near its rows
+    here = unreachable_here(model, 0.15, 14.0, {"height_mm": threshold})
+    assert here == pytest.approx({"height_mm": middle})
+    assert unreachable_here(model, 0.15, 13.4, {"height_mm": threshold}) == {}

@@ -114,6 +114,7 @@ def live(
     """
     _check_inputs(sources, linger_s)  # before the heavy imports: answered at once
     from liquidtouch.live import check_live_request, parse_until_std, unreachable_message
+    from liquidtouch.live.stopping import EVERYWHERE
 
     limits = parse_until_std(until_std)
     address = parse_serve(serve) if serve else None
@@ -124,7 +125,7 @@ def live(
         model = load_model(model_file)
     unreachable = check_live_request(model, limits)
     if unreachable:
-        warn(unreachable_message(unreachable, limits))
+        warn(unreachable_message(unreachable, limits, EVERYWHERE))
     hub = server = on_frame = None
     if address is not None:
         hub, server, on_frame = _start_serving(*address)
@@ -133,7 +134,7 @@ def live(
             sources, model, limits, replay, max_duration_s, fps, lowpass_hz, n_markers,
             on_frame, sensor, (open_timeout_s, read_timeout_s, warmup_timeout_s),
         )  # fmt: skip
-        _show_all(updates, hub, as_json)
+        _show_all(updates, hub, as_json, said_at_start=unreachable)
         if server is not None and linger_s > 0:
             hub.close()  # browsers get the end; the page and its history stay served
             _linger(linger_s, server.url)
@@ -178,13 +179,18 @@ def _updates(sources, model, limits, replay, max_duration_s, fps, lowpass_hz, n_
     )
 
 
-def _show_all(updates, hub, as_json: bool) -> None:
+def _show_all(updates, hub, as_json: bool, said_at_start=()) -> None:
     """Publish every update; print each new one (a repeat of the last printed estimate, as a
-    stream that goes on after its ring-down ended gives every refresh, is not printed)."""
-    printed = None
+    stream that goes on after its ring-down ended gives every refresh, is not printed); say
+    once, as soon as it is known, an --until-std target this stream cannot meet."""
+    printed, said = None, set(said_at_start)
     try:
         for update in updates:
             printed = _show(update, hub, as_json, printed)
+            new = set(update.until_std_unreachable) - said
+            if new:  # a target this stream cannot meet: said once, as soon as it is known
+                said |= new
+                warn(update.message)
     except KeyboardInterrupt:  # Ctrl-C while showing an update: the stream's final one
         try:
             _show(updates.throw(KeyboardInterrupt), hub, as_json, printed)

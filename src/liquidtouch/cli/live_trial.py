@@ -65,9 +65,10 @@ class LiveTrial:
         """Say what cannot be met, start serving (``--serve``) and estimating."""
         from liquidtouch.cli.format import note, warn
         from liquidtouch.live import unreachable_message
+        from liquidtouch.live.stopping import EVERYWHERE
 
         if self.unreachable:
-            warn(unreachable_message(self.unreachable, self.limits))
+            warn(unreachable_message(self.unreachable, self.limits, EVERYWHERE))
         if self.address is not None:
             from liquidtouch.live.hub import LiveHub
             from liquidtouch.live.web import start_server

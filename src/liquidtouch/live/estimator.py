@@ -45,7 +45,12 @@ from liquidtouch.live.ring_downs import (
     signal_start_s,
     streaming_fit,
 )
-from liquidtouch.live.stopping import check_until_std, unreachable_message, unreachable_targets
+from liquidtouch.live.stopping import (
+    EVERYWHERE,
+    check_until_std,
+    unreachable_message,
+    unreachable_targets,
+)
 from liquidtouch.live.tracks import GrowingTracks
 from liquidtouch.live.updates import LiveUpdate
 from liquidtouch.ring_down import (
@@ -435,9 +440,14 @@ class LiveEstimator:
             model_kind=self.model_kind,
             until_std={t: s for t, s in self.until_std.items() if t not in self.unreachable},
         )
-        if self.unreachable:  # said on every update: the page and --json show why
-            update.until_std_unreachable = dict(self.unreachable)
-            note = unreachable_message(self.unreachable, self.until_std)
+        here = update.until_std_unreachable  # below the model's std at this (λ, ω)
+        if self.unreachable or here:  # said on every update: the page and --json show why
+            notes = [
+                unreachable_message(self.unreachable, self.until_std, EVERYWHERE),
+                unreachable_message(here, self.until_std),
+            ]
+            update.until_std_unreachable = {**here, **self.unreachable}
+            note = " ".join(n for n in notes if n)
             update.message = f"{update.message}; {note}" if update.message else note
         return update
 

@@ -90,8 +90,8 @@ def check_until_std(
 def std_floors(model: object, targets: Sequence[str]) -> dict[str, float]:
     """``{target: the smallest std the regression ``model`` gives anywhere in its training
     domain}`` [the target's unit]: its calibrated predictive std with exact λ and ω, on a
-    :data:`FLOOR_GRID_POINTS`² grid over the domain (the fit's std only adds to it), so a
-    streamed prediction's std never falls below it."""
+    :data:`FLOOR_GRID_POINTS`² grid over the domain and at the training rows (the fit's std
+    only adds to it), so a streamed prediction's std never falls below it."""
     bounds = model.input_domain()
     if bounds is None or not targets:
         return {}
@@ -101,6 +101,8 @@ def std_floors(model: object, targets: Sequence[str]) -> dict[str, float]:
         np.linspace(om0, om1, FLOOR_GRID_POINTS),
     )
     X = np.column_stack([lam.ravel(), omega.ravel()])
+    if model.feature_map.is_identity:  # the std is least at the training rows: add them
+        X = np.vstack([X, *(getattr(model.regressors[t], "X_train_", X[:0]) for t in targets)])
     predicted = model.predict(X)
     return {t: float(np.min(predicted[t][1])) for t in targets if t in predicted}
 
@@ -114,14 +116,37 @@ def unreachable_targets(model: object | None, until_std: Mapping[str, float]) ->
     return {t: f for t, f in std_floors(model, wanted).items() if until_std[t] <= f}
 
 
-def unreachable_message(unreachable: Mapping[str, float], until_std: Mapping[str, float]) -> str:
-    """One sentence per unreachable target: its threshold, the model's floor, what happens."""
+def unreachable_here(
+    model: object, decay_rate: float, angular_frequency: float, until_std: Mapping[str, float]
+) -> dict[str, float]:
+    """``{target: the model's calibrated std at (λ, ω)}`` of the ``until_std`` targets whose
+    threshold lies below it: with exact λ and ω the std is that, and the fit's std only adds
+    to it, so this stream's estimate can never meet them."""
+    wanted = [t for t in until_std if t in getattr(model, "targets", ())]
+    if not wanted:
+        return {}
+    predicted = model.predict(np.array([[float(decay_rate), float(angular_frequency)]]))
+    floors = {t: float(predicted[t][1][0]) for t in wanted}
+    return {t: f for t, f in floors.items() if until_std[t] <= f}
+
+
+def unreachable_message(
+    unreachable: Mapping[str, float],
+    until_std: Mapping[str, float],
+    where: str = "at the estimated λ and ω",
+) -> str:
+    """One sentence per unreachable target: its threshold, the model's floor ``where`` (e.g.
+    ``"anywhere in its training domain"``), what happens."""
     return " ".join(
         f"--until-std {t}={until_std[t]:g} cannot be met: this model's calibrated std of {t} "
-        f"is at least {floor:.3g} anywhere in its training domain; {t} is shown as it comes "
+        f"is {floor:.3g} {where} (the fit's std only adds to it); {t} is shown as it comes "
         "and the stream runs to its end."
         for t, floor in unreachable.items()
     )
+
+
+#: what :func:`unreachable_message` says of a target below the model's floor everywhere
+EVERYWHERE = "or more anywhere in its training domain"
 
 
 def stop_reached(until_std: Mapping[str, float], stds: Mapping[str, float]) -> bool:
