@@ -92,8 +92,8 @@ def std_floors(model: object, targets: Sequence[str]) -> dict[str, float]:
     domain}`` [the target's unit]: its calibrated predictive std with exact λ and ω, on a
     :data:`FLOOR_GRID_POINTS`² grid over the domain and at the training rows (the fit's std
     only adds to it), so a streamed prediction's std never falls below it."""
-    bounds = model.input_domain()
-    if bounds is None or not targets:
+    bounds = model.input_domain() if targets else None
+    if bounds is None:
         return {}
     (lam0, lam1), (om0, om1) = bounds
     lam, omega = np.meshgrid(
