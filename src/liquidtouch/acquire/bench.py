@@ -1,7 +1,8 @@
 """A trial from device URLs: every input checked before the first command to a device.
 
-:func:`trial_parameters` merges a protocol file with the command line's overrides;
-:func:`run_trial_at` makes the recorder (which checks the trial directory, the sensor
+:func:`run_trial_at` (its parameters:
+:func:`~liquidtouch.acquire.protocol_params.trial_parameters`) makes the recorder (which
+checks the trial directory, the sensor
 names, the labels and the camera options), then connects to the gripper and the arm and
 runs :func:`~liquidtouch.acquire.protocol.run_trial` — whose first step reads the
 devices' state and refuses (or, ``recover``, mends) an unexpected one. A bad input is a
@@ -11,7 +12,6 @@ moves (``run-trial``, issue 41).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -19,36 +19,10 @@ from typing import Any
 from liquidtouch.acquire.arms import RigArm, open_arm
 from liquidtouch.acquire.grippers import open_gripper
 from liquidtouch.acquire.protocol import TrialRun, make_recorder, run_trial
-from liquidtouch.acquire.protocol_params import (
-    ProtocolParameters,
-    load_protocol,
-    protocol_from_mapping,
-)
+from liquidtouch.acquire.protocol_params import ProtocolParameters
 from liquidtouch.errors import LiquidTouchError
 
-__all__ = ["run_trial_at", "trial_parameters"]
-
-
-def trial_parameters(
-    protocol: str | Path | None = None,
-    *,
-    hold_s: float | None = None,
-    camera_profile: str | None = None,
-) -> ProtocolParameters:
-    """The protocol file's parameters (default: the paper's) with ``hold_s`` [s] and
-    ``camera_profile`` overriding it when given; :class:`LiquidTouchError` names a bad one."""
-    params = load_protocol(protocol) if protocol is not None else ProtocolParameters()
-    overrides: dict[str, object] = {}
-    if hold_s is not None:
-        if not math.isfinite(hold_s):
-            raise LiquidTouchError(f"--seconds must be a finite number, got {hold_s}")
-        overrides["hold_s"] = hold_s
-    if camera_profile is not None:
-        overrides["camera_profile"] = str(camera_profile)
-    for key, value in overrides.items():  # one at a time: the error names its option
-        option = "--seconds" if key == "hold_s" else "--sensor"
-        params = protocol_from_mapping({**params.model_dump(), key: value}, option)
-    return params
+__all__ = ["run_trial_at"]
 
 
 def run_trial_at(

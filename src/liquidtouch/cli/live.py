@@ -113,19 +113,11 @@ def live(
     one JSON object) per new estimate; a repeat of the last one is not printed again.
     """
     _check_inputs(sources, linger_s)  # before the heavy imports: answered at once
-    from liquidtouch.live import check_live_request, parse_until_std, unreachable_message
-    from liquidtouch.live.stopping import EVERYWHERE
+    from liquidtouch.live.stopping import parse_until_std
 
     limits = parse_until_std(until_std)
     address = parse_serve(serve) if serve else None
-    model = None
-    if model_file is not None:
-        from liquidtouch.models.modelfile import load_model
-
-        model = load_model(model_file)
-    unreachable = check_live_request(model, limits)
-    if unreachable:
-        warn(unreachable_message(unreachable, limits, EVERYWHERE))
+    model, unreachable = live_model(model_file, limits)
     hub = server = on_frame = None
     if address is not None:
         hub, server, on_frame = _start_serving(*address)
@@ -143,6 +135,25 @@ def live(
             server.stop()
         if hub is not None:
             hub.close()
+
+
+def live_model(model_file: Path | None, limits: dict[str, float]):
+    """The ``--model`` (or None) and the ``--until-std`` targets it can never meet, checked
+    (a warning says which); without a model before the heavy imports (a typo is answered
+    at once)."""
+    from liquidtouch.live.stopping import EVERYWHERE, check_until_std, unreachable_message
+
+    if model_file is None:
+        check_until_std(limits)
+        return None, {}
+    from liquidtouch.live.properties import check_live_request
+    from liquidtouch.models.modelfile import load_model
+
+    model = load_model(model_file)
+    unreachable = check_live_request(model, limits)
+    if unreachable:
+        warn(unreachable_message(unreachable, limits, EVERYWHERE))
+    return model, unreachable
 
 
 def _check_inputs(sources: list[str], linger_s: float) -> None:

@@ -18,7 +18,7 @@ import threading
 import time
 from pathlib import Path
 
-from liquidtouch.cli.live import SERVE_FRAME_HZ, parse_serve
+from liquidtouch.cli.live import SERVE_FRAME_HZ, live_model, parse_serve
 
 logger = logging.getLogger("liquidtouch.cli.live_trial")
 
@@ -30,18 +30,15 @@ _END = object()
 class LiveTrial:
     """The live estimate beside a ``run-trial`` (module docstring)."""
 
-    def __init__(self, names, *, model_file=None, until_std=(), serve=None, quiet=False):
+    def __init__(self, names, *, model_file=None, until_std=(), serve=None):
         """Check everything (model file, targets, serve address) before a robot moves."""
-        from liquidtouch.live import check_live_request, parse_until_std
-        from liquidtouch.models.modelfile import load_model
+        from liquidtouch.live.stopping import parse_until_std
 
         self.names = list(names)
         self.limits = parse_until_std(list(until_std))
         self.address = parse_serve(serve) if serve else None
-        self.model = load_model(model_file) if model_file is not None else None
-        #: the --until-std targets this model can never meet {target: its std floor}
-        self.unreachable = check_live_request(self.model, self.limits)
-        self.quiet = quiet
+        #: the model, and the --until-std targets it can never meet {target: its std floor}
+        self.model, self.unreachable = live_model(model_file, self.limits)
         self.frames: queue.Queue = queue.Queue(maxsize=MAX_QUEUED)
         self.events: queue.Queue = queue.Queue()
         self.all_events: list[tuple[str, float]] = []
@@ -62,13 +59,9 @@ class LiveTrial:
         self.all_events.append((name, t_s))
 
     def start(self) -> None:
-        """Say what cannot be met, start serving (``--serve``) and estimating."""
-        from liquidtouch.cli.format import note, warn
-        from liquidtouch.live import unreachable_message
-        from liquidtouch.live.stopping import EVERYWHERE
+        """Start serving (``--serve``) and estimating."""
+        from liquidtouch.cli.format import note
 
-        if self.unreachable:
-            warn(unreachable_message(self.unreachable, self.limits, EVERYWHERE))
         if self.address is not None:
             from liquidtouch.live.hub import LiveHub
             from liquidtouch.live.web import start_server
@@ -102,6 +95,7 @@ class LiveTrial:
         from liquidtouch.live import live_updates
 
         last: dict[str, float] = {}
+        said = set(self.unreachable)  # warned about at the start
 
         def on_frame(frame, positions, reference) -> None:
             now = time.monotonic()
@@ -126,6 +120,10 @@ class LiveTrial:
                 if self.hub is not None:
                     self.hub.publish(update.to_dict(include_signal=True))
                 logger.info("live: %s", update)
+                new = set(update.until_std_unreachable) - said
+                if new:  # a target this trial cannot meet: said once, when first known
+                    said |= new
+                    logger.warning("live: %s", update.message)
                 if update.final:
                     self.final = update.to_dict()
         except Exception as exc:  # the trial matters more than its live view

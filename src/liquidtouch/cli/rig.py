@@ -121,17 +121,15 @@ def run_trial_command(
 ) -> None:
     """Run one trial on a robot: grasp, lift, record, push, hold, return, lower, release.
 
-    Every option is checked before anything is connected. The gripper's and arm's state
-    is read first: a held bottle, an arm off its start pose or a fault is refused (with
-    what to do), or put right with --recover. Then the cameras are opened, the gripper
-    grasps the bottle, the arm lifts it, the recording starts, the arm pushes, holds
-    still for the ring-down, carries the bottle back over its start, puts it down and
-    releases it. --model/--live/--serve estimate live from the frames (live.json). On any
-    error or Ctrl-C the arm stops, the gripper KEEPS holding the bottle and no trial is
-    written; the next run-trial refuses to start until --recover (or you) put it down.
+    Every option is checked before anything is connected. A held bottle, an arm off its
+    start pose or a gripper fault is refused (saying what to do) or, with --recover, put
+    right. The bottle ends where it started. --model/--live/--serve estimate live from the
+    frames (live.json). On any error or Ctrl-C the arm stops, the gripper KEEPS holding the
+    bottle and no trial is written; the next run-trial refuses to start until --recover
+    (or you) put it down.
     """
     from liquidtouch._core.progress import on_terminal
-    from liquidtouch.acquire.bench import run_trial_at, trial_parameters
+    from liquidtouch.acquire.protocol_params import trial_parameters
     from liquidtouch.io.labels import typed_labels
 
     params = trial_parameters(protocol, hold_s=seconds, camera_profile=sensor)
@@ -139,9 +137,11 @@ def run_trial_command(
     live_run = None
     if live or model_file is not None or serve or until_std:
         live_run = _live_trial(name, len(camera), model_file, until_std, serve)
+    from liquidtouch.acquire.bench import run_trial_at  # after the checks: it imports more
+
     verbose = on_terminal() and not as_json
-    timeouts = {"open_timeout_s": open_timeout_s, "read_timeout_s": read_timeout_s}
-    timeouts["warmup_timeout_s"] = warmup_timeout_s
+    timeouts = dict(open_timeout_s=open_timeout_s, read_timeout_s=read_timeout_s,
+                    warmup_timeout_s=warmup_timeout_s)  # fmt: skip
     if live_run is not None:
         live_run.start()
     try:

@@ -29,9 +29,6 @@ import numpy as np
 from liquidtouch.errors import LiquidTouchError, VideoError
 from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.live.emission import emitted_update
-from liquidtouch.live.properties import (
-    check_live_model,
-)
 from liquidtouch.live.refresh import (
     EDGE_S,
     Refreshed,
@@ -47,6 +44,7 @@ from liquidtouch.live.ring_downs import (
 )
 from liquidtouch.live.stopping import (
     EVERYWHERE,
+    check_live_model,
     check_until_std,
     unreachable_message,
     unreachable_targets,

@@ -17,13 +17,26 @@ import numpy as np
 
 from liquidtouch._core.checks import as_number
 from liquidtouch.errors import ModelFileError, SignalError
-from liquidtouch.live.properties import check_live_model
 
 #: targets the fit itself reports, without a model
 FIT_TARGETS = ("decay_rate", "angular_frequency")
 #: points per feature of the grid over the training domain on which a model's smallest
 #: calibrated std is found (:func:`std_floors`; 30 × 30 rows: a few ms of a GP's predict)
 FLOOR_GRID_POINTS = 30
+
+
+def check_live_model(model: object) -> str:
+    """``"regression"`` or ``"classification"``: the kind of a :class:`PropertyModel`.
+
+    Anything else raises :class:`ModelFileError`.
+    """
+    kind = getattr(model, "kind", None)
+    if kind not in ("regression", "classification"):
+        raise ModelFileError(
+            "the live estimate needs a model from 'train' (targets such as height_mm) or "
+            f"'classify' (liquid names); got {type(model).__name__}"
+        )
+    return kind
 
 
 def parse_until_std(items: Sequence[str]) -> dict[str, float]:
@@ -160,12 +173,3 @@ def stop_reached(until_std: Mapping[str, float], stds: Mapping[str, float]) -> b
         math.isfinite(stds.get(target, math.nan)) and stds[target] < limit
         for target, limit in until_std.items()
     )
-
-
-def check_live_request(model: object | None, until_std: Mapping[str, float]) -> dict[str, float]:
-    """Check a live estimate's model and ``until_std`` before any frame is read (or any robot
-    moves): the model's kind, every target; return :func:`unreachable_targets`."""
-    kind = check_live_model(model) if model is not None else ""
-    targets = list(model.targets) if kind == "regression" else []
-    check_until_std(until_std, targets, kind)
-    return unreachable_targets(model, until_std)
