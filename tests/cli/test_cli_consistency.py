@@ -377,8 +377,10 @@ def test_features_json_settings_cache_and_provenance(fresh: Path, tmp_path: Path
 
     # human output: counts; a bad sensor name is recorded per trial
     status, stdout, err = _run(capsys, "features", fresh, "--sensor", "middle")
-    assert status == 0 and "0 of 2 trials extracted" in stdout
+    assert status == 2 and "0 of 2 trials extracted" in stdout  # nothing worked: not exit 0
     assert "failed: a/water_h25" in err and "no sensor 'middle'" in err
+    assert err.count("no sensor 'middle'") == 2  # each trial's error once
+    assert "error: no trial was extracted: all 2 failed" in err
 
 
 def test_features_options_change_the_features(fresh: Path, capsys) -> None:

@@ -92,7 +92,8 @@ def test_the_page_tolerates_sparse_and_odd_updates(browser, tmp_path) -> None:
             "decay_rate_std": 0.01,
             "predicted_height_mm": 24.0,
             "predicted_liquid": "water",  # a classifier's update: the class and its probabilities
-            "predicted_liquid_proba": {"water": 0.9, "mirin": 0.1},
+            "probability_water": 0.9,
+            "probability_mirin": 0.1,
             "final": True,
             "stopped_because": "until_std",
         }
@@ -108,7 +109,7 @@ def test_the_page_tolerates_sparse_and_odd_updates(browser, tmp_path) -> None:
         r'id="est-predicted_liquid".*?<div class="value">water</div><div class="note">p = 0\.90<',
         dom,
     )
-    assert 'id="est-predicted_liquid_proba"' not in dom
+    assert 'id="est-probability_water"' not in dom
     assert re.search(r'id="est-predicted_height_mm".*?<div class="value">24\.000</div>', dom)
     assert re.search(r'id="est-decay_rate".*?<div class="value">0\.300 ± 0\.010</div>', dom)
     assert re.search(r'id="est-angular_frequency".*?<div class="value">–</div>', dom)
