@@ -1,7 +1,7 @@
 """λ and ω bias of lossy codecs, against the lossless result of the same frames.
 
-Run: .venv/bin/python benchmarks/codec_bias.py [--full] [--mechanism] [--cases N] [--only TEXT]
-[--jobs N] [--figure PNG]
+Run: .venv/bin/python benchmarks/extraction/codec_bias.py [--full] [--mechanism] [--cases N]
+[--only TEXT] [--jobs N] [--figure PNG]
 
 Each case is a simulated trial (``default`` sensor, 640 × 480 at 30 fps, 13 s,
 seeded variability; liquids from λ ≈ 0.14 to 3.4 /s; ``--full`` adds pushes of

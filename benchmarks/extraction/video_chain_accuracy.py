@@ -15,7 +15,7 @@ of ``liquidtouch.extraction.pipeline``) on four signals:
 Prints one row per trial (λ/λ_true − 1 and ω/ω_true − 1 per signal) and a
 summary (median signed error, median and 90th percentile of the absolute error).
 
-    .venv/bin/python benchmarks/video_chain_accuracy.py [--quick] [--clean]
+    .venv/bin/python benchmarks/extraction/video_chain_accuracy.py [--quick] [--clean]
 """
 
 from __future__ import annotations

@@ -20,7 +20,7 @@ so any level can be answered afterwards:
   design (:func:`default_groups`). For height, every liquid at one fill height is a
   twin of a sparse design (the height is read from ω, nearly the same for every
   liquid at one height): held out one trial at a time, 3-4 heights per liquid (or 6
-  with repeats) look far better than they are (``benchmarks/learning_curve.py``:
+  with repeats) look far better than they are (``benchmarks/models/learning_curve.py``:
   height RMS z 3.8-42), so the fill height is held out whole. On a dense design (≥
   :data:`DENSE_HEIGHTS` heights per liquid) that errs the other way: the held-out
   rows lie two grid steps from the nearest training height, a new trial within half
