@@ -60,10 +60,27 @@ def test_the_pending_list_names_real_functions() -> None:
 
 
 def test_error_messages_name_the_flag_of_a_parameter() -> None:
-    """The library names ``calibration_group``; the command line says ``--calibration-group``,
-    and leaves a longer name or a flag alone."""
+    """The library names ```calibration_group```; the command line says
+    ``--calibration-group``, and leaves an unquoted or unknown name alone."""
     assert PARAMETER_FLAGS["calibration_group"] == "--calibration-group"
-    message = "calibration_group 'x': no such column; calibration_groups and --calibration_group"
+    message = "`calibration_group` 'x': no such column; calibration_group, `colour`"
     assert name_flags(message) == (
-        "--calibration-group 'x': no such column; calibration_groups and --calibration_group"
+        "--calibration-group 'x': no such column; calibration_group, `colour`"
     )
+
+
+def test_a_library_error_names_the_parameter_and_the_command_line_its_flag(tmp_path, capsys):
+    """``add_trial(topics=...)`` without a bag names ``topics`` and ``bag``; ``dataset add
+    --topic`` without ``--bag`` says ``--topic goes with --bag``."""
+    from liquidtouch.cli import main
+    from liquidtouch.errors import DatasetError
+    from liquidtouch.io.dataset_dir import init_dataset
+    from liquidtouch.io.recordings import add_trial
+
+    root = init_dataset(tmp_path / "d")
+    video = tmp_path / "left.mp4"
+    video.write_bytes(b"")
+    with pytest.raises(DatasetError, match=r"^`topics` goes with `bag`$"):
+        add_trial(root, [video], topics=["/x"])
+    assert main(["dataset", "add", str(root), str(video), "--topic", "/x"]) == 2
+    assert capsys.readouterr().err.strip() == "error: --topic goes with --bag"

@@ -43,7 +43,7 @@ def test_train_on_the_split_and_evaluate_the_rest(table) -> None:
 
 
 def test_a_bad_calibration_group_names_the_parameter(table) -> None:
-    with pytest.raises(TableError, match=r"^calibration_group 'colour': no such column"):
+    with pytest.raises(TableError, match=r"^`calibration_group` 'colour': no such column"):
         train_on_table(table, ["height_mm"], model="quadratic", calibration_group="colour")
 
 

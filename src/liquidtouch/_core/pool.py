@@ -51,14 +51,14 @@ def open_executor(
     more workers than cores or than ``n_tasks`` (idle workers only cost memory).
     """
     if jobs < 1:
-        raise LiquidTouchError(f"--jobs must be at least 1, got {jobs}")
+        raise LiquidTouchError(f"`jobs` must be at least 1, got {jobs}")
     jobs = min(jobs, os.cpu_count() or 1, n_tasks or jobs)
     if dask_address:
         try:
             from distributed import Client
         except ImportError:
             raise LiquidTouchError(
-                "--dask needs the optional extra: pip install 'liquidtouch[dask]'"
+                "`dask_address` needs the optional extra: pip install 'liquidtouch[dask]'"
             ) from None
         try:
             client = Client(dask_address, timeout=10)

@@ -173,7 +173,7 @@ class TargetCalibration:
             raise TableError(
                 f"a {100 * float(level):g} % interval needs a model calibrated on at least "
                 f"{need} training rows; this one has {self.n} (train on at least {need} rows, "
-                f"or ask for --level {self.n / (self.n + 1):.3g} or lower)"
+                f"or ask for `level` {self.n / (self.n + 1):.3g} or lower)"
             )
         k = math.ceil((self.n + 1) * float(level) - 1e-9)
         return self.scores[k - 1]

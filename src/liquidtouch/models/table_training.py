@@ -57,15 +57,15 @@ def calibration_groups(table: pd.DataFrame, column: str | None) -> np.ndarray | 
     """
     if column is None:
         if "height_mm" in table.columns and table["height_mm"].isna().any():
-            raise TableError("calibration_group height_mm: the column has empty values")
+            raise TableError("`calibration_group` height_mm: the column has empty values")
         return default_groups(table)
     if column.strip().lower() == "none":
         return None
     if column not in table.columns:
-        raise TableError(f"calibration_group {column!r}: no such column in the training table")
+        raise TableError(f"`calibration_group` {column!r}: no such column in the training table")
     values = table[column]
     if values.isna().any():
-        raise TableError(f"calibration_group {column}: the column has empty values")
+        raise TableError(f"`calibration_group` {column}: the column has empty values")
     return values.astype(str).to_numpy()
 
 
