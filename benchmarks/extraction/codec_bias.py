@@ -58,7 +58,7 @@ from liquidtouch.extraction.codec_check import frozen_steps
 from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.io.frames import iter_frames
-from liquidtouch.ring_down.start import free_decay_start
+from liquidtouch.ring_down import free_decay_start
 from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.encode import X264_PARAMS, encode_video
 from liquidtouch.sim.trial import simulate_trial

@@ -30,7 +30,7 @@ from scipy.signal import butter, sosfiltfilt
 
 from liquidtouch.extraction.pipeline import extract
 from liquidtouch.fit.oscillation import fit_oscillation
-from liquidtouch.ring_down.segments import free_decay
+from liquidtouch.ring_down import free_decay
 from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.trial_io import write_trial
