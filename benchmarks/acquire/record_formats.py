@@ -1,6 +1,6 @@
 """Which recording format keeps up with two GelSight sensors, and what each does to λ.
 
-Run: .venv/bin/python benchmarks/record_formats.py [--quick] [--frames 150]
+Run: .venv/bin/python benchmarks/acquire/record_formats.py [--quick] [--frames 150]
 
 1. **Encode speed on one core** (the process pinned to one CPU, OpenCV and the
    codecs single-threaded): rendered 640 × 480 GelSight frames (the simulator's

@@ -1,7 +1,7 @@
 """λ and ω bias of lossy codecs, against the lossless result of the same frames.
 
-Run: .venv/bin/python benchmarks/codec_bias.py [--full] [--mechanism] [--cases N] [--only TEXT]
-[--jobs N] [--figure PNG]
+Run: .venv/bin/python benchmarks/extraction/codec_bias.py [--full] [--mechanism] [--cases N]
+[--only TEXT] [--jobs N] [--figure PNG]
 
 Each case is a simulated trial (``default`` sensor, 640 × 480 at 30 fps, 13 s,
 seeded variability; liquids from λ ≈ 0.14 to 3.4 /s; ``--full`` adds pushes of
@@ -58,7 +58,7 @@ from liquidtouch.extraction.codec_check import frozen_steps
 from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.io.frames import iter_frames
-from liquidtouch.ring_down.start import free_decay_start
+from liquidtouch.ring_down import free_decay_start
 from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.encode import X264_PARAMS, encode_video
 from liquidtouch.sim.trial import simulate_trial

@@ -1,6 +1,6 @@
 """Extraction speed and accuracy: tracking vs decode-only, a Lucas–Kanade peer, batch workers.
 
-Run: .venv/bin/python benchmarks/extract_speed.py [--trials 6]
+Run: .venv/bin/python benchmarks/extraction/extract_speed.py [--trials 6]
 
 In one run, on freshly simulated trials (both sensor profiles):
 1. per video: decode-only time (PyAV, the same grey frames), our tracking time

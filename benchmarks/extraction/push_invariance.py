@@ -17,7 +17,8 @@ The predicted viscosity uses the physics relation of the models
 (``models.physics_prior.stokes_viscosity_feature``: log10 ν = 2 log10 λ − log10 ω
 + const, Stokes boundary layer), so its spread across pushes needs no training.
 
-    nice -n 10 .venv/bin/python benchmarks/push_invariance.py [--quick] [--video] [--classify]
+    nice -n 10 .venv/bin/python benchmarks/extraction/push_invariance.py [--quick] [--video]
+        [--classify]
 """
 
 from __future__ import annotations

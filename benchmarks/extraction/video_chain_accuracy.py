@@ -15,7 +15,7 @@ of ``liquidtouch.extraction.pipeline``) on four signals:
 Prints one row per trial (λ/λ_true − 1 and ω/ω_true − 1 per signal) and a
 summary (median signed error, median and 90th percentile of the absolute error).
 
-    .venv/bin/python benchmarks/video_chain_accuracy.py [--quick] [--clean]
+    .venv/bin/python benchmarks/extraction/video_chain_accuracy.py [--quick] [--clean]
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from scipy.signal import butter, sosfiltfilt
 
 from liquidtouch.extraction.pipeline import extract
 from liquidtouch.fit.oscillation import fit_oscillation
-from liquidtouch.ring_down.segments import free_decay
+from liquidtouch.ring_down import free_decay
 from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.sim.trial_io import write_trial

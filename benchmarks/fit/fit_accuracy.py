@@ -5,7 +5,7 @@ with no option (the paper's loss, ``model="auto"``: the model chosen by the data
 what ``extract``, ``features`` and ``fit`` do; ``default ls`` the same with least
 squares. The others fix one model.
 
-Run: ``.venv/bin/python benchmarks/fit_accuracy.py [--quick]``; prints markdown tables.
+Run: ``.venv/bin/python benchmarks/fit/fit_accuracy.py [--quick]``; prints markdown tables.
 """
 
 from __future__ import annotations

@@ -30,7 +30,7 @@ time (module constants patched for the run, nothing shipped):
 - ``no marker noise``: no tracking noise;
 - ``clean``: ``Variability.none()``, no slip drift, no marker noise, linear damping.
 
-    nice -n 10 .venv/bin/python benchmarks/fit_bias.py [--seeds 1 2] [--fills 20 30 38]
+    nice -n 10 .venv/bin/python benchmarks/fit/fit_bias.py [--seeds 1 2] [--fills 20 30 38]
         [--variants default "p = 2" ...]
 """
 

@@ -10,7 +10,7 @@ the share of trials whose true λ (ω) lies within ±1σ and ±2σ and the RMS o
 truth) / std (1 when the std is right). A second table does the same on signals drawn from
 the fit's own single-mode model (white noise: there the model is right).
 
-    nice -n 10 .venv/bin/python benchmarks/fit_std.py [--trials 48] [--seed 100]
+    nice -n 10 .venv/bin/python benchmarks/fit/fit_std.py [--trials 48] [--seed 100]
 """
 
 from __future__ import annotations

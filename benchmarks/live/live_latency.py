@@ -9,7 +9,7 @@ baseline, measured in the same run: the budget per frame (two sensors at
 30 fps: 16.7 ms) and the offline tracking time per frame of the same videos.
 Pin it to one core to measure the issue's setting::
 
-    taskset -c 0 python benchmarks/live_latency.py --duration 13
+    taskset -c 0 python benchmarks/live/live_latency.py --duration 13
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Does ``liquidtouch live`` cost the same after 10 minutes as after 1? A soak test.
 
-    python benchmarks/live_soak.py [--minutes 10] [--fps 30] [--out DIR]
+    python benchmarks/live/live_soak.py [--minutes 10] [--fps 30] [--out DIR]
 
 Two simulated cameras (the rig's :class:`~liquidtouch.sim.rig.mjpeg.MjpegServer` on
 127.0.0.1, in a process of their own) stream synthetic GelSight Mini frames at ``--fps``:

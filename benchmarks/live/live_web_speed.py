@@ -1,6 +1,6 @@
 """What serving the live view costs: a frame with its arrows, and an update's delivery.
 
-    python benchmarks/live_web_speed.py OUT_DIR
+    python benchmarks/live/live_web_speed.py OUT_DIR
 
 - Frames: the median time of one served frame (``LiveHub.frame_jpeg``: zoom,
   arrows, JPEG) against a plain JPEG of the same grey frame (baseline, same

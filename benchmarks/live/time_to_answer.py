@@ -29,7 +29,7 @@ One run, on simulated trials (GelSight Mini videos, 320 × 240 at 25 fps):
    whole record as ``extract``); the ±1σ/±2σ coverage of the truth per ring-down
    time, with a 95 % interval from resampling the test trials within each liquid,
    and of the final λ, ω by the streamed ones; the per-frame latency of ``add_frame``
-   (refreshes run in the call here; ``benchmarks/live_latency.py`` measures the
+   (refreshes run in the call here; ``benchmarks/live/live_latency.py`` measures the
    real-time, threaded case); a PNG of coverage and error vs ring-down time.
 
 The simulated features are saved (``--save data.json``) and a run can be
@@ -40,7 +40,7 @@ with the current rule (:func:`~liquidtouch.live.uncertainty.property_feature_std
 ``--as-streamed`` keeps the std the stream gave, ``--model-std-scores`` calibrates on
 scores of the model's std alone (the rule before the total-std scores).
 
-Usage: nice -n 10 python benchmarks/time_to_answer.py [--trials 4] [--train-heights 8]
+Usage: nice -n 10 python benchmarks/live/time_to_answer.py [--trials 4] [--train-heights 8]
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ Second table: a GPR trained on sugar water alone (the paper's 9 heights × 12
 concentrations) predicting olive oil, corn oil and mirin (the same physics, other
 liquids): is its calibrated std still honest off its own liquid?
 
-Usage: nice -n 10 python benchmarks/learning_curve.py [--seeds 2]
+Usage: nice -n 10 python benchmarks/models/learning_curve.py [--seeds 2]
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ container A L = 120 mm, b = 60 mm; 17 heights 16-40 mm × 12 concentrations 0-16
 4. transfer to container B (L = 100 mm, b = 50 mm, wall factor 1.65) vs training from
    scratch, with 5…100 points of B (PNG).
 
-Usage: python benchmarks/regression.py [--seeds 3] [--out benchmarks/results]
+Usage: python benchmarks/models/regression.py [--seeds 3] [--out benchmarks/results]
 """
 
 from __future__ import annotations

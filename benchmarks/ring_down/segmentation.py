@@ -17,7 +17,7 @@ the protocol's events (``run-trial --live``). A run is *right* when the final λ
 5 % and ω within 1 % of the simulator's truth, *none* when it says "no ring-down found",
 *wrong* otherwise.
 
-    python benchmarks/segmentation.py --runs 8          # ~1 run/s·scenario on 2 cores
+    python benchmarks/ring_down/segmentation.py --runs 8          # ~1 run/s·scenario on 2 cores
 """
 
 from __future__ import annotations

@@ -42,7 +42,7 @@ the tolerance, the smaller of λ's and ω's (an upper bound of both together), a
 over the runs, is the share an estimator with those standard errors would score; a
 target above it asks the fit to be more precise than the samples allow.
 
-    nice -n 10 .venv/bin/python benchmarks/gaps.py [--runs N]
+    nice -n 10 .venv/bin/python benchmarks/signal/gaps.py [--runs N]
 """
 
 from __future__ import annotations

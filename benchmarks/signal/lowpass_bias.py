@@ -9,7 +9,7 @@ low. Each row: synthetic marker tracks (a few markers moving along one direction
 noise-free and with white marker noise (σ px, several seeds: the default fit's median
 bias and the λ scatter's std, the noise cost of a higher cut-off).
 
-Usage: ``python benchmarks/lowpass_bias.py [--fps 25] [--cutoffs 3 4 5 6] [--seeds 8]``
+Usage: ``python benchmarks/signal/lowpass_bias.py [--fps 25] [--cutoffs 3 4 5 6] [--seeds 8]``
 """
 
 from __future__ import annotations

@@ -17,7 +17,7 @@ Per world:
   quick training subset): height [mm], concentration [g/100 g], log10 viscosity;
 - trials that crashed or were refused by the pipeline.
 
-    PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/nuisances.py \
+    PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/sim/nuisances.py \
         [--trials 10] [--train 36] [--jobs 2] [--data DIR] [--only NAME ...] [--factors 1 2]
 
 ~40 worlds × 10 trials at ~2.5 s a trial: ~8 min on 2 idle cores. Writes

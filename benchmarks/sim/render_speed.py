@@ -16,7 +16,7 @@ Ratios are against the baselines measured in the same run (best of two runs
 each). A second table gives each drawing method's marker-centroid error (plain
 intensity-weighted centroid on a flat, noise-free frame): what the extra work buys.
 
-    .venv/bin/python benchmarks/render_speed.py [--frames N]
+    .venv/bin/python benchmarks/sim/render_speed.py [--frames N]
 """
 
 from __future__ import annotations

@@ -9,7 +9,7 @@ concentration and μ = log10 ν of the test split. Also reports how well the
 fit recovers the true small-amplitude λ, ω. Prints a markdown table next to the
 paper's published test errors.
 
-    .venv/bin/python benchmarks/sim_calibration.py [--quick]
+    .venv/bin/python benchmarks/sim/sim_calibration.py [--quick]
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ old and new; then the renderer alone, frames per second per core (process CPU
 time) before and after, and the ``liquidtouch simulate trial`` command's wall time
 (a fresh process: imports included).
 
-    .venv/bin/python benchmarks/simulate_speed.py [--videos-only] [--repeats N]
+    .venv/bin/python benchmarks/sim/simulate_speed.py [--videos-only] [--repeats N]
 """
 
 from __future__ import annotations
@@ -49,8 +49,8 @@ CASES = [
     ("olive-oil", None, 20.0, "cylinder"),
 ]
 REPEATS = 5
-#: main at the merge of issue 25: its renderer is the one before issue 27 (``render.py``
-#: there is what the frozen ``benchmarks/render_v0.py`` copied)
+#: main at the merge of issue 25, whose ``render.py`` is the renderer before issue 27
+#: (the one the removed copy ``benchmarks/render_v0.py`` froze)
 OLD_RENDERER_REVISION = "675ffb2"
 REPO = Path(__file__).resolve().parents[2]
 CLI = "import sys; from liquidtouch.cli import run; sys.argv[0] = 'liquidtouch'; run()"

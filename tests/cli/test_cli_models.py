@@ -184,6 +184,23 @@ def _bad_tables(d):
         (["train", "{d}/absent.csv", "-t", "height_mm", "--out", "{d}/x.json"], "no such file"),
         (["train", "{d}/train.csv", "-t", "colour", "--out", "{d}/x.json"], "colour"),
         (
+            [
+                "train",
+                "{d}/train.csv",
+                "-t",
+                "height_mm",
+                "--calibration-group",
+                "colour",
+                "--out",
+                "{d}/x.json",
+            ],
+            "^error: --calibration-group 'colour': no such column in the training table$",
+        ),
+        (
+            ["train", "{d}/nan.csv", "-t", "log10_viscosity_cst", "--out", "{d}/x.json"],
+            "^error: --calibration-group height_mm: the column has empty values$",
+        ),
+        (
             ["train", "{d}/train.csv", "-t", "height_mm", "-m", "forest", "--out", "{d}/x.json"],
             "'forest' is not one of 'gpr', 'quadratic', 'physics-gpr'",
         ),

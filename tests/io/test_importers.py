@@ -123,7 +123,7 @@ TIMED = "frame,row,col,x,y,t_s\n1,0,0,1,2,0\n2,0,0,1,2,1\n"
 @pytest.mark.parametrize(
     ("text", "fps", "message"),
     [
-        (GOOD, None, "pass --fps"),
+        (GOOD, None, "pass `fps`"),
         ("1, 0, 0, 1, 2, 1\n", 30.0, "has 7 columns"),
         ("frame,row,x,y\n1,0,1,2\n", 30.0, "lacks column(s) col"),
         (GOOD + "1,0,1,5,2,5,2\n", 30.0, "(row 0, col 1) appears twice in frame 1"),
@@ -365,7 +365,7 @@ def test_bag_encodings_compressed_images_and_time_source(tmp_path: Path, ros1: b
     right = cv2.imread(str(out / "right" / "000002.png"), cv2.IMREAD_UNCHANGED)
     np.testing.assert_array_equal(right, colour[2])  # rgb8 stored as a BGR PNG
     # unset header stamps: refused with the hint, accepted with the bag's times
-    with pytest.raises(DatasetError, match="--time-source bag"):
+    with pytest.raises(DatasetError, match="`time_source` bag"):
         import_bag(bag, tmp_path / "mid1", topics=["/cam/mid/image"])
     mid = import_bag(bag, tmp_path / "mid2", topics=["/cam/mid/image"], time_source="bag")
     assert mid[0].folder == "mid" and mid[0].frames == 4

@@ -119,23 +119,28 @@ def check_time_steps(t: np.ndarray, what: str, error: type[LiquidTouchError] = T
         )
 
 
-def finite_array(x: object, what: str, min_ndim: int) -> np.ndarray:
+def finite_array(
+    x: object, what: str, min_ndim: int, error: type[LiquidTouchError] = SignalError
+) -> np.ndarray:
+    """``x`` as a float array of at least ``min_ndim`` dimensions, non-empty and finite;
+    ``error`` otherwise."""
     try:
         x = np.asarray(x, dtype=float)
     except (TypeError, ValueError):
-        raise SignalError(f"{what} must be an array of real numbers") from None
+        raise error(f"{what} must be an array of real numbers") from None
     if x.ndim < min_ndim or x.size == 0:
-        raise SignalError(f"{what} must be a non-empty {min_ndim}-D array, got shape {x.shape}")
+        raise error(f"{what} must be a non-empty {min_ndim}-D array, got shape {x.shape}")
     if not np.isfinite(x).all():
-        raise SignalError(f"{what} holds NaN/inf values; interpolate or drop them first")
+        raise error(f"{what} holds NaN/inf values; interpolate or drop them first")
     return x
 
 
-def check_times(t: object, what: str) -> np.ndarray:
-    """Timestamps [s] as a 1-D float array: finite, strictly increasing, at least 2."""
-    t = finite_array(t, what, min_ndim=1)
+def check_times(t: object, what: str, error: type[LiquidTouchError] = SignalError) -> np.ndarray:
+    """Timestamps [s] as a 1-D float array: finite, strictly increasing, at least 2;
+    ``error`` otherwise (a file's times: its format's error, e.g. ``DatasetError``)."""
+    t = finite_array(t, what, min_ndim=1, error=error)
     if t.ndim != 1 or t.size < 2 or not np.all(np.diff(t) > 0):
-        raise SignalError(
+        raise error(
             f"{what} must be a 1-D array of at least 2 strictly increasing times [s] "
             f"(got shape {t.shape}); sort the frames and drop duplicates"
         )

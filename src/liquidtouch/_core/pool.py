@@ -21,6 +21,7 @@ from collections.abc import Callable, Hashable, Iterator, Mapping
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
 from typing import Any
 
+from liquidtouch._core.checks import check_int
 from liquidtouch.errors import LiquidTouchError
 
 logger = logging.getLogger(__name__)
@@ -50,15 +51,14 @@ def open_executor(
     it needs the optional extra ``liquidtouch[dask]``. A local pool never has
     more workers than cores or than ``n_tasks`` (idle workers only cost memory).
     """
-    if jobs < 1:
-        raise LiquidTouchError(f"--jobs must be at least 1, got {jobs}")
+    jobs = check_int(jobs, "`jobs`", 1, LiquidTouchError)
     jobs = min(jobs, os.cpu_count() or 1, n_tasks or jobs)
     if dask_address:
         try:
             from distributed import Client
         except ImportError:
             raise LiquidTouchError(
-                "--dask needs the optional extra: pip install 'liquidtouch[dask]'"
+                "`dask_address` needs the optional extra: pip install 'liquidtouch[dask]'"
             ) from None
         try:
             client = Client(dask_address, timeout=10)

@@ -93,7 +93,7 @@ def feature_settings(
     lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     sensors: list[str] | tuple[str, ...] | None = None,
-    fit_settings: object = None,
+    fit_settings: FitSettings | None = None,
 ) -> dict[str, object]:
     """Every setting the features of ``source`` depend on, JSON-ready (validated).
 
@@ -261,7 +261,7 @@ def extract_features(
     lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
     n_markers: int = 16,
     sensors: list[str] | tuple[str, ...] | None = None,
-    fit_settings: object = None,
+    fit_settings: FitSettings | None = None,
 ) -> pd.DataFrame:
     """Extract features of every trial of ``dataset``; write ``out`` (default ``features.csv``).
 

@@ -36,6 +36,7 @@ from liquidtouch.cli import (
     rig,
     simulate,
 )
+from liquidtouch.cli.flags import name_flags
 from liquidtouch.cli.format import cut_values
 from liquidtouch.cli.paths import guard_output_paths
 from liquidtouch.errors import LiquidTouchError
@@ -131,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
         if result == INTERRUPTED:  # Ctrl-C while typer parsed the command line
             raise _Interrupted
     except LiquidTouchError as exc:
-        return error_exit(str(exc))
+        return error_exit(name_flags(str(exc)))
     except click_exc.NoArgsIsHelpError as exc:
         typer.echo(exc.ctx.get_help() if exc.ctx else str(exc))
         return 0

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 from enum import StrEnum
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
@@ -28,6 +29,115 @@ class TimeSourceChoice(StrEnum):
 
     header = "header"
     bag = "bag"
+
+
+DatasetDir = Annotated[
+    Path,
+    typer.Argument(help="The dataset directory (made by 'dataset init').", show_default=False),
+]
+
+RecordingSources = Annotated[
+    list[Path] | None,
+    typer.Argument(
+        help="Video files or image folders of the recording, one per sensor (or give "
+        "--markers or --bag instead).",
+        show_default=False,
+    ),
+]
+
+LabelOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--label",
+        "-l",
+        help="A label KEY=VALUE, repeated: liquid, container, height_mm, sugar_concentration, "
+        "viscosity_cst, log10_viscosity_cst, temperature_c.",
+        show_default=False,
+    ),
+]
+
+Split = Annotated[
+    str | None,
+    typer.Option(
+        "--split", help="The manifest's split column, e.g. train or test.", show_default=False
+    ),
+]
+
+TrialName = Annotated[
+    str | None,
+    typer.Option(
+        "--name",
+        help="The trial's path in the dataset, e.g. water/h25-run1 (default: trial-0001, ...).",
+        show_default=False,
+    ),
+]
+
+TrialFps = Annotated[
+    float | None,
+    typer.Option(
+        "--fps",
+        help="Frame rate [Hz] for meta.json: needed for image folders without timestamps.csv "
+        "and marker CSVs without a t_s column (default: the video stream's rate).",
+        show_default=False,
+    ),
+]
+
+Link = Annotated[
+    bool,
+    typer.Option(
+        "--link",
+        help="Hard-link the videos and images instead of copying them (copied where a link "
+        "is impossible, e.g. another file system).",
+    ),
+]
+
+MarkerCsvs = Annotated[
+    list[Path] | None,
+    typer.Option(
+        "--markers",
+        help="A GelSight marker-location CSV (frame, row, col, x0, y0, x, y), one per sensor, "
+        "repeated: stored as tracks.npz, used instead of videos.",
+        show_default=False,
+    ),
+]
+
+Bag = Annotated[
+    Path | None,
+    typer.Option(
+        "--bag",
+        help="A ROS 1 .bag or ROS 2 bag (directory, .db3 or .mcap) with image topics "
+        "(needs: pip install 'liquidtouch[ros]').",
+        show_default=False,
+    ),
+]
+
+Topics = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--topic",
+        help="An image topic of --bag, one per sensor, repeated (default: every "
+        "sensor_msgs/Image and CompressedImage topic).",
+        show_default=False,
+    ),
+]
+
+SensorNames = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--sensor-name",
+        help="Names of the sensors, one per video, CSV or topic, in order (default: the "
+        "file names, or the parts of the topic names that differ).",
+        show_default=False,
+    ),
+]
+
+TimeSource = Annotated[
+    TimeSourceChoice,
+    typer.Option(
+        "--time-source",
+        help="--bag frame times: the messages' header stamps, or the bag's record times.",
+    ),
+]
 
 
 @dataset_app.command("init")
@@ -56,78 +166,18 @@ def init_command(
 
 @dataset_app.command("add")
 def add_command(
-    directory: Path = typer.Argument(
-        ..., help="The dataset directory (made by 'dataset init').", show_default=False
-    ),
-    sources: list[Path] | None = typer.Argument(
-        None,
-        help="Video files or image folders of the recording, one per sensor (or give "
-        "--markers or --bag instead).",
-        show_default=False,
-    ),
-    label: list[str] | None = typer.Option(
-        None,
-        "--label",
-        "-l",
-        help="A label KEY=VALUE, repeated: liquid, container, height_mm, sugar_concentration, "
-        "viscosity_cst, log10_viscosity_cst, temperature_c.",
-        show_default=False,
-    ),
-    split: str | None = typer.Option(
-        None, "--split", help="The manifest's split column, e.g. train or test.", show_default=False
-    ),
-    name: str | None = typer.Option(
-        None,
-        "--name",
-        help="The trial's path in the dataset, e.g. water/h25-run1 (default: trial-0001, ...).",
-        show_default=False,
-    ),
-    fps: float | None = typer.Option(
-        None,
-        "--fps",
-        help="Frame rate [Hz] for meta.json: needed for image folders without timestamps.csv "
-        "and marker CSVs without a t_s column (default: the video stream's rate).",
-        show_default=False,
-    ),
-    link: bool = typer.Option(
-        False,
-        "--link",
-        help="Hard-link the videos and images instead of copying them (copied where a link "
-        "is impossible, e.g. another file system).",
-    ),
-    markers: list[Path] | None = typer.Option(
-        None,
-        "--markers",
-        help="A GelSight marker-location CSV (frame, row, col, x0, y0, x, y), one per sensor, "
-        "repeated: stored as tracks.npz, used instead of videos.",
-        show_default=False,
-    ),
-    bag: Path | None = typer.Option(
-        None,
-        "--bag",
-        help="A ROS 1 .bag or ROS 2 bag (directory, .db3 or .mcap) with image topics "
-        "(needs: pip install 'liquidtouch[ros]').",
-        show_default=False,
-    ),
-    topic: list[str] | None = typer.Option(
-        None,
-        "--topic",
-        help="An image topic of --bag, one per sensor, repeated (default: every "
-        "sensor_msgs/Image and CompressedImage topic).",
-        show_default=False,
-    ),
-    sensor_name: list[str] | None = typer.Option(
-        None,
-        "--sensor-name",
-        help="Names of the sensors, one per video, CSV or topic, in order (default: the "
-        "file names, or the parts of the topic names that differ).",
-        show_default=False,
-    ),
-    time_source: TimeSourceChoice = typer.Option(
-        TimeSourceChoice.header,
-        "--time-source",
-        help="--bag frame times: the messages' header stamps, or the bag's record times.",
-    ),
+    directory: DatasetDir,
+    sources: RecordingSources = None,
+    label: LabelOption = None,
+    split: Split = None,
+    name: TrialName = None,
+    fps: TrialFps = None,
+    link: Link = False,
+    markers: MarkerCsvs = None,
+    bag: Bag = None,
+    topic: Topics = None,
+    sensor_name: SensorNames = None,
+    time_source: TimeSource = TimeSourceChoice.header,
     as_json: options.Json = False,
 ) -> None:
     """Add one trial to a dataset: copy the recording in, write meta.json, extend manifest.csv.
@@ -160,6 +210,11 @@ def add_command(
     if as_json:
         typer.echo(json.dumps(added.to_dict()))
         return
+    _print_added(added)
+
+
+def _print_added(added) -> None:
+    """What ``dataset add`` added, in two lines."""
     labels = ", ".join(
         f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
         for k, v in added.labels.items()

@@ -13,10 +13,73 @@ from __future__ import annotations
 import contextlib
 import json
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
 from liquidtouch.cli import options
+from liquidtouch.errors import DatasetError
+
+Sources = Annotated[
+    list[Path],
+    typer.Argument(
+        help="Video files (one per sensor), image folders, or one trial directory "
+        "(its meta.json lists the videos).",
+        show_default=False,
+    ),
+]
+SignalOut = Annotated[
+    Path | None,
+    typer.Option(
+        "--signal-out",
+        help="Write the whole signal u(t) as CSV (header 't,u'); fit reads it.",
+        show_default=False,
+    ),
+]
+TracksOut = Annotated[
+    Path | None,
+    typer.Option(
+        "--tracks-out",
+        help="Write the marker tracks of every sensor: .npz (arrays per sensor) or .csv "
+        "(long format: t, sensor, marker, x, y, valid), by the suffix.",
+        show_default=False,
+    ),
+]
+ExtractionPlot = Annotated[
+    Path | None,
+    typer.Option(
+        "--plot",
+        help="Write a figure: markers on the first frame, motions, u(t) and the fit over "
+        "its window (format from the suffix; PNG without one).",
+        show_default=False,
+    ),
+]
+FolderFps = Annotated[
+    float | None,
+    typer.Option(
+        "--fps",
+        help="Frame rate [Hz] of image folders given directly (needed unless the folder "
+        "holds timestamps.csv; a trial's folders use its meta.json fps).",
+        show_default=False,
+    ),
+]
+Dataset = Annotated[
+    Path, typer.Argument(help="Dataset directory (with manifest.csv).", show_default=False)
+]
+FeaturesOut = Annotated[
+    Path | None,
+    typer.Option(
+        *options.OUT, help="Output CSV (default: DATASET/features.csv).", show_default=False
+    ),
+]
+Source = Annotated[
+    options.SourceChoice,
+    typer.Option(
+        "--source",
+        help="gelsight: the sensor videos; wrench: the wrist force/torque (wrench.csv), "
+        "which uses --lowpass and the fit options only.",
+    ),
+]
 
 
 def register(app: typer.Typer) -> None:
@@ -26,43 +89,15 @@ def register(app: typer.Typer) -> None:
 
 
 def extract(
-    sources: list[Path] = typer.Argument(
-        ...,
-        help="Video files (one per sensor), image folders, or one trial directory "
-        "(its meta.json lists the videos).",
-        show_default=False,
-    ),
+    sources: Sources,
     as_json: options.Json = False,
-    signal_out: Path | None = typer.Option(
-        None,
-        "--signal-out",
-        help="Write the whole signal u(t) as CSV (header 't,u'); fit reads it.",
-        show_default=False,
-    ),
-    tracks_out: Path | None = typer.Option(
-        None,
-        "--tracks-out",
-        help="Write the marker tracks of every sensor: .npz (arrays per sensor) or .csv "
-        "(long format: t, sensor, marker, x, y, valid), by the suffix.",
-        show_default=False,
-    ),
-    plot: Path | None = typer.Option(
-        None,
-        "--plot",
-        help="Write a figure: markers on the first frame, motions, u(t) and the fit over "
-        "its window (format from the suffix; PNG without one).",
-        show_default=False,
-    ),
+    signal_out: SignalOut = None,
+    tracks_out: TracksOut = None,
+    plot: ExtractionPlot = None,
     lowpass_hz: options.Lowpass = options.DEFAULT_LOWPASS_HZ,
     n_markers: options.Markers = options.DEFAULT_MARKERS,
     sensor: options.Sensor = None,
-    fps: float | None = typer.Option(
-        None,
-        "--fps",
-        help="Frame rate [Hz] of image folders given directly (needed unless the folder "
-        "holds timestamps.csv; a trial's folders use its meta.json fps).",
-        show_default=False,
-    ),
+    fps: FolderFps = None,
     loss: options.Loss = options.DEFAULT_LOSS,
     model: options.FitModel = options.DEFAULT_FIT_MODEL,
     band_low_hz: options.BandLow = options.DEFAULT_BAND_LOW_HZ,
@@ -95,23 +130,27 @@ def extract(
         sensors=sensor or None,
     )
     write_outputs(result, signal_out=signal_out, tracks_out=tracks_out, plot=plot)
+    _warn_extraction(result)
+    if as_json:
+        out = result.to_dict()
+        if result.diagnostics is not None:
+            out.update(result.diagnostics.to_dict())
+        typer.echo(json.dumps(out))
+        return
+    _print_extraction(result, [p for p in (signal_out, tracks_out, plot) if p is not None])
+
+
+def _warn_extraction(result) -> None:
+    """The codec check's and the fit's gap warnings, one ``warning: ...`` line each."""
+    from liquidtouch.cli.format import gap_warning
+
     check = result.diagnostics
     warning = check.warning() if check is not None else None
     if warning:
         typer.echo(f"warning: {warning}", err=True)
-    if result.fit is not None:
-        from liquidtouch.cli.format import gap_warning
-
-        gap = gap_warning(result.fit)
-        if gap:
-            typer.echo(f"warning: {gap}", err=True)
-    if as_json:
-        out = result.to_dict()
-        if check is not None:
-            out.update(check.to_dict())
-        typer.echo(json.dumps(out))
-        return
-    _print_extraction(result, [p for p in (signal_out, tracks_out, plot) if p is not None])
+    gap = gap_warning(result.fit) if result.fit is not None else None
+    if gap:
+        typer.echo(f"warning: {gap}", err=True)
 
 
 def _print_extraction(result, written: list[Path]) -> None:
@@ -141,24 +180,12 @@ def _print_extraction(result, written: list[Path]) -> None:
 
 
 def features(
-    dataset: Path = typer.Argument(
-        ..., help="Dataset directory (with manifest.csv).", show_default=False
-    ),
-    out: Path | None = typer.Option(
-        None,
-        *options.OUT,
-        help="Output CSV (default: DATASET/features.csv).",
-        show_default=False,
-    ),
+    dataset: Dataset,
+    out: FeaturesOut = None,
     as_json: options.Json = False,
     jobs: options.Jobs = 1,
     dask: options.Dask = None,
-    source: options.SourceChoice = typer.Option(
-        options.SourceChoice.gelsight,
-        "--source",
-        help="gelsight: the sensor videos; wrench: the wrist force/torque (wrench.csv), "
-        "which uses --lowpass and the fit options only.",
-    ),
+    source: Source = options.SourceChoice.gelsight,
     lowpass_hz: options.Lowpass = options.DEFAULT_LOWPASS_HZ,
     n_markers: options.Markers = options.DEFAULT_MARKERS,
     sensor: options.Sensor = None,
@@ -176,7 +203,6 @@ def features(
     go on. The table records the liquidtouch version and the settings of the run.
     --json prints the counts, the failed trials and the output path.
     """
-    from liquidtouch import __version__
     from liquidtouch.batch.features import extract_features
     from liquidtouch.io.dataset import FEATURES_NAME
 
@@ -193,21 +219,11 @@ def features(
         sensors=sensor or None,
         fit_settings=settings,
     )
-    failed = table[table["error"].astype(str) != ""]
     target = out or Path(dataset) / FEATURES_NAME
     if as_json:
-        summary = {
-            "out": str(target),
-            "n_trials": len(table),
-            "n_extracted": len(table) - len(failed),
-            "n_failed": len(failed),
-            "n_computed": table.attrs["n_computed"],
-            "n_cached": table.attrs["n_cached"],
-            "failed": [{"trial": r.trial, "error": r.error} for r in failed.itertuples()],
-            "liquidtouch_version": __version__,
-            "settings": table.attrs["settings"],
-        }
-        typer.echo(json.dumps(summary, ensure_ascii=False))
+    failed = table[table["error"].astype(str) != ""]
+    if as_json:
+        typer.echo(json.dumps(_features_summary(table, target), ensure_ascii=False))
     else:
         typer.echo(
             f"{len(table) - len(failed)} of {len(table)} trials extracted → {target} "
@@ -216,9 +232,25 @@ def features(
         for row in failed.itertuples(index=False):
             typer.echo(f"failed: {row.trial}: {row.error}", err=True)
     if len(table) and len(failed) == len(table):  # nothing worked: the exit status says so
-        from liquidtouch.errors import DatasetError
-
         raise DatasetError(f"no trial was extracted: all {len(table)} failed (see above)")
+
+
+def _features_summary(table, target: Path) -> dict:
+    """``features --json``: the counts, the failed trials, the output path and the settings."""
+    from liquidtouch import __version__
+
+    failed = table[table["error"].astype(str) != ""]
+    return {
+        "out": str(target),
+        "n_trials": len(table),
+        "n_extracted": len(table) - len(failed),
+        "n_failed": len(failed),
+        "n_computed": table.attrs["n_computed"],
+        "n_cached": table.attrs["n_cached"],
+        "failed": [{"trial": r.trial, "error": r.error} for r in failed.itertuples()],
+        "liquidtouch_version": __version__,
+        "settings": table.attrs["settings"],
+    }
 
 
 def check_output_paths(**paths: Path | None) -> None:

@@ -5,11 +5,33 @@ from __future__ import annotations
 import dataclasses
 import json
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
 from liquidtouch.cli import options
 from liquidtouch.errors import SignalError
+
+SignalArgument = Annotated[
+    Path | None,
+    typer.Argument(
+        help="Signal CSV with header 't,u' (t in seconds, u in any unit), e.g. from "
+        "extract --signal-out.",
+        show_default=False,
+    ),
+]
+FitPlot = Annotated[
+    Path | None,
+    typer.Option(
+        "--plot",
+        help="Write a figure of the fitted window: signal, fit, both modes and residual "
+        "(format from the suffix; PNG without one).",
+        show_default=False,
+    ),
+]
+Example = Annotated[
+    bool, typer.Option("--example", help="Fit the built-in example signal instead of a file.")
+]
 
 
 def register(app: typer.Typer) -> None:
@@ -18,12 +40,7 @@ def register(app: typer.Typer) -> None:
 
 
 def fit(
-    signal: Path | None = typer.Argument(
-        None,
-        help="Signal CSV with header 't,u' (t in seconds, u in any unit), e.g. from "
-        "extract --signal-out.",
-        show_default=False,
-    ),
+    signal: SignalArgument = None,
     as_json: options.Json = False,
     loss: options.Loss = options.DEFAULT_LOSS,
     model: options.FitModel = options.DEFAULT_FIT_MODEL,
@@ -31,16 +48,8 @@ def fit(
     band_high_hz: options.BandHigh = options.DEFAULT_BAND_HIGH_HZ,
     noise: options.Noise = options.DEFAULT_NOISE,
     start: options.Start = None,
-    plot: Path | None = typer.Option(
-        None,
-        "--plot",
-        help="Write a figure of the fitted window: signal, fit, both modes and residual "
-        "(format from the suffix; PNG without one).",
-        show_default=False,
-    ),
-    example: bool = typer.Option(
-        False, "--example", help="Fit the built-in example signal instead of a file."
-    ),
+    plot: FitPlot = None,
+    example: Example = False,
 ) -> None:
     """Fit a damped oscillation + drift to a signal; print λ, ω and their errors.
 

@@ -28,6 +28,8 @@ from liquidtouch._core.numbers import (
 if TYPE_CHECKING:
     from rich.table import Table
 
+    from liquidtouch.fit.result import OscillationFit
+
 __all__ = ["MAX_VALUE_CHARS", "cut_values", "fit_quality", "fit_table", "note", "warn"]
 
 MAX_VALUE_CHARS = 80
@@ -47,7 +49,7 @@ def cut_values(message: str) -> str:
     return _LONG.sub(cut, message)
 
 
-def fit_table(result: object, title: str) -> Table:
+def fit_table(result: OscillationFit, title: str) -> Table:
     """The slow/fast-mode table of an ``OscillationFit``: λ [1/s], ω [rad/s], amplitude."""
     from rich.markup import escape
     from rich.table import Table
@@ -72,7 +74,7 @@ def fit_table(result: object, title: str) -> Table:
     return table
 
 
-def fit_quality(result: object) -> str:
+def fit_quality(result: OscillationFit) -> str:
     """One line: R² (4 decimals), noise level, samples and the fitted window [s]."""
     start = float(result.t0)
     end = start + float(result.duration_s)
@@ -84,7 +86,7 @@ def fit_quality(result: object) -> str:
     )
 
 
-def gap_warning(result: object) -> str | None:
+def gap_warning(result: OscillationFit) -> str | None:
     """A line when a gap swallowed the ring-down, or a gap in the samples ends where the
     fitted free decay starts; else None."""
     from liquidtouch.extraction.fit_settings import ring_down_swallowed

@@ -82,34 +82,38 @@ def _print_held_out(title: str, columns: list[str], rows: list[list[str]]) -> No
     Console(stderr=True).print(table)
 
 
-def train(
-    features: Path = typer.Argument(
-        ..., help="Features CSV: decay_rate, angular_frequency, labels.", show_default=False
-    ),
-    target: list[str] = typer.Option(
-        ..., "--target", "-t", help="Label column to learn (repeat for several targets)."
-    ),
-    model: options.RegressorChoice = typer.Option(
-        options.RegressorChoice.gpr,
+TrainFeatures = Annotated[
+    Path,
+    typer.Argument(help="Features CSV: decay_rate, angular_frequency, labels.", show_default=False),
+]
+Targets = Annotated[
+    list[str],
+    typer.Option("--target", "-t", help="Label column to learn (repeat for several targets)."),
+]
+Regressor = Annotated[
+    options.RegressorChoice,
+    typer.Option(
         "--model",
         "-m",
         help="gpr (the paper's GP), quadratic (the paper's 6-parameter model) or "
         "physics-gpr (GP with a sloshing-physics prior; height and viscosity targets). "
         "A GP takes at most 2000 rows (4000 over all targets; docs/formats.md, Limits).",
     ),
-    out: Path = typer.Option(..., *options.OUT, help="Model file to write (JSON)."),
-    split: TrainSplit = None,
-    where: TrainWhere = None,
-    calibration_folds: int = typer.Option(
-        10,
+]
+ModelOut = Annotated[Path, typer.Option(*options.OUT, help="Model file to write (JSON).")]
+CalibrationFolds = Annotated[
+    int,
+    typer.Option(
         "--calibration-folds",
         min=0,
         help="Calibrate each target's std and intervals by K-fold cross-conformal on the "
         "training rows (K more fits per target; 0: no calibration, std not calibrated). "
         "Fewer rows than K: leave-one-out.",
     ),
-    calibration_group: str | None = typer.Option(
-        None,
+]
+CalibrationGroup = Annotated[
+    str | None,
+    typer.Option(
         "--calibration-group",
         help="Column whose rows the calibration holds out together, so that each row is "
         "predicted by a model that never saw its value (default: height_mm; with 8 or more "
@@ -117,6 +121,18 @@ def train(
         "height_mm and sugar_concentration; 'none': every row alone).",
         show_default=False,
     ),
+]
+
+
+def train(
+    features: TrainFeatures,
+    target: Targets,
+    model: Regressor = options.RegressorChoice.gpr,
+    out: ModelOut = ...,
+    split: TrainSplit = None,
+    where: TrainWhere = None,
+    calibration_folds: CalibrationFolds = 10,
+    calibration_group: CalibrationGroup = None,
     as_json: options.Json = False,
 ) -> None:
     """Train one regressor per --target on a features table and save them in one model file.
@@ -126,57 +142,33 @@ def train(
     """
     from liquidtouch._core.numbers import number
     from liquidtouch._core.progress import progress_bar
-    from liquidtouch.io.tables import numeric_column
-    from liquidtouch.models.held_out import regression_errors, selection_summary, split_rows
     from liquidtouch.models.modelfile import save_model
-    from liquidtouch.models.property_model import feature_std_matrix
-    from liquidtouch.models.training import train_regression
+    from liquidtouch.models.table_training import train_on_table
 
     kind = str(model)
-    table, X, skipped = _read_training_table(features)
-    table, X, rest, chosen = split_rows(table, X, split, where, features)
-    targets = {t: numeric_column(table, t) for t in dict.fromkeys(target)}
-    with progress_bar(f"training {kind}", len(targets)) as advance:
-        folds = None if calibration_folds == 0 else max(calibration_folds, 2)
-        groups = calibration_groups(table, calibration_group)
-        fitted = train_regression(
-            X,
-            targets,
-            kind,
-            advance,
-            calibration_folds=folds,
-            calibration_groups=groups,
-            calibration_std=feature_std_matrix(table),
+    table, _, skipped = _read_training_table(features)
+    with progress_bar(f"training {kind}", len(dict.fromkeys(target))) as advance:
+        trained = train_on_table(
+            table,
+            target,
+            model=kind,
+            split=split,
+            where=where,
+            calibration_folds=calibration_folds,
+            calibration_group=calibration_group,
+            source=features,
+            progress=advance,
         )
-    held_out = None if rest is None else regression_errors(fitted, rest, list(targets))
+    fitted, held_out = trained.model, trained.held_out
     save_model(fitted, out)
     if as_json:
-        typer.echo(
-            json.dumps(
-                {
-                    "out": str(out),
-                    "kind": fitted.kind,
-                    "model": kind,
-                    "targets": fitted.targets,
-                    "n_rows": int(X.shape[0]),
-                    "n_skipped": skipped,
-                    "selection": selection_summary(chosen, split, where),
-                    "training_mae": fitted.training_mae(),
-                    "held_out": held_out,
-                    "models": {t: r.describe() for t, r in fitted.regressors.items()},
-                    "calibration": {
-                        t: {"n_folds": c.n_folds, "n_rows": c.n, "std_scale": c.std_scale}
-                        for t, c in fitted.calibration.items()
-                    },
-                }
-            )
-        )
+        typer.echo(json.dumps(_training_summary(trained, kind, out, skipped)))
         return
     _echo_summary(fitted.summary(), out)
     if held_out is not None:
         training = fitted.training_mae()
         _print_held_out(
-            f"evaluation on the {len(rest)} rows not selected",
+            f"evaluation on the {trained.n_held_out} rows not selected",
             ["target", "rows", "training MAE", "held-out MAE"],
             [
                 [t, str(e["n_rows"]), number(training[t]), number(e["mae"])]
@@ -186,24 +178,25 @@ def train(
         )
 
 
-def calibration_groups(table: Any, column: str | None) -> Any:
-    """The calibration's groups: ``column``'s values (default:
-    :func:`~liquidtouch.models.conformal.default_groups`)."""
-    from liquidtouch.errors import TableError
-    from liquidtouch.models.conformal import default_groups
-
-    if column is None:
-        if "height_mm" in table.columns and table["height_mm"].isna().any():
-            raise TableError("--calibration-group height_mm: the column has empty values")
-        return default_groups(table)
-    if column.strip().lower() == "none":
-        return None
-    if column not in table.columns:
-        raise TableError(f"--calibration-group {column!r}: no such column in the training table")
-    values = table[column]
-    if values.isna().any():
-        raise TableError(f"--calibration-group {column}: the column has empty values")
-    return values.astype(str).to_numpy()
+def _training_summary(trained: Any, kind: str, out: Path, skipped: int) -> dict[str, Any]:
+    """``train --json``: the model file, its targets, the rows, the errors, the calibration."""
+    fitted = trained.model
+    return {
+        "out": str(out),
+        "kind": fitted.kind,
+        "model": kind,
+        "targets": fitted.targets,
+        "n_rows": trained.n_rows,
+        "n_skipped": skipped,
+        "selection": trained.selection,
+        "training_mae": fitted.training_mae(),
+        "held_out": trained.held_out,
+        "models": {t: r.describe() for t, r in fitted.regressors.items()},
+        "calibration": {
+            t: {"n_folds": c.n_folds, "n_rows": c.n, "std_scale": c.std_scale}
+            for t, c in fitted.calibration.items()
+        },
+    }
 
 
 def classify(
@@ -276,84 +269,75 @@ def classify(
         )
 
 
-def transfer(
-    model_file: Path = typer.Argument(
-        ..., help="Regression model of container A.", show_default=False
-    ),
-    tune: Path = typer.Argument(
-        ...,
+TransferFrom = Annotated[
+    Path, typer.Argument(help="Regression model of container A.", show_default=False)
+]
+TuneFeatures = Annotated[
+    Path,
+    typer.Argument(
         help="Features CSV of trials in container B, labelled with model targets.",
         show_default=False,
     ),
-    out: Path = typer.Option(..., *options.OUT, help="Transferred model file to write."),
-    split: str | None = typer.Option(
-        None,
+]
+TransferOut = Annotated[Path, typer.Option(*options.OUT, help="Transferred model file to write.")]
+TuneSplit = Annotated[
+    str | None,
+    typer.Option(
         "--split",
         metavar="NAME",
         help="Tune on the rows whose 'split' column is NAME; the labelled rows not selected "
         "are evaluated before and after the transfer.",
         show_default=False,
     ),
-    where: list[str] | None = typer.Option(
-        None,
+]
+TuneWhere = Annotated[
+    list[str] | None,
+    typer.Option(
         "--where",
         metavar="COLUMN=VALUE",
         help="Tune on the rows where COLUMN equals VALUE (numerically for a numeric column); "
         "repeat to combine. The labelled rows not selected are evaluated.",
         show_default=False,
     ),
+]
+
+
+def transfer(
+    model_file: TransferFrom,
+    tune: TuneFeatures,
+    out: TransferOut,
+    split: TuneSplit = None,
+    where: TuneWhere = None,
     as_json: options.Json = False,
 ) -> None:
     """Fit f_B(λ, ω) = f_A(α1 λ + α2, β1 ω + β2) on a few trials of a new container."""
     from liquidtouch._core.numbers import number
-    from liquidtouch.errors import TableError
-    from liquidtouch.io.tables import numeric_column
-    from liquidtouch.models.held_out import regression_errors, selection_summary, split_rows
     from liquidtouch.models.modelfile import load_model, save_model
-    from liquidtouch.models.transfer import fit_transfer
+    from liquidtouch.models.table_training import transfer_on_table
 
     fitted = load_model(model_file)
-    table, X, _ = _read_training_table(tune)
-    table, X, rest, chosen = split_rows(table, X, split, where, tune)
-    labelled = [t for t in fitted.targets if t in table.columns]
-    if fitted.kind != "regression":
-        raise TableError("container transfer needs a regression model (train one with `train`)")
-    if not labelled:
-        raise TableError(
-            f"{tune}: no column of the model's targets ({', '.join(fitted.targets)}); "
-            "label the tuning trials with at least one of them"
-        )
-    result = fit_transfer(fitted, X, {t: numeric_column(table, t) for t in labelled})
-    held_out = None
-    if rest is not None:
-        before = regression_errors(fitted, rest, labelled)
-        after = regression_errors(result.model, rest, labelled)
-        held_out = {
-            t: {"n_rows": e["n_rows"], "mae_before": before[t]["mae"], "mae_after": e["mae"]}
-            for t, e in after.items()
-        }
+    table, _, _ = _read_training_table(tune)
+    tuned = transfer_on_table(fitted, table, split=split, where=where, source=tune)
+    result, held_out = tuned.transfer, tuned.held_out
     save_model(result.model, out)
     if as_json:
         fmap = result.feature_map
-        typer.echo(
-            json.dumps(
-                {
-                    "out": str(out),
-                    "n_points": result.n_points,
-                    "selection": selection_summary(chosen, split, where),
-                    "alpha": list(fmap.alpha),
-                    "beta": list(fmap.beta),
-                    "tune_mae_before": result.mae_before,
-                    "tune_mae_after": result.mae_after,
-                    "held_out": held_out,
-                }
-            )
-        )
+        summary = {
+            "out": str(out),
+            "n_points": result.n_points,
+            "selection": tuned.selection,
+            "alpha": list(fmap.alpha),
+            "beta": list(fmap.beta),
+            "tune_mae_before": result.mae_before,
+            "tune_mae_after": result.mae_after,
+            "held_out": held_out,
+        }
+        typer.echo(json.dumps(summary))
         return
     _echo_summary(result.summary(), out)
     if held_out is not None:
         _print_held_out(
-            f"evaluation on the {len(rest)} rows not selected",
+            f"evaluation on the {tuned.n_held_out} rows not selected",
             ["target", "rows", "MAE before", "MAE after"],
             [
                 [t, str(e["n_rows"]), number(e["mae_before"]), number(e["mae_after"])]

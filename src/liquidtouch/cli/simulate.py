@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
@@ -15,41 +16,66 @@ simulate_app = typer.Typer(
 )
 
 
-@simulate_app.command("trial")
-def trial_command(
-    liquid: str = typer.Option(
-        ..., "--liquid", help="water, olive-oil, corn-oil, mirin, detergent or sugar-water."
-    ),
-    height_mm: float = typer.Option(
-        ..., "--height-mm", help="Fill height [mm], above 0 and below the container's height."
-    ),
-    out: Path = typer.Option(
-        ...,
+Liquid = Annotated[
+    str,
+    typer.Option("--liquid", help="water, olive-oil, corn-oil, mirin, detergent or sugar-water."),
+]
+HeightMm = Annotated[
+    float,
+    typer.Option("--height-mm", help="Fill height [mm], above 0 and below the container's height."),
+]
+TrialOut = Annotated[
+    Path,
+    typer.Option(
         *options.OUT,
         file_okay=False,
         help="Trial directory to write: new, empty, or an existing trial (replaced as a whole).",
     ),
-    container: str = typer.Option(
-        "grooved-cuboid", "--container", help="grooved-cuboid, cuboid, cylinder or glass."
+]
+Container = Annotated[
+    str, typer.Option("--container", help="grooved-cuboid, cuboid, cylinder or glass.")
+]
+SugarConcentration = Annotated[
+    float | None,
+    typer.Option("--sugar-concentration", help="Sugar-water only: g sugar per 100 g water."),
+]
+Seed = Annotated[
+    int,
+    typer.Option(
+        "--seed", help="Random seed (trial conditions and noise), an integer 0 to 2**63-1."
     ),
-    sugar_concentration: float | None = typer.Option(
-        None, "--sugar-concentration", help="Sugar-water only: g sugar per 100 g water."
+]
+TemperatureC = Annotated[
+    float | None,
+    typer.Option(
+        "--temperature-c", help="Liquid temperature, 0-60 °C (default: drawn around 21 °C)."
     ),
-    seed: int = typer.Option(
-        0, "--seed", help="Random seed (trial conditions and noise), an integer 0 to 2**63-1."
-    ),
-    temperature_c: float | None = typer.Option(
-        None,
-        "--temperature-c",
-        help="Liquid temperature, 0-60 °C (default: drawn around 21 °C).",
-    ),
-    video: bool = typer.Option(
-        True, "--video/--no-video", help="Render the GelSight videos (left.mp4, right.mp4)."
-    ),
-    sensor: str = typer.Option("default", "--sensor", help="GelSight sensor profile name."),
-    plot: bool = typer.Option(False, "--plot", help="Also save loads.png in the trial directory."),
+]
+TrialVideo = Annotated[
+    bool,
+    typer.Option("--video/--no-video", help="Render the GelSight videos (left.mp4, right.mp4)."),
+]
+SimSensor = Annotated[str, typer.Option("--sensor", help="GelSight sensor profile name.")]
+LoadsPlot = Annotated[
+    bool, typer.Option("--plot", help="Also save loads.png in the trial directory.")
+]
+SimJson = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
+
+
+@simulate_app.command("trial")
+def trial_command(
+    liquid: Liquid,
+    height_mm: HeightMm,
+    out: TrialOut,
+    container: Container = "grooved-cuboid",
+    sugar_concentration: SugarConcentration = None,
+    seed: Seed = 0,
+    temperature_c: TemperatureC = None,
+    video: TrialVideo = True,
+    sensor: SimSensor = "default",
+    plot: LoadsPlot = False,
     realism: options.Realism = options.RealismChoice.clean,
-    as_json: bool = typer.Option(False, "--json", help="Print one JSON object on stdout."),
+    as_json: SimJson = False,
 ) -> None:
     """Simulate one trial (lift, lateral push, hold) and write meta.json, force.csv, wrench.csv.
 
@@ -86,6 +112,11 @@ def trial_command(
     if as_json:
         typer.echo(json.dumps(summary))
         return
+    _print_trial(trial, directory, files)
+
+
+def _print_trial(trial, directory: Path, files: list[str]) -> None:
+    """What ``simulate trial`` wrote, and the trial's truth, in two lines."""
     typer.echo(
         f"wrote {directory}: {', '.join(files)}\n"
         f"  true decay rate {trial.true_decay_rate:.4f} 1/s, "

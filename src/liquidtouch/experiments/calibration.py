@@ -23,7 +23,7 @@ from liquidtouch.errors import TableError
 from liquidtouch.experiments.common import TARGETS, X, pyplot, save_figure, split, usable
 from liquidtouch.experiments.report import ExperimentResult, Headline
 from liquidtouch.models.conformal import default_groups
-from liquidtouch.models.property_model import feature_std_matrix
+from liquidtouch.models.property_model import PropertyModel, feature_std_matrix
 from liquidtouch.models.training import can_calibrate, train_regression
 
 #: central-interval levels of the reliability diagram
@@ -65,7 +65,7 @@ def _rows(model, name: str, table: pd.DataFrame, targets: list[str]) -> tuple[li
 
 def run(
     sugar_table: pd.DataFrame, other_table: pd.DataFrame, out_dir: Path
-) -> tuple[ExperimentResult, object]:
+) -> tuple[ExperimentResult, PropertyModel]:
     """Experiment 8 on the sugar-water (train/test) and other-liquids feature tables; also
     returns its calibrated GPR (experiment 9 streams with it)."""
     start = time.perf_counter()

@@ -26,7 +26,7 @@ from liquidtouch.experiments.common import (
 )
 from liquidtouch.experiments.paper import SUGAR_TEST_MAE, UNITS
 from liquidtouch.experiments.report import ExperimentResult, Headline
-from liquidtouch.models.property_model import MODEL_KINDS
+from liquidtouch.models.property_model import MODEL_KINDS, PropertyModel
 from liquidtouch.models.training import train_regression
 
 
@@ -44,7 +44,7 @@ def errors(model, table: pd.DataFrame) -> dict[str, float]:
 
 def run(
     table: pd.DataFrame, out_dir: Path, kinds: tuple[str, ...] | None = None
-) -> tuple[ExperimentResult, object]:
+) -> tuple[ExperimentResult, PropertyModel]:
     """Experiment 3; also returns the sugar-trained GPR (experiments 4 and 7 reuse it).
 
     ``kinds``: the regressor kinds to compare (default: all of ``MODEL_KINDS``).

@@ -8,7 +8,7 @@ fit's std propagated through the model, the calibrated model std added). Reporte
 trial: the ring-down time from which the height stays within :data:`HEIGHT_TOL_MM` of the
 truth, and log10 ν within :data:`VISCOSITY_TOL` (``inf``: the final answer is still off);
 per ring-down time bin: the shown estimates' error and the share within ±1σ and ±2σ of the
-truth. ``benchmarks/time_to_answer.py`` measures the same on every liquid with more trials.
+truth. ``benchmarks/live/time_to_answer.py`` measures the same on every liquid with more trials.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ small part of it: on a simulated GelSight trial (x264 ``fast``, CRF 18) the
 tracked/true motion gain of the B-frames fell from 0.94 at 0.8 px to 0.69 at
 0.18 px while the P-frames kept 0.97-0.99, and turning off B-frames or the
 macroblock tree cut the λ bias more than turning off the dead zone
-(``benchmarks/codec_bias.py``; ``benchmarks/RESULTS.md``, "codec_bias").
+(``benchmarks/extraction/codec_bias.py``; ``benchmarks/RESULTS.md``, "codec_bias").
 
 :func:`check_codec` combines three clues into a :class:`CodecCheck`:
 
@@ -58,9 +58,9 @@ IMAGE_CODECS = {".png": "png", ".bmp": "bmp", ".tif": "tiff", ".tiff": "tiff",
 FROZEN_SHARE_RISK = 0.01
 #: expected λ bias above which a recording is flagged
 BIAS_RISK = 0.05
-#: median λ bias vs lossless of the same frames (benchmarks/codec_bias.py, 4 simulated trials,
-#: λ 0.14-3.4 /s; x264's defaults, ``fast`` preset), by CRF; interpolated linearly in CRF and
-#: flat beyond the ends (below CRF 18 it is an upper bound: not measured)
+#: median λ bias vs lossless of the same frames (benchmarks/extraction/codec_bias.py, 4
+#: simulated trials, λ 0.14-3.4 /s; x264's defaults, ``fast`` preset), by CRF; interpolated
+#: linearly in CRF and flat beyond the ends (below CRF 18 it is an upper bound: not measured)
 X264_CRF_BIAS = ((18, 0.25), (23, 0.34), (28, 0.47))
 #: median λ bias of other lossy codecs as OpenCV's VideoWriter writes them (same benchmark):
 #: MPEG-4 Part 2 (``mp4v``) +19 %; MJPEG at OpenCV's quality 95 +0.7 % (intra-only: no

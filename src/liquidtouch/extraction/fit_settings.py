@@ -17,6 +17,7 @@ from liquidtouch._core.checks import as_number
 from liquidtouch.errors import NoOscillationError, SignalError, SwallowedRingDownError
 from liquidtouch.fit.choices import DEFAULT_MODEL, DEFAULT_NOISE, LOSSES, MODELS, NOISE_MODELS
 from liquidtouch.fit.oscillation import GAP_STEPS, MIN_DURATION_S, fit_oscillation, validate_signal
+from liquidtouch.fit.result import OscillationFit
 from liquidtouch.ring_down import free_decay
 
 #: a gap covering this share of the ring-down above the noise or more swallowed it: λ and ω
@@ -104,7 +105,7 @@ class FitSettings:
             "noise": self.noise,
         }
 
-    def fit(self, t: np.ndarray, u: np.ndarray) -> object:
+    def fit(self, t: np.ndarray, u: np.ndarray) -> OscillationFit:
         """:func:`~liquidtouch.fit.oscillation.fit_oscillation` of :meth:`window` of ``(t, u)``.
 
         The result's ``gap_before_start_s`` is the gap [s] in ``t`` that ends where
@@ -190,7 +191,7 @@ def gap_within(t: np.ndarray, duration_s: float) -> float:
     return float(np.sum(np.maximum(hi - lo, 0.0)))
 
 
-def ring_down_gap_share(t: np.ndarray, fit: object) -> float:
+def ring_down_gap_share(t: np.ndarray, fit: OscillationFit) -> float:
     """Share (0-1) of the ring-down above the noise that lies in gaps of the fitted ``t`` [s].
 
     The ring-down above the noise runs from the fit's ``t0`` for
@@ -205,7 +206,7 @@ def ring_down_gap_share(t: np.ndarray, fit: object) -> float:
     return gap_within(t, span_s) / span_s if span_s > 0 else 0.0
 
 
-def ring_down_swallowed(fit: object) -> bool:
+def ring_down_swallowed(fit: OscillationFit) -> bool:
     """Whether a gap swallowed the fitted ring-down: ``ring_down_gap_share`` ≥
     :data:`SWALLOWED_SHARE` (λ and ω then come from its tail, or from noise)."""
     return getattr(fit, "ring_down_gap_share", 0.0) >= SWALLOWED_SHARE

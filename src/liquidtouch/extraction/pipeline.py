@@ -18,8 +18,9 @@ from pathlib import Path
 
 from liquidtouch._core.numbers import fixed, number, with_uncertainty
 from liquidtouch._core.progress import progress_bar
-from liquidtouch.extraction.codec_check import check_codec
+from liquidtouch.extraction.codec_check import CodecCheck, check_codec
 from liquidtouch.extraction.fit_settings import FitSettings
+from liquidtouch.fit.result import OscillationFit
 from liquidtouch.io.dataset import trial_sensor_starts
 from liquidtouch.io.frames import iter_frames, video_info
 from liquidtouch.io.sources import resolve_sources, select_sensors
@@ -49,9 +50,9 @@ class Extraction:
 
     tracks: list[MarkerTracks]
     signal: TactileSignal
-    fit: object  # liquidtouch.fit.oscillation.OscillationFit
-    #: is the recording's codec biasing λ? (``liquidtouch.extraction.codec_check.CodecCheck``)
-    diagnostics: object = None
+    fit: OscillationFit | None
+    #: is the recording's codec biasing λ? (None: not checked)
+    diagnostics: CodecCheck | None = None
 
     def __repr__(self) -> str:
         sensors = [tr.sensor for tr in self.tracks]

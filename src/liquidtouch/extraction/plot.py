@@ -8,6 +8,8 @@ from liquidtouch.fit.plot import as_axes_list
 from liquidtouch.io.figures import save_figure
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
@@ -19,7 +21,10 @@ __all__ = ["plot_extraction"]
 
 
 def plot_extraction(
-    extraction: Extraction, path: PathLike | None = None, *, axes: object = None
+    extraction: Extraction,
+    path: PathLike | None = None,
+    *,
+    axes: Axes | Sequence[Axes] | None = None,
 ) -> Figure:
     """First frames with markers (chosen ones highlighted), marker motions, u(t) and fit.
 

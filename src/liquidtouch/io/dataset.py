@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -140,14 +141,16 @@ def read_trial_meta(trial_dir: str | Path) -> TrialMeta:
     return meta
 
 
-def trial_sensor_starts(paths: object) -> dict[str, float]:
+def trial_sensor_starts(
+    paths: str | os.PathLike[str] | Iterable[str | os.PathLike[str]],
+) -> dict[str, float]:
     """``sensor_start_s`` of the trial when ``paths`` is one trial directory, else ``{}``.
 
     The recorder stamps every sensor on one clock and stores when each sensor's
     first frame came; the tactile signal aligns the sensors with it
     (:attr:`~liquidtouch.tracking.tracks.MarkerTracks.start_s`).
     """
-    items = [paths] if isinstance(paths, str | os.PathLike) else list(paths)  # type: ignore[call-overload]
+    items = [paths] if isinstance(paths, str | os.PathLike) else list(paths)
     if len(items) != 1 or not isinstance(items[0], str | os.PathLike):
         return {}
     trial = Path(items[0])

@@ -33,7 +33,7 @@ def folder_times(folder: str | Path, n_images: int, fps: float | None = None) ->
         return stamps - stamps[0]
     if fps is None:
         raise VideoError(
-            f"image folder {folder} has no frame rate: give it (--fps, or the trial's "
+            f"image folder {folder} has no frame rate: give it (`fps`, or the trial's "
             f"meta.json 'fps') or add a {TIMESTAMPS_NAME} with a t_s column, one row per image"
         )
     try:

@@ -61,7 +61,7 @@ def read_marker_csv(
     name = sensor if sensor is not None else (path.stem or "sensor")
     if fps is not None and not 0 < _number(fps) <= MAX_RATE_HZ:
         raise TableError(
-            f"the frame rate (--fps) must be a positive number in Hz up to {MAX_RATE_HZ:g}, "
+            f"the frame rate (`fps`) must be a positive number in Hz up to {MAX_RATE_HZ:g}, "
             f"got {shorten(repr(fps), 40)}"
         )
     check_csv_bounds(path, "marker CSV")
@@ -256,7 +256,7 @@ def _frame_times(
         return low - low[0]
     if fps is None:
         raise TableError(
-            f"{where} has no t_s column, so its frames need a frame rate: pass --fps (the "
+            f"{where} has no t_s column, so its frames need a frame rate: pass `fps` (the "
             "camera's frame rate), or add a t_s column (frame time in seconds) to the file"
         )
     return (frames - frames[0]) / float(fps)

@@ -137,16 +137,16 @@ def add_trial(
     kinds = [k for k, given in (("files", sources), ("markers", markers), ("rosbag", bag)) if given]
     if len(kinds) != 1:
         raise DatasetError(
-            "give the recording as video files or image folders, as --markers CSV files, or "
-            "as a --bag" + (f" (got {' and '.join(kinds)})" if kinds else "")
+            "give the recording as video files or image folders, as `markers` CSV files, or "
+            "as a `bag`" + (f" (got {' and '.join(kinds)})" if kinds else "")
         )
     kind = kinds[0]
     if topics and kind != "rosbag":
-        raise DatasetError("--topic goes with --bag")
+        raise DatasetError("`topics` goes with `bag`")
     if time_source != "header" and kind != "rosbag":
-        raise DatasetError("--time-source goes with --bag")
+        raise DatasetError("`time_source` goes with `bag`")
     if link and kind != "files":
-        raise DatasetError("--link applies to video files and image folders only")
+        raise DatasetError("`link` applies to video files and image folders only")
     fps = check_fps(fps)
     if split is not None and not _SPLIT.fullmatch(str(split)):
         raise DatasetError(f"split {split!r}: use a word such as train or test")
@@ -155,7 +155,7 @@ def add_trial(
         sensor_names = check_sensor_names(sensor_names)
         count = n_inputs if n_inputs is not None else len(topics)
         if n_inputs is None and not topics:
-            raise DatasetError("--sensor with --bag needs the --topic of each sensor")
+            raise DatasetError("`sensor_names` with `bag` needs the `topics` of each sensor")
         if len(sensor_names) != count:
             raise DatasetError(f"{len(sensor_names)} sensor name(s) for {count} input(s)")
     with dataset_lock(root):

@@ -194,7 +194,7 @@ class _TopicWriter:
             raise DatasetError(
                 f"topic {self.topic}: message {index} has stamp {stamp_ns} ns, not after the "
                 f"previous {self.stamps[-1]} ns; the header stamps must increase (unset or "
-                "duplicated stamps: use --time-source bag, the recording time)"
+                "duplicated stamps: use `time_source` bag, the recording time)"
             )
         if self.msgtype.endswith("/CompressedImage"):
             data, suffix, shape = _compressed(msg, self.topic, index, cv2)
@@ -223,7 +223,7 @@ class _TopicWriter:
             )
         if time_source == "header" and self.stamps[0] == 0:
             raise DatasetError(
-                f"topic {self.topic}: the header stamps are unset (0); use --time-source bag"
+                f"topic {self.topic}: the header stamps are unset (0); use `time_source` bag"
             )
         lines = ["t_s,stamp_ns"]
         lines += [f"{(s - origin_ns) / 1e9:.9f},{s}" for s in self.stamps]

@@ -36,7 +36,7 @@ def resolve_sources(
         raise VideoError("no video given; pass video files, image folders or a trial directory")
     items = [Path(p) for p in items]
     if fps is not None and not 0 < as_number(fps) < math.inf:
-        raise VideoError(f"the frame rate (--fps) must be a positive number in Hz, got {fps!r}")
+        raise VideoError(f"the frame rate (`fps`) must be a positive number in Hz, got {fps!r}")
     if len(items) == 1 and items[0].is_dir() and (items[0] / META_NAME).is_file():
         trial = items[0]
         meta = read_trial_meta(trial)
@@ -44,7 +44,7 @@ def resolve_sources(
             raise VideoError(f"{trial / META_NAME} lists no sensor videos ('sensors')")
         if fps is not None and not math.isclose(float(fps), meta.fps, rel_tol=1e-9):
             raise VideoError(
-                f"--fps {float(fps):g} disagrees with the frame rate {meta.fps:g} of "
+                f"`fps` {float(fps):g} disagrees with the frame rate {meta.fps:g} of "
                 f"{trial / META_NAME}; a trial's image folders are timed by its meta.json "
                 "(or their timestamps.csv)"
             )
@@ -60,7 +60,7 @@ def resolve_sources(
         if rate is None and path.is_dir() and not (path / TIMESTAMPS_NAME).exists():
             image_files(path)  # a folder with no images (e.g. a dataset) says so first
             raise VideoError(
-                f"image folder {path} has no frame rate: pass --fps (the camera's frame rate) "
+                f"image folder {path} has no frame rate: pass `fps` (the camera's frame rate) "
                 f"or add {path / TIMESTAMPS_NAME} with a t_s column, one row per image"
             )
     names = [p.stem or p.name for p in sources]

@@ -61,23 +61,23 @@ def check_trial_name(root: Path, name: str, existing: Sequence[str]) -> str:
     if top in RESERVED_NAMES or top.lower().endswith(RESERVED_SUFFIXES):
         raise DatasetError(
             f"trial name {name!r}: {top!r} is reserved for the dataset's own files "
-            f"({', '.join(RESERVED_NAMES)}, *{', *'.join(RESERVED_SUFFIXES)}); choose --name"
+            f"({', '.join(RESERVED_NAMES)}, *{', *'.join(RESERVED_SUFFIXES)}); choose `name`"
         )
     for depth in range(1, len(parts)):
         folder = root.joinpath(*parts[:depth])
         if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
             raise DatasetError(
-                f"trial name {name!r}: {folder} is not a folder of trials; choose --name"
+                f"trial name {name!r}: {folder} is not a folder of trials; choose `name`"
             )
     if name in existing:
-        raise DatasetError(f"{root / MANIFEST_NAME} already lists trial {name!r}; choose --name")
+        raise DatasetError(f"{root / MANIFEST_NAME} already lists trial {name!r}; choose `name`")
     for other in existing:
         if name.startswith(other + "/") or other.startswith(name + "/"):
             raise DatasetError(
                 f"trial {name!r} would nest with trial {other!r}; trials cannot contain trials"
             )
     if (root / name).exists() or (root / name).is_symlink():
-        raise DatasetError(f"{root / name} already exists; choose another --name")
+        raise DatasetError(f"{root / name} already exists; choose another `name`")
     return name
 
 
@@ -211,7 +211,7 @@ def check_fps(fps: float | None) -> float | None:
         value = math.nan
     if not 0 < value <= MAX_RATE_HZ:
         raise DatasetError(
-            f"the frame rate (--fps) must be a positive number in Hz up to {MAX_RATE_HZ:g}, "
+            f"the frame rate (`fps`) must be a positive number in Hz up to {MAX_RATE_HZ:g}, "
             f"got {str(fps)[:40]}"
         )
     return value
@@ -262,19 +262,19 @@ def build_from_files(
         if untimed:
             raise DatasetError(
                 f"image folder {untimed[0]} has no {TIMESTAMPS_NAME}: give the camera's frame "
-                f"rate with --fps, or add a {TIMESTAMPS_NAME} (t_s column, one row per image)"
+                f"rate with `fps`, or add a {TIMESTAMPS_NAME} (t_s column, one row per image)"
             )
         rates = [it.fps for it in items if it.fps]
         if not rates:
-            raise DatasetError(f"the frame rate of {paths[0]} is unknown; give it with --fps")
+            raise DatasetError(f"the frame rate of {paths[0]} is unknown; give it with `fps`")
         rate = float(rates[0])
     else:
         rate = fps
         for it in items:
             if not it.folder and it.fps and abs(it.fps - fps) > 0.01 * it.fps:
                 warnings.append(
-                    f"--fps {fps:g} differs from the {it.fps:g} fps of {it.path.name}'s video "
-                    "stream; meta.json records --fps (videos are timed by their own timestamps)"
+                    f"`fps` {fps:g} differs from the {it.fps:g} fps of {it.path.name}'s video "
+                    "stream; meta.json records `fps` (videos are timed by their own timestamps)"
                 )
     entries, linked, copied = [], 0, 0
     reasons: set[str] = set()

@@ -11,13 +11,14 @@ Formats: ``docs/formats.md`` ("Imported recordings").
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
 
+from liquidtouch._core.checks import check_times
 from liquidtouch.errors import DatasetError, VideoError
-from liquidtouch.io.dataset import META_NAME, read_trial_meta
+from liquidtouch.io.dataset import META_NAME, TrialMeta, read_trial_meta
 from liquidtouch.tracking.clock import check_consistent
 from liquidtouch.tracking.tracks import MarkerTracks, load_tracks
 
@@ -25,7 +26,9 @@ TRACKS_NAME = "tracks.npz"
 """File name of imported marker tracks in a trial directory (``meta.json`` ``tracks``)."""
 
 
-def read_trial_tracks(trial_dir: str | os.PathLike[str], meta: object = None) -> list[MarkerTracks]:
+def read_trial_tracks(
+    trial_dir: str | os.PathLike[str], meta: TrialMeta | None = None
+) -> list[MarkerTracks]:
     """The marker tracks a trial directory stores (``meta.json`` ``tracks``), validated.
 
     Raises :class:`~liquidtouch.errors.DatasetError` if the trial lists no tracks
@@ -73,8 +76,7 @@ def _check_tracks(tr: MarkerTracks, path: Path) -> None:
             f"positions {tr.positions.shape}, valid {tr.valid.shape}, reference "
             f"{tr.reference.shape}); expected (T,), (T, N, 2), (T, N), (N, 2) with T, N >= 2"
         )
-    if not np.isfinite(t).all() or (np.diff(t) <= 0).any():
-        raise DatasetError(f"{path}: the times of sensor {tr.sensor!r} must increase strictly")
+    check_times(t, f"{path}: the times of sensor {tr.sensor!r}", DatasetError)
     if not np.isfinite(tr.reference).all():
         raise DatasetError(f"{path}: the reference of sensor {tr.sensor!r} holds NaN")
     if not np.isfinite(tr.positions[tr.valid]).all():
@@ -82,7 +84,8 @@ def _check_tracks(tr: MarkerTracks, path: Path) -> None:
 
 
 def stored_tracks(
-    paths: object, sensors: Sequence[str] | str | None = None
+    paths: str | os.PathLike[str] | Iterable[str | os.PathLike[str]],
+    sensors: Sequence[str] | str | None = None,
 ) -> list[MarkerTracks] | None:
     """The stored marker tracks when ``paths`` is one trial directory that has them, else None.
 
@@ -91,7 +94,7 @@ def stored_tracks(
     name (:class:`~liquidtouch.errors.VideoError` for unknown ones).
     """
 
-    items = [paths] if isinstance(paths, str | os.PathLike) else list(paths)  # type: ignore[call-overload]
+    items = [paths] if isinstance(paths, str | os.PathLike) else list(paths)
     if len(items) != 1 or not isinstance(items[0], str | os.PathLike):
         return None
     trial = Path(items[0])

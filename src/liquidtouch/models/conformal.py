@@ -20,7 +20,7 @@ so any level can be answered afterwards:
   design (:func:`default_groups`). For height, every liquid at one fill height is a
   twin of a sparse design (the height is read from ω, nearly the same for every
   liquid at one height): held out one trial at a time, 3-4 heights per liquid (or 6
-  with repeats) look far better than they are (``benchmarks/learning_curve.py``:
+  with repeats) look far better than they are (``benchmarks/models/learning_curve.py``:
   height RMS z 3.8-42), so the fill height is held out whole. On a dense design (≥
   :data:`DENSE_HEIGHTS` heights per liquid) that errs the other way: the held-out
   rows lie two grid steps from the nearest training height, a new trial within half
@@ -173,7 +173,7 @@ class TargetCalibration:
             raise TableError(
                 f"a {100 * float(level):g} % interval needs a model calibrated on at least "
                 f"{need} training rows; this one has {self.n} (train on at least {need} rows, "
-                f"or ask for --level {self.n / (self.n + 1):.3g} or lower)"
+                f"or ask for `level` {self.n / (self.n + 1):.3g} or lower)"
             )
         k = math.ceil((self.n + 1) * float(level) - 1e-9)
         if k < 1:  # below 1/(n + 1) no score is the quantile (index 0 would read the last)

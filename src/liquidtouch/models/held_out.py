@@ -33,7 +33,8 @@ def column_equals(
 ) -> np.ndarray:
     """Boolean mask of ``table[column] == value``: numeric for a numeric column, else text.
 
-    ``flag`` and ``path`` name the option and the table in the :class:`TableError`
+    ``flag`` (the parameter and its value, e.g. ```split` train``) and ``path`` name the
+    selection and the table in the :class:`TableError`
     raised for a missing column, a non-number for a numeric column, or no match.
     """
     if column not in table.columns:
@@ -69,21 +70,21 @@ def select_rows(
     where: Sequence[str] | None,
     path: str | os.PathLike[str],
 ) -> np.ndarray | None:
-    """The rows chosen by ``--split``/``--where`` (boolean mask; None without either)."""
+    """The rows chosen by ``split``/``where`` (boolean mask; None without either)."""
     if split is None and not where:
         return None
     mask = np.ones(len(table), dtype=bool)
     if split is not None:
-        mask &= column_equals(table, "split", split, f"--split {split}", path)
+        mask &= column_equals(table, "split", split, f"`split` {split}", path)
     for condition in where or []:
         column, sep, value = condition.partition("=")
         if not sep or not column.strip():
-            raise TableError(f"--where takes COLUMN=VALUE (e.g. split=train), got {condition!r}")
-        mask &= column_equals(table, column.strip(), value, f"--where {condition}", path)
+            raise TableError(f"`where` takes COLUMN=VALUE (e.g. split=train), got {condition!r}")
+        mask &= column_equals(table, column.strip(), value, f"`where` {condition}", path)
     if not mask.any():
         chosen = " ".join(
-            ([f"--split {split}"] if split is not None else [])
-            + [f"--where {w}" for w in where or []]
+            ([f"`split` {split}"] if split is not None else [])
+            + [f"`where` {w}" for w in where or []]
         )
         raise TableError(f"no row of {path} matches {chosen} (each alone matches some rows)")
     return mask

@@ -30,7 +30,7 @@ def check_kernel_rows(estimator: Any, n_rows: int) -> None:
             f"{type(estimator).__name__}: {n_rows} training rows, but a kernel model (GP, SVM) "
             f"is limited to {MAX_KERNEL_ROWS} rows (a model file refits it on loading, which "
             "takes O(n³) time and O(n²) memory); subsample the training table, or use the "
-            "quadratic model (--model quadratic)"
+            "quadratic model (`model` quadratic)"
         )
 
 

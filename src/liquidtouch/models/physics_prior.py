@@ -219,5 +219,5 @@ def prior_for_target(target: str) -> str:
     except KeyError:
         known = ", ".join(PRIOR_OF_TARGET)
         raise TableError(
-            f"no physics prior for column {target!r} (known: {known}); use --model gpr"
+            f"no physics prior for column {target!r} (known: {known}); use `model` gpr"
         ) from None

@@ -83,7 +83,7 @@ def train_regression(
                 f"{X.shape[0] * len(targets)} GP training rows, but a model file holds at most "
                 f"{MAX_KERNEL_ROWS_TOTAL} (each GP is refit on loading); train one model per "
                 "target, subsample the training table, or use the quadratic model "
-                "(--model quadratic)"
+                "(`model` quadratic)"
             )
     if progress is not None and not callable(progress):
         raise TableError("progress must be a callable taking the target name, or None")

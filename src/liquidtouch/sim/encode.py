@@ -8,7 +8,7 @@ zone, so the decoded marker stays put until the accumulated motion is large
 enough: a stick-slip measurement whose gain falls as the oscillation dies out
 (tracked/true ≈ 0.97 at 1.4 px, ≈ 0.83 below 0.15 px). The fitted decay rate
 of the slosh came out 15–22 % too high at CRF 20 (the same trials from the raw,
-unencoded frames: within 1 %; ``benchmarks/video_chain_accuracy.py``). Without
+unencoded frames: within 1 %; ``benchmarks/extraction/video_chain_accuracy.py``). Without
 the dead zone the videos are ~5× larger (≈ 3.7 MB per 13 s 640 × 480 sensor video)
 but keep the sub-pixel motion, as a measurement recording must. A lower CRF
 alone is worse per byte (CRF 16: +5 % at the same size).

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from liquidtouch._core.checks import check_int
 from liquidtouch._core.pool import open_executor, run_each
 from liquidtouch._core.progress import progress_bar
 from liquidtouch.errors import CatalogueError, DatasetError, OutputError
@@ -258,8 +259,7 @@ def simulate_dataset(
     """
 
     specs = get_preset(preset, quick=quick) if isinstance(preset, str) else list(preset)
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise DatasetError(f"jobs must be a whole number of at least 1, got {jobs!r}")
+    check_int(jobs, "`jobs`", 1, DatasetError)
     get_sensor_profile(sensor)
     world = get_realism(realism)
     if str(out_dir) == "":

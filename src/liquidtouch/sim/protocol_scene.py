@@ -8,7 +8,8 @@ onto the fingers over the first :data:`~liquidtouch.sim.rig.state.LIFT_OFF_MM`),
 does), the hold, the lowering (the weight goes off) and the release (contact ends). It
 follows the rig's rules (:mod:`liquidtouch.sim.rig.state`) without rendering or the
 network, so the segmentation can be measured on many random protocols in seconds
-(``benchmarks/segmentation.py``) and the streaming estimator fed marker positions directly.
+(``benchmarks/ring_down/segmentation.py``) and the streaming estimator fed marker
+positions directly.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ bit: the nuisances draw their randomness from their own streams
 clean draws are untouched and a trial with one nuisance switched on differs from
 the clean trial of the same seed by that nuisance alone. ``Realism.lab()`` switches
 all of them on at the default strengths below; :meth:`Realism.only` and
-:meth:`Realism.scaled` build the single-nuisance worlds of ``benchmarks/nuisances.py``.
+:meth:`Realism.scaled` build the single-nuisance worlds of ``benchmarks/sim/nuisances.py``.
 
 The clean simulator already varies what a careful lab varies
 (:mod:`liquidtouch.sim.variability`: lab temperature N(21, 1.5) °C, fill error

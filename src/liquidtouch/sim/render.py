@@ -10,8 +10,9 @@ the imprint moved; one full-image pass turns it into uint8 times the flicker
 gain; the markers' patches, evaluated from a radial look-up table at their exact
 sub-pixel offsets, are written over that from their windows only (all markers at
 once with one gather and one scatter); one pass adds the noise. The pixels are
-bit-identical to the renderer before issue 27 (``benchmarks/render_v0.py``),
-which re-darkened and restored a float32 copy of the frame every frame.
+bit-identical to the renderer before issue 27 (this file at git 675ffb2, measured
+against by ``benchmarks/sim/simulate_speed.py``), which re-darkened and restored a
+float32 copy of the frame every frame.
 
 A marker's darkening is radially symmetric about its intended position and its
 edge is a Gaussian-blurred step (``marker_edge_px``), so the pixel-sampled blob

@@ -26,7 +26,7 @@ choices meant to match a careful lab, not measured:
 - wrist force-torque noise: 1.2 N and 0.06 N·m per sample (:mod:`liquidtouch.sim.grasp`).
 
 Calibration: the spreads above were set once, by running the paper's method on
-the simulator's force signal (``benchmarks/sim_calibration.py``: 3 Hz low-pass,
+the simulator's force signal (``benchmarks/sim/sim_calibration.py``: 3 Hz low-pass,
 30 fps, ``fit_oscillation``, GPR with RBF + white noise on standardised λ, ω,
 full ``sugar`` preset) and widening the physically motivated spreads (fill,
 wetting, temperature, weighing) — never the estimator — until the force-level
