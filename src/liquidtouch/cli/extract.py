@@ -220,7 +220,6 @@ def features(
         fit_settings=settings,
     )
     target = out or Path(dataset) / FEATURES_NAME
-    if as_json:
     failed = table[table["error"].astype(str) != ""]
     if as_json:
         typer.echo(json.dumps(_features_summary(table, target), ensure_ascii=False))
