@@ -16,15 +16,6 @@ from liquidtouch.cli.flags import PARAMETER_FLAGS, name_flags
 
 CLI = Path(__file__).resolve().parents[2] / "src" / "liquidtouch" / "cli"
 MAX_LINES = 60
-#: commands being rewritten by another engineer of issue 37 (predict's logic into the
-#: library, the device commands); they meet the rule there: drop them from here then
-PENDING = {
-    "live.py:live",
-    "predict.py:predict",
-    "record.py:record",
-    "rig.py:serve_command",
-    "rig.py:run_trial_command",
-}
 
 
 def _functions() -> list[tuple[str, int]]:
@@ -41,22 +32,11 @@ FUNCTIONS = _functions()
 
 @pytest.mark.parametrize(
     "name, lines",
-    [
-        pytest.param(
-            name,
-            lines,
-            marks=pytest.mark.xfail(name in PENDING, reason="being rewritten", strict=False),
-        )
-        for name, lines in FUNCTIONS
-    ],
+    FUNCTIONS,
     ids=[name for name, _ in FUNCTIONS],
 )
 def test_no_cli_function_is_over_60_lines(name: str, lines: int) -> None:
     assert lines <= MAX_LINES, f"{name} is {lines} lines: move what it computes into the library"
-
-
-def test_the_pending_list_names_real_functions() -> None:
-    assert PENDING <= {name for name, _ in FUNCTIONS}
 
 
 def test_error_messages_name_the_flag_of_a_parameter() -> None:

@@ -211,19 +211,12 @@ def classify(
 ) -> None:
     """Train the RBF-SVM liquid classifier (with class probabilities) and save it."""
     from liquidtouch._core.numbers import percent
-    from liquidtouch.io.tables import label_column
-    from liquidtouch.models.held_out import (
-        classification_accuracy,
-        selection_summary,
-        split_rows,
-    )
     from liquidtouch.models.modelfile import save_model
-    from liquidtouch.models.training import train_classifier
+    from liquidtouch.models.table_training import classify_on_table
 
-    table, X, skipped = _read_training_table(features)
-    table, X, rest, chosen = split_rows(table, X, split, where, features)
-    fitted = train_classifier(X, label_column(table, label), label=label)
-    held_out = None if rest is None else classification_accuracy(fitted, rest, label)
+    table, _, skipped = _read_training_table(features)
+    trained = classify_on_table(table, label, split=split, where=where, source=features)
+    fitted, held_out = trained.model, trained.held_out
     save_model(fitted, out)
     rule = fitted.classifier.unknown_status()
     if rule != "available":
@@ -233,30 +226,12 @@ def classify(
             f"here: {fewest}): it names a liquid it was not trained on as one it was"
         )
     if as_json:
-        clf = fitted.classifier
-        typer.echo(
-            json.dumps(
-                {
-                    "out": str(out),
-                    "kind": fitted.kind,
-                    "label": label,
-                    "classes": clf.classes_.tolist(),
-                    "n_rows": int(X.shape[0]),
-                    "n_skipped": skipped,
-                    "selection": selection_summary(chosen, split, where),
-                    "training_accuracy": fitted.training_mae()["accuracy"],
-                    "held_out": held_out,
-                    "C": clf.C_,
-                    "gamma": clf.gamma_,
-                    "unknown_rule": rule,
-                }
-            )
-        )
+        typer.echo(json.dumps(_classification_summary(trained, label, out, skipped, rule)))
         return
     _echo_summary(fitted.summary(), out)
     if held_out is not None:
         _print_held_out(
-            f"evaluation on the {len(rest)} rows not selected",
+            f"evaluation on the {trained.n_held_out} rows not selected",
             ["label", "rows", "training accuracy", "held-out accuracy"],
             [
                 [
@@ -267,6 +242,28 @@ def classify(
                 ]
             ],
         )
+
+
+def _classification_summary(
+    trained: Any, label: str, out: Path, skipped: int, rule: str
+) -> dict[str, Any]:
+    """``classify --json``: the classes, the rows, the accuracies and the unknown rule."""
+    fitted = trained.model
+    clf = fitted.classifier
+    return {
+        "out": str(out),
+        "kind": fitted.kind,
+        "label": label,
+        "classes": clf.classes_.tolist(),
+        "n_rows": trained.n_rows,
+        "n_skipped": skipped,
+        "selection": trained.selection,
+        "training_accuracy": fitted.training_mae()["accuracy"],
+        "held_out": trained.held_out,
+        "C": clf.C_,
+        "gamma": clf.gamma_,
+        "unknown_rule": rule,
+    }
 
 
 TransferFrom = Annotated[

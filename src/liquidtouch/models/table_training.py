@@ -1,6 +1,6 @@
-"""Training and container transfer on the selected rows of a features table.
+"""Training, classification and container transfer on the selected rows of a features table.
 
-What ``liquidtouch train`` and ``liquidtouch transfer`` compute, callable from a
+What ``liquidtouch train``, ``classify`` and ``transfer`` compute, callable from a
 notebook: the rows chosen by ``split`` / ``where`` (all rows without either;
 :mod:`liquidtouch.models.held_out`) are fitted on, and the labelled rows not chosen are
 evaluated afterwards (MAE per target, in the target's unit). The table holds
@@ -19,11 +19,16 @@ import numpy as np
 import pandas as pd
 
 from liquidtouch.errors import TableError
-from liquidtouch.io.tables import feature_matrix, numeric_column
+from liquidtouch.io.tables import feature_matrix, label_column, numeric_column
 from liquidtouch.models.conformal import default_groups
-from liquidtouch.models.held_out import regression_errors, selection_summary, split_rows
+from liquidtouch.models.held_out import (
+    classification_accuracy,
+    regression_errors,
+    selection_summary,
+    split_rows,
+)
 from liquidtouch.models.property_model import PropertyModel, feature_std_matrix
-from liquidtouch.models.training import train_regression
+from liquidtouch.models.training import train_classifier, train_regression
 from liquidtouch.models.transfer import TransferResult, fit_transfer
 
 #: ``calibration_folds`` of :func:`train_on_table` when not given (``train``'s default)
@@ -44,7 +49,7 @@ class TableTraining:
     model: PropertyModel
     n_rows: int
     selection: dict[str, object] | None
-    held_out: dict[str, dict[str, float | int]] | None
+    held_out: dict[str, dict[str, float | int]] | dict[str, float | int] | None
     n_held_out: int
     transfer: TransferResult | None = None
 
@@ -106,6 +111,30 @@ def train_on_table(
         n_rows=int(X.shape[0]),
         selection=selection_summary(chosen, split, where),
         held_out=held_out,
+        n_held_out=0 if rest is None else len(rest),
+    )
+
+
+def classify_on_table(
+    table: pd.DataFrame,
+    label: str = "liquid",
+    *,
+    split: str | None = None,
+    where: Sequence[str] | None = None,
+    source: str | os.PathLike[str] = "the table",
+) -> TableTraining:
+    """Train the liquid classifier on the chosen rows of ``table`` (its ``label`` column).
+
+    ``held_out`` is the accuracy on the labelled rows not chosen (``{"n_rows",
+    "accuracy"}``); ``source`` names the table in error messages.
+    """
+    table, X, rest, chosen = split_rows(table, feature_matrix(table), split, where, source)
+    fitted = train_classifier(X, label_column(table, label), label=label)
+    return TableTraining(
+        model=fitted,
+        n_rows=int(X.shape[0]),
+        selection=selection_summary(chosen, split, where),
+        held_out=None if rest is None else classification_accuracy(fitted, rest, label),
         n_held_out=0 if rest is None else len(rest),
     )
 
