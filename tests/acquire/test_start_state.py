@@ -25,6 +25,7 @@ from liquidtouch.acquire.start_state import (
     check_start_state,
     recover_start_state,
 )
+from liquidtouch.errors import DeviceError
 from liquidtouch.protocols import gcl
 from liquidtouch.sim.rig.rig import RigServer
 from liquidtouch.sim.rig.state import HOME_POSE, Rig
@@ -183,3 +184,10 @@ def test_run_trial_refuses_a_held_bottle_and_recover_puts_it_down(rig, tmp_path,
     assert "could not be opened" in capsys.readouterr().err  # the camera, after recovering
     assert not rig.dropped and not rig.status()["gripper"]["holding"]
     assert max(abs(a - b) for a, b in zip(rig.pose(), HOME_POSE, strict=True)) < 1e-6
+
+
+def test_a_grip_that_finds_no_bottle_says_what_to_check(tmp_path):
+    gripper, arm = SimGripper(part_width_mm=None), SimArm()
+    with pytest.raises(DeviceError, match="is the bottle standing between the open fingers"):
+        run_trial(gripper, arm, ["0"], tmp_path / "t", FAST, recorder_factory=StubRecorder)
+    assert arm.moves == []  # nothing lifted

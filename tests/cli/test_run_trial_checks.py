@@ -63,16 +63,19 @@ def _bad_options(tmp_path, models):
         "label": (["--label", "novalue"], "KEY=VALUE"),
         "timeout": (["--open-timeout", "-1"], "timeout"),
         "out not empty": (["--out", full], "not empty"),
+        "camera typo": (["--camera", tmp_path / "nocam.mp4"], "camera source"),
+        "one camera twice": (["--camera", "0", "--camera", "0"], "same camera"),
     }
 
 
 def test_a_bad_option_moves_nothing(rig, models, tmp_path, capsys):
     rig, endpoints = rig
     base = ["run-trial", "--gripper", endpoints["gripper"], "--arm", endpoints["arm"]]
-    base += ["--camera", "http://127.0.0.1:9/a", "--camera", "http://127.0.0.1:9/b"]
+    cameras = ["--camera", "http://127.0.0.1:9/a", "--camera", "http://127.0.0.1:9/b"]
     for case, (extra, said) in _bad_options(tmp_path, models).items():
         out = [] if "--out" in extra else ["--out", str(tmp_path / "trial")]
-        status = main([*base, *out, *map(str, extra)])
+        own = [] if "--camera" in extra else cameras
+        status = main([*base, *own, *out, *map(str, extra)])
         err = capsys.readouterr().err
         assert status == 2, (case, err)
         assert err.startswith("error:") or "Error" in err, (case, err)

@@ -228,7 +228,10 @@ def test_rows_outside_the_training_domain_are_flagged(files, tmp_path, capsys, c
     out = tmp_path / "p.csv"
     status, _, err = _run(capsys, "predict", model, files / "far.csv", "--out", out)
     assert status == 0  # a warning, not an error
-    warning = err.strip().splitlines()
+    # a classifier also says which rows it names unknown, and that its rule is unavailable
+    # on few rows per class (issue 41): out_of_domain holds those rows too, as in `live`
+    about_unknown = ("far from every trained class", "cannot flag unknown")
+    warning = [w for w in err.strip().splitlines() if not any(a in w for a in about_unknown)]
     assert len(warning) == 1, warning
     assert re.fullmatch(
         r"warning: 2 row\(s\) outside the training domain \(λ in \[\S+, \S+\] 1/s, "
@@ -236,7 +239,8 @@ def test_rows_outside_the_training_domain_are_flagged(files, tmp_path, capsys, c
         warning[0],
     ), warning[0]
     predicted = pd.read_csv(out)
-    assert predicted["out_of_domain"].tolist() == [False, True, True]
+    unknown = predicted.get("predicted_liquid", pd.Series([""] * 3)).eq("unknown").tolist()
+    assert predicted["out_of_domain"].tolist() == [unknown[0], True, True]
     assert predicted.columns[-1] == "out_of_domain"
     # the features of the training table are all inside
     status, _, err = _run(capsys, "predict", model, Path(command[1].format(d=files)), "-o", out)
@@ -430,7 +434,8 @@ def test_failed_rows_are_skipped_with_a_warning(files, tmp_path, capsys, command
     status, _, err = _run(capsys, *args, "--out", tmp_path / "m.json")
     assert status == 0, err
     n = len(pd.read_csv(table))
-    assert err.strip().splitlines() == [
+    lines = [w for w in err.strip().splitlines() if "cannot flag unknown" not in w]  # issue 41
+    assert lines == [
         f"warning: skipped 2 of {n} rows of {table} whose feature extraction failed "
         "(non-empty error or empty features): rows 2, 5"
     ]

@@ -397,8 +397,8 @@ def test_verbose_logs_the_lab_path_to_stderr(tmp_path, caplog):
 
     from liquidtouch.cli import configure_logging, main
 
-    argv = ["run-trial", "--gripper", "sim://", "--arm", "sim://", "--camera", "/nonexistent"]
-    argv += ["--out", str(tmp_path / "t")]
+    argv = ["run-trial", "--gripper", "sim://", "--arm", "sim://"]
+    argv += ["--camera", "http://127.0.0.1:9/stream", "--out", str(tmp_path / "t")]
     package = logging.getLogger("liquidtouch")
     try:
         assert main(argv) == 2

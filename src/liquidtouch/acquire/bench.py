@@ -1,9 +1,9 @@
 """A trial from device URLs: every input checked before the first command to a device.
 
 :func:`run_trial_at` (its parameters:
-:func:`~liquidtouch.acquire.protocol_params.trial_parameters`) makes the recorder (which
-checks the trial directory, the sensor
-names, the labels and the camera options), then connects to the gripper and the arm and
+:func:`~liquidtouch.acquire.protocol_params.trial_parameters`) checks the camera sources and
+makes the recorder (which checks the trial directory, the sensor names, the labels and the
+camera options), then connects to the gripper and the arm and
 runs :func:`~liquidtouch.acquire.protocol.run_trial` — whose first step reads the
 devices' state and refuses (or, ``recover``, mends) an unexpected one. A bad input is a
 :class:`~liquidtouch.errors.LiquidTouchError` before anything is connected, so nothing
@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from liquidtouch.acquire.arms import RigArm, open_arm
+from liquidtouch.acquire.cameras.sources import check_distinct_sources
 from liquidtouch.acquire.grippers import open_gripper
 from liquidtouch.acquire.protocol import TrialRun, make_recorder, run_trial
 from liquidtouch.acquire.protocol_params import ProtocolParameters
@@ -48,6 +49,7 @@ def run_trial_at(
     """
     if names and len(names) != len(cameras):
         raise LiquidTouchError(f"{len(cameras)} --camera but {len(names)} --name")
+    check_distinct_sources([str(c) for c in cameras])  # a mistyped camera, before connecting
     recorder = make_recorder(
         list(cameras),
         out_dir,

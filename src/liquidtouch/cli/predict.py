@@ -127,11 +127,16 @@ def _warn_rows(result, fitted) -> None:
 
     for i in np.flatnonzero(result.failed):
         warn(f"{result.who(i)}: {result.errors[i]}")
-    if result.outside.any():
+    if result.outside_domain.any():
         warn(
-            f"{int(result.outside.sum())} row(s) outside what the model knows (its training "
-            f"domain, {fitted.describe_domain()}, or an unknown liquid): rows "
-            f"{row_list(result.outside)}"
+            f"{int(result.outside_domain.sum())} row(s) outside the training domain "
+            f"({fitted.describe_domain()}): rows {row_list(result.outside_domain)}"
+        )
+    alone = result.unknown & ~result.outside_domain  # out of domain as unknown only
+    if alone.any():
+        warn(
+            f"{int(alone.sum())} row(s) far from every trained class (named unknown; "
+            f"out_of_domain): rows {row_list(alone)}"
         )
     rule = unknown_rule(fitted)
     if rule is not None and rule != "available":

@@ -2,7 +2,8 @@
 
 Regressors (Gaussian process, quadratic, physics-informed GP) for fill height
 [mm], sugar concentration [g per 100 g water] and log10 viscosity [cSt]; the
-liquid classifier (RBF SVM); container transfer; and the JSON model files.
+liquid classifier (RBF SVM); container transfer; the JSON model files; and
+:func:`predict_rows`, a features table's predictions as ``predict`` and ``live`` give them.
 The estimators are scikit-learn estimators (one target each); see
 :mod:`liquidtouch.models.regressors`. This layer imports neither PyAV nor
 OpenCV nor the video stages: it trains on feature tables alone
@@ -13,6 +14,7 @@ from liquidtouch.models.classifier import LiquidClassifier
 from liquidtouch.models.feature_space import TrainingDomain
 from liquidtouch.models.modelfile import load_model, save_model
 from liquidtouch.models.physics_prior import PhysicsGPRegressor
+from liquidtouch.models.predictions import predict_rows
 from liquidtouch.models.property_model import MODEL_KINDS, PropertyModel
 from liquidtouch.models.quadratic import QuadraticRegressor
 from liquidtouch.models.regressors import GPRegressor
@@ -29,6 +31,7 @@ __all__ = [
     "TrainingDomain",
     "fit_transfer",
     "load_model",
+    "predict_rows",
     "save_model",
     "train_classifier",
     "train_regression",

@@ -91,12 +91,15 @@ def check_level(model: object, level: float | None) -> str | None:
 class Predictions:
     """``predict_rows``'s result: the table with its predicted columns, and per row whether its
     features failed (``failed``, with ``errors``: the reason, "" for a good row) and whether it
-    lies out of domain (``outside``)."""
+    lies out of domain (``outside``: outside the training domain, ``outside_domain``, or
+    named unknown by a classifier, ``unknown``)."""
 
     table: pd.DataFrame
     failed: np.ndarray
     outside: np.ndarray
     errors: list[str] = field(default_factory=list)
+    outside_domain: np.ndarray | None = None
+    unknown: np.ndarray | None = None
 
     def who(self, i: int) -> str:
         """Row ``i`` in words: ``trial <name>``, else ``row <i + 1>``."""
@@ -131,10 +134,15 @@ def predict_rows(model: object, table: pd.DataFrame, level: float | None = None)
     answers = None
     if getattr(model, "kind", "") == "classification":
         answers = predicted[f"predicted_{model.targets[0]}"].to_numpy()
-    outside = np.zeros(len(table), dtype=bool)
-    outside[np.flatnonzero(~failed)] = out_of_domain(model, feature_matrix(good), answers)
-    result["out_of_domain"] = outside
+    rows = np.flatnonzero(~failed)
+    outside_domain = np.zeros(len(table), dtype=bool)
+    outside_domain[rows] = out_of_domain(model, feature_matrix(good))
+    unknown = np.zeros(len(table), dtype=bool)
+    if answers is not None:
+        unknown[rows] = np.asarray(answers, dtype=object) == UNKNOWN
+    outside = outside_domain | unknown  # out_of_domain (module docstring)
     rule = unknown_rule(model)
     if rule is not None:
         result["unknown_rule"] = rule
-    return Predictions(result, failed, outside, errors)
+    result["out_of_domain"] = outside  # the last column, as it always was
+    return Predictions(result, failed, outside, errors, outside_domain, unknown)
