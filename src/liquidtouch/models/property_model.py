@@ -283,9 +283,10 @@ class PropertyModel:
         (:func:`~liquidtouch.models.combine.combine_ring_downs`), ``X_std`` their std.
         A target whose asked std is below what any number of pushes of this kind gives —
         the model's own std, or the fit's :data:`~liquidtouch.models.reach.FIT_FLOOR`
-        through the model's slope — or whose (λ, ω) is outside the training range
-        "cannot be told here" (:mod:`liquidtouch.models.reach`). ``until_std`` may also
-        name ``decay_rate`` and ``angular_frequency`` (the fit's own std, no model part).
+        through the model's slope — or whose (λ, ω) or predicted value lies outside the
+        training range "cannot be told here" (:mod:`liquidtouch.models.reach`).
+        ``until_std`` may also name ``decay_rate`` and ``angular_frequency`` (the fit's own
+        std, no model part).
         """
         X = check_features(X)[:1]
         X_std = clean_feature_std(X_std, 1)
@@ -299,8 +300,8 @@ class PropertyModel:
                 j = FEATURE_COLUMNS.index(target)
                 model_std, fit_std, floor_std, known = 0.0, X_std[0, j], floor[0, j], True
             elif target in parts:
-                model_std, fit_std = parts[target][1][0], parts[target][2][0]
-                floor_std, known = floors[target][2][0], inside
+                mean, model_std, fit_std = (v[0] for v in parts[target])
+                floor_std, known = floors[target][2][0], inside and self._trained_on(target, mean)
             else:
                 raise TableError(f"the model does not predict {target!r}; it predicts "
                                  f"{', '.join(self.targets)}")  # fmt: skip
@@ -309,6 +310,12 @@ class PropertyModel:
                 floor_std=float(floor_std), pushes=pushes, in_domain=known,
             )  # fmt: skip
         return out
+
+    def _trained_on(self, target: str, value: float) -> bool:
+        """Whether ``value`` lies within the range of ``target`` the model was trained on
+        (``True`` when the estimator does not keep its training targets)."""
+        y = getattr(self.regressors[target], "y_train_", None)
+        return y is None or bool(np.min(y) <= value <= np.max(y))
 
     def predict_interval(
         self, X: Any, level: float, X_std: Any = None, corr: Any = 0.0

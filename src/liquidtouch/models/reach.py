@@ -13,7 +13,9 @@ and ``std(∞) = hypot(model, floor)`` is the best any number of pushes of this 
 give. A target asked below it **cannot be told here**: the reason is the model's own
 ± (``"model"``), or the target's sensitivity to (λ, ω) — e.g. a deep fill, where ω
 hardly moves with the height — times the fit's attainable std (``"sensitivity"``), or
-(λ, ω) outside the model's training range (``"domain"``, where the model extrapolates).
+the model's training range (``"domain"``: (λ, ω) outside it, or a predicted value
+beyond the targets it was trained on — where the model extrapolates, e.g. a deep fill
+whose saturated ω a model of shallower fills takes for its deepest).
 Otherwise :attr:`Reach.pushes_needed` says how many pushes of this kind reach it.
 """
 
@@ -69,8 +71,8 @@ class Reach:
         t, a = self.target, self.asked
         if self.reason == "domain":
             return (
-                f"cannot tell {t} here: (λ, ω) lies outside the model's training range, "
-                "where its ± would be an extrapolation"
+                f"cannot tell {t} here: (λ, ω) or the answer lies outside the model's "
+                "training range, where its ± would be an extrapolation"
             )
         if self.reason == "model":
             return (
