@@ -3,6 +3,7 @@ and "cannot tell here" (models.reach, PropertyModel.reach) on an upright bottle'
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -42,8 +43,11 @@ def test_one_ring_down_is_its_own_estimate_and_unusable_ones_are_left_out():
            "angular_frequency_std": 1e-6}  # fmt: skip
     bad = {**one, "decay_rate_std": float("nan")}
     c = combine_ring_downs([bad, one])
-    assert c.used == (1,) and c.n == 1
-    assert c.decay_rate_std == 1e-6  # one ring-down: not floored, as the stream shows it
+    assert c.used == (1,) and c.n == 1 and c.consistent
+    assert (c.decay_rate, c.angular_frequency) == (1.0, 14.0)
+    assert c.decay_rate_std == pytest.approx(FIT_FLOOR[0])  # floored, as a combination is
+    loose = combine_ring_downs([{**one, "decay_rate_std": 0.3}])
+    assert loose.decay_rate_std == 0.3
     with pytest.raises(SignalError, match="no ring-down"):
         combine_ring_downs([bad])
     with pytest.raises(SignalError, match="as numbers"):
@@ -80,6 +84,16 @@ def test_many_precise_ring_downs_never_go_below_the_fit_floor():
     c = combine_ring_downs(items)
     assert c.decay_rate_std == pytest.approx(FIT_FLOOR[0] * 1.2)
     assert c.angular_frequency_std == pytest.approx(FIT_FLOOR[1] * 14.0)
+    # adding a ring-down never widens a consistent answer
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        draws = _draws(rng, 3, rng.uniform(0.001, 0.1, 3), rng.uniform(1e-4, 0.05, 3))
+        stds = [combine_ring_downs(draws[:k]) for k in (1, 2, 3)]
+        for a, b in itertools.pairwise(stds):
+            if b.consistent:
+                assert b.angular_frequency_std <= a.angular_frequency_std * (1 + 1e-12) or (
+                    b.angular_frequency_std == pytest.approx(FIT_FLOOR[1] * b.angular_frequency)
+                )
 
 
 def test_reach_arithmetic():

@@ -73,7 +73,8 @@ def test_plan_upright_deep_cannot_be_resolved_and_box_proposes_its_length():
     box = plan_push("grooved-cuboid", "height_mm", 0.5, fills_mm=[20.0, 30.0, 40.0])
     assert box.reachable and box.chosen.axis == "x"
     across = next(a for a in box.axes if a.axis == "y")
-    assert not all(across.reachable)  # 55 mm across: the deeper fills are out of reach
+    # 55 mm across: ω is far less sensitive to a deep fill than along the 100 mm length
+    assert across.limit_std[-1] > 3 * box.chosen.limit_std[-1]
     for a in box.axes:
         assert a.steepness <= reference_steepness() * (1 + 1e-9)
     assert box.protocol_values()["push_axis"] == "x"

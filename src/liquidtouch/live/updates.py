@@ -69,6 +69,10 @@ class LiveUpdate:
         (a later push starts segment ``segment + 1``).
     segments : final update only: every ring-down's final estimate (``RingDown.summary``).
     events : the protocol's events on the decay clock [s] (``run-trial``), for the plot.
+    combined : once a ring-down is final: every final ring-down so far combined by its ±
+        (:func:`liquidtouch.live.combined.combined_answer`: λ, ω, their std, ``ring_downs``,
+        ``consistent``, ``outliers``; with a regression model ``predicted`` and, given
+        ``until_std``, ``reach`` per target: met, pushes needed, or cannot tell and why).
     out_of_domain : with a model, once λ and ω are reported: (λ, ω) lies outside what the
         model knows — outside its training domain, or a classifier's answer is "unknown"
         (``liquidtouch.live.properties.out_of_domain``); None without a model or estimate.
@@ -103,6 +107,7 @@ class LiveUpdate:
     segment_final: bool = False
     segments: list[dict[str, object]] = field(default_factory=list)
     events: dict[str, float] = field(default_factory=dict)
+    combined: dict[str, object] = field(default_factory=dict)
     out_of_domain: bool | None = None
     signal_t_s: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     signal_u: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
@@ -162,6 +167,8 @@ class LiveUpdate:
             segment_final=bool(self.segment_final),
             out_of_domain=self.out_of_domain,
         )
+        if self.combined:
+            out["combined"] = self.combined
         if self.final:
             out["segments"] = self.segments
             out["stopped_because"] = self.stopped_because

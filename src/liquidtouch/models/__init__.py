@@ -2,7 +2,9 @@
 
 Regressors (Gaussian process, quadratic, physics-informed GP) for fill height
 [mm], sugar concentration [g per 100 g water] and log10 viscosity [cSt]; the
-liquid classifier (RBF SVM); container transfer; and the JSON model files.
+liquid classifier (RBF SVM); container transfer; the JSON model files; and several
+ring-downs of one bottle combined by their ± (:func:`combine_ring_downs`), with
+whether a target can reach its ± at all (:meth:`PropertyModel.reach`).
 The estimators are scikit-learn estimators (one target each); see
 :mod:`liquidtouch.models.regressors`. This layer imports neither PyAV nor
 OpenCV nor the video stages: it trains on feature tables alone
@@ -10,6 +12,7 @@ OpenCV nor the video stages: it trains on feature tables alone
 """
 
 from liquidtouch.models.classifier import LiquidClassifier
+from liquidtouch.models.combine import combine_ring_downs
 from liquidtouch.models.feature_space import TrainingDomain
 from liquidtouch.models.modelfile import load_model, save_model
 from liquidtouch.models.physics_prior import PhysicsGPRegressor
@@ -27,6 +30,7 @@ __all__ = [
     "PropertyModel",
     "QuadraticRegressor",
     "TrainingDomain",
+    "combine_ring_downs",
     "fit_transfer",
     "load_model",
     "save_model",

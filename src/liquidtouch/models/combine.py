@@ -12,9 +12,9 @@ only as far as they agree:
   Birge ratio ``sqrt(χ²/(n − 1))`` — the spread the ring-downs show, not the ± they
   claimed. Nothing is dropped: the caller reports the disagreement.
 - **Floor**: repeating a push of the same kind does not average away what every such
-  push shares (the fit's systematic error at this amplitude). Several ring-downs never
-  give a std below :data:`~liquidtouch.models.reach.FIT_FLOOR` × the value
-  (:mod:`liquidtouch.models.reach`); one ring-down is its own estimate, unchanged.
+  push shares (the fit's systematic error). The combined std is never below
+  :data:`~liquidtouch.models.reach.FIT_FLOOR` × the value (:mod:`liquidtouch.models.reach`)
+  — for one ring-down too, so that adding a push never widens the answer's ±.
 
 One implementation for ``run-trial --max-pushes``, ``live`` (the ring-downs of one
 stream) and the Python API (``liquidtouch.combine_ring_downs``).
@@ -138,24 +138,18 @@ def combine_ring_downs(
         raise SignalError(
             "no ring-down to combine: none has a finite λ, ω and std (was the bottle pushed?)"
         )
-    if len(used) == 1:
-        e = items[used[0]]
-        return CombinedRingDowns(
-            e.decay_rate, e.decay_rate_std, e.angular_frequency, e.angular_frequency_std,
-            n=1, used=used,
-        )  # fmt: skip
     rows = [items[i] for i in used]
     out: dict[str, tuple[float, float]] = {}
     chi: dict[str, float] = {}
     residuals = np.zeros(len(rows))
     dof = len(rows) - 1
-    limit = float(chi2.ppf(CONSISTENCY_LEVEL, dof))
+    limit = float(chi2.ppf(CONSISTENCY_LEVEL, dof)) if dof else math.inf
     for name, floor in zip(FEATURE_COLUMNS, FIT_FLOOR, strict=True):
         x, s = _column(rows, name)
         mean, std, stat = _weighted(x, s)
         chi[name] = stat
         residuals = np.maximum(residuals, np.abs(x - mean) / s)
-        if stat > limit:  # disagree: the spread they show, not the ± they claim
+        if stat > limit:  # disagree: the spread they show, not the ± they claim (dof ≥ 1)
             std *= math.sqrt(stat / dof)
         out[name] = (mean, max(std, floor * abs(mean)))
     consistent = all(v <= limit for v in chi.values())

@@ -27,12 +27,11 @@ from dataclasses import dataclass
 __all__ = ["FIT_FLOOR", "Reach", "reach_of"]
 
 #: The fit's systematic error relative to (λ, ω), which repeating a push of the same
-#: kind does not average away. ω: the default fit is within 0.2 % of the simulator's
-#: truth (10th-90th percentile, every liquid but detergent; benchmarks/RESULTS.md
-#: "# fit bias"). λ: the fit extrapolates an amplitude-dependent decay to its
-#: small-amplitude rate, the same way at every push of one strength; its scatter tail
-#: lies beyond 5 % (same section), so 5 %.
-FIT_FLOOR: tuple[float, float] = (0.05, 0.002)
+#: kind does not average away: the largest per-liquid median error of the default fit
+#: against the simulator's truth at the marker level, detergent aside (whose bias, its
+#: shear thinning, a model trained on such fits learns): λ +1.6 %, ω +0.046 % (olive
+#: oil at a 0.5× push; benchmarks/RESULTS.md "# fit bias"), rounded up to 2 % and 0.05 %.
+FIT_FLOOR: tuple[float, float] = (0.02, 0.0005)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,74 @@
+"""Several pushes in one stream (issue 40): each ring-down final on its own, all combined by
+their ± the same way as the API (``liquidtouch.combine_ring_downs``), with the model's
+answer and whether the asked ± is reachable.
+
+The protocol is simulated at the marker level (``liquidtouch.sim.protocol_scene`` with
+``pushes``: every push restarts the slosh with fresh contact noise, back and forth).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import liquidtouch
+from liquidtouch.live.estimator import LiveEstimator
+from liquidtouch.models.reach import FIT_FLOOR
+from liquidtouch.sim.protocol_scene import ProtocolTimings, protocol_scene
+
+SENSORS = ("left", "right")
+
+
+def _stream(scene, **kwargs):
+    estimator = LiveEstimator(list(SENSORS), protocol=True, **kwargs)
+    pending = list(scene.event_sequence)
+    updates = []
+    for k, t_s in enumerate(scene.t):
+        while pending and pending[0][1] <= t_s:
+            estimator.add_event(*pending.pop(0))
+        for s, name in enumerate(SENSORS):
+            update = estimator.add_markers(name, t_s + 1e-3 * s, scene.positions[s, k])
+            if update is not None:
+                updates.append(update)
+    updates.append(estimator.finish())
+    return updates
+
+
+@pytest.fixture(scope="module")
+def three_pushes():
+    timings = ProtocolTimings(hold_s=5.0, pushes=3)
+    return protocol_scene("mirin", height_mm=25, seed=1, timings=timings)
+
+
+def test_event_sequence_of_several_pushes(three_pushes) -> None:
+    names = [n for n, _ in three_pushes.event_sequence]
+    assert names.count("push") == 3 and names.count("hold_end") == 2
+    times = [t for _, t in three_pushes.event_sequence]
+    assert times == sorted(times)
+    single = ProtocolTimings()
+    assert single.events() == dict(single.event_sequence())  # one push: as before
+
+
+@pytest.mark.timeout(600)
+def test_three_ring_downs_final_and_combined(three_pushes) -> None:
+    scene = three_pushes
+    updates = _stream(scene)
+    final = updates[-1]
+    assert [s["segment"] for s in final.segments] == [1, 2, 3]
+    combined = final.combined
+    assert combined["ring_downs"] == 3 and combined["consistent"], combined
+    # the same combination as the API's, from the segments' own estimates
+    api = liquidtouch.combine_ring_downs(final.segments)
+    assert combined["angular_frequency"] == pytest.approx(api.angular_frequency)
+    assert combined["decay_rate_std"] == pytest.approx(api.decay_rate_std)
+    lam, omega = scene.true_decay_rate, scene.true_angular_frequency
+    assert abs(combined["angular_frequency"] - omega) < max(
+        3 * combined["angular_frequency_std"], 0.005 * omega
+    )
+    assert combined["decay_rate"] == pytest.approx(lam, rel=0.1)
+    singles = np.array([s["angular_frequency_std"] for s in final.segments])
+    floor = FIT_FLOOR[1] * combined["angular_frequency"]
+    assert combined["angular_frequency_std"] <= max(singles.min(), floor) * (1 + 1e-9)
+    # each ring-down's estimate is its own (never replaced by the combination)
+    assert len({s["angular_frequency"] for s in final.segments}) == 3
+    assert "combined" in final.to_dict()
