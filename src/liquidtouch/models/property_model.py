@@ -301,7 +301,8 @@ class PropertyModel:
                 model_std, fit_std, floor_std, known = 0.0, X_std[0, j], floor[0, j], True
             elif target in parts:
                 mean, model_std, fit_std = (v[0] for v in parts[target])
-                floor_std, known = floors[target][2][0], inside and self._trained_on(target, mean)
+                floor_std = floors[target][2][0]
+                known = inside and self._trained_on(target, mean, model_std)
             else:
                 raise TableError(f"the model does not predict {target!r}; it predicts "
                                  f"{', '.join(self.targets)}")  # fmt: skip
@@ -311,11 +312,11 @@ class PropertyModel:
             )  # fmt: skip
         return out
 
-    def _trained_on(self, target: str, value: float) -> bool:
-        """Whether ``value`` lies within the range of ``target`` the model was trained on
-        (``True`` when the estimator does not keep its training targets)."""
+    def _trained_on(self, target: str, value: float, std: float) -> bool:
+        """Whether ``value`` lies within the range of ``target`` the model was trained on,
+        give or take its own ``std`` (``True`` when the estimator keeps no training targets)."""
         y = getattr(self.regressors[target], "y_train_", None)
-        return y is None or bool(np.min(y) <= value <= np.max(y))
+        return y is None or bool(np.min(y) - std <= value <= np.max(y) + std)
 
     def predict_interval(
         self, X: Any, level: float, X_std: Any = None, corr: Any = 0.0

@@ -14,8 +14,9 @@ give. A target asked below it **cannot be told here**: the reason is the model's
 ± (``"model"``), or the target's sensitivity to (λ, ω) — e.g. a deep fill, where ω
 hardly moves with the height — times the fit's attainable std (``"sensitivity"``), or
 the model's training range (``"domain"``: (λ, ω) outside it, or a predicted value
-beyond the targets it was trained on — where the model extrapolates, e.g. a deep fill
-whose saturated ω a model of shallower fills takes for its deepest).
+beyond the targets it was trained on by more than the model's own std — where the model
+extrapolates, e.g. a deep fill whose saturated ω a model of shallower fills takes for
+a little more than its deepest).
 Otherwise :attr:`Reach.pushes_needed` says how many pushes of this kind reach it.
 """
 
@@ -56,8 +57,8 @@ class Reach:
 
     @property
     def met(self) -> bool:
-        """The asked ± is reached now."""
-        return math.isfinite(self.std_now) and self.std_now < self.asked
+        """The asked ± is reached now (and the answer is one the model can give)."""
+        return not self.reason and math.isfinite(self.std_now) and self.std_now < self.asked
 
     @property
     def cannot_tell(self) -> bool:
