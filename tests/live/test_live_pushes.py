@@ -72,3 +72,18 @@ def test_three_ring_downs_final_and_combined(three_pushes) -> None:
     # each ring-down's estimate is its own (never replaced by the combination)
     assert len({s["angular_frequency"] for s in final.segments}) == 3
     assert "combined" in final.to_dict()
+
+
+def test_next_push_decision() -> None:
+    from liquidtouch.live.combined import next_push
+
+    def reach(met, cannot, msg="m"):
+        return {"met": met, "cannot_tell": cannot, "message": msg}
+
+    assert next_push({}) == (True, "no ring-down estimate to judge yet")
+    again, why = next_push({"reach": {"height_mm": reach(False, False, "±0.8, about 3")}})
+    assert again and "about 3" in why
+    stop, why = next_push({"reach": {"a": reach(True, False), "b": reach(False, True, "deep")}})
+    assert not stop and why == "deep"
+    done, why = next_push({"reach": {"a": reach(True, False)}})
+    assert not done and why.startswith("every target met")

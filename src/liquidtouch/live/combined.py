@@ -18,7 +18,7 @@ from liquidtouch.live.properties import predict_with_fit_std
 from liquidtouch.live.updates import LiveUpdate
 from liquidtouch.models.combine import RingDownEstimate, combine_ring_downs
 
-__all__ = ["combined_answer"]
+__all__ = ["combined_answer", "next_push"]
 
 
 def combined_answer(
@@ -52,3 +52,21 @@ def combined_answer(
         reach = model.reach(X, X_std, until_std, pushes=combined.n)
         out["reach"] = {t: r.to_dict() for t, r in reach.items()}
     return out
+
+
+def next_push(combined: Mapping[str, object]) -> tuple[bool, str]:
+    """``(push again?, why)`` from a :func:`combined_answer` with ``reach``.
+
+    Stop when every target is met, or when one cannot be told here (no number of pushes
+    of this kind would reach it: another push only costs time); otherwise push again.
+    Without a combination (no final ring-down yet) or without ``reach``: push again.
+    """
+    reach = combined.get("reach") if combined else None
+    if not reach:
+        return True, "no ring-down estimate to judge yet"
+    cannot = [r["message"] for r in reach.values() if r["cannot_tell"]]
+    if cannot:
+        return False, "; ".join(cannot)
+    if all(r["met"] for r in reach.values()):
+        return False, "every target met: " + "; ".join(r["message"] for r in reach.values())
+    return True, "; ".join(r["message"] for r in reach.values() if not r["met"])
