@@ -30,7 +30,15 @@ def trial_command(
         help="Trial directory to write: new, empty, or an existing trial (replaced as a whole).",
     ),
     container: str = typer.Option(
-        "grooved-cuboid", "--container", help="grooved-cuboid, cuboid, cylinder or glass."
+        "grooved-cuboid",
+        "--container",
+        help="grooved-cuboid, cuboid, cylinder, glass or upright-bottle.",
+    ),
+    push_axis: str = typer.Option(
+        "x",
+        "--push-axis",
+        help="Push along x (the container's length) or y (across it; not a cylinder on its "
+        "side).",
     ),
     sugar_concentration: float | None = typer.Option(
         None, "--sugar-concentration", help="Sugar-water only: g sugar per 100 g water."
@@ -74,6 +82,7 @@ def trial_command(
         seed=seed,
         temperature_c=temperature_c,
         realism=realism.value,
+        push_axis=push_axis,
     )
     directory = write_trial(trial, out, video=video, sensor=sensor, plot=plot)
     files = sorted(p.name for p in directory.iterdir() if not p.name.startswith("."))
