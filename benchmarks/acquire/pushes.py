@@ -9,9 +9,10 @@ as the simulated rig does), back and forth, holding ``--hold-s`` after each.
 
 1. A training set — the catalogue's liquids (water, olive oil, corn oil, mirin,
    detergent, sugar water 40/100/160) × ``--train-heights`` fills 16-40 mm in the
-   grooved cuboid, one push each — and GPRs for ``height_mm`` and
+   grooved cuboid × ``--train-seeds`` bottles, one push each — and GPRs for ``height_mm`` and
    ``log10_viscosity_cst`` as ``liquidtouch train`` makes them (10-fold cross-conformal
-   calibration, the fill as the group, the rows' own feature std).
+   calibration, the fill as the group, the rows' own feature std); ``--train-pushes`` n:
+   each training bottle's n ring-downs combined, as a trial of n pushes gives them.
 2. Test bottles: detergent (target ``height_mm`` ± 0.5), water, mirin and sugar water
    (``log10_viscosity_cst`` ± 0.1) at fills 20/30/38 mm × ``--seeds`` seeds, three
    pushes each. After each push the ring-downs so far are combined
@@ -46,6 +47,7 @@ from liquidtouch import combine_ring_downs
 from liquidtouch.acquire.push_plan import plan_push
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.extraction.fit_settings import FitSettings
+from liquidtouch.models import save_model
 from liquidtouch.models.training import train_regression
 from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.gelsight import SENSOR_NAMES, sensor_scene
@@ -109,6 +111,23 @@ def ring_down(liquid: str, height: float, seed: int, push: int, hold_s: float,
     return row
 
 
+def training_row(liquid: str, height: float, seed: int, args, container: str = "grooved-cuboid",
+                 conc: float | None = None) -> dict:  # fmt: skip
+    """One training bottle: ``--train-pushes`` ring-downs combined (as a trial with that many
+    pushes would give them; one: the single ring-down)."""
+    pushes = [ring_down(liquid, height, seed, p, args.hold_s, container, conc)
+              for p in range(args.train_pushes)]  # fmt: skip
+    row = dict(pushes[0])
+    try:
+        c = combine_ring_downs(pushes)
+    except LiquidTouchError:
+        return row
+    row.update(decay_rate=c.decay_rate, decay_rate_std=c.decay_rate_std,
+               angular_frequency=c.angular_frequency,
+               angular_frequency_std=c.angular_frequency_std)  # fmt: skip
+    return row
+
+
 def train(rows: list[dict], targets: list[str]):
     X = np.array([[r["decay_rate"], r["angular_frequency"]] for r in rows])
     std = np.array([[r["decay_rate_std"], r["angular_frequency_std"]] for r in rows])
@@ -147,6 +166,10 @@ def main() -> int:
     parser.add_argument("--train-heights", type=int, default=7)
     parser.add_argument("--hold-s", type=float, default=6.0)
     parser.add_argument("--max-pushes", type=int, default=3)
+    parser.add_argument("--train-pushes", type=int, default=1,
+                        help="ring-downs combined per training bottle")  # fmt: skip
+    parser.add_argument("--train-seeds", type=int, default=1, help="bottles per liquid and fill")
+    parser.add_argument("--save-model", help="write the grooved cuboid's model file here")
     parser.add_argument("--skip-upright", action="store_true")
     args = parser.parse_args()
     began = time.perf_counter()
@@ -155,10 +178,14 @@ def main() -> int:
     for spec in TRAIN_LIQUIDS:
         name, _, conc = spec.partition(" ")
         for i, h in enumerate(heights):
-            rows.append(ring_down(name, float(h), 1000 + i, 0, args.hold_s,
-                                  conc=float(conc) if conc else None))  # fmt: skip
+            for j in range(args.train_seeds):
+                rows.append(training_row(name, float(h), 1000 + 100 * j + i, args,
+                                         conc=float(conc) if conc else None))  # fmt: skip
     model = train(rows, ["height_mm", "log10_viscosity_cst"])
-    print(f"# pushes — {len(rows)} training trials, {args.seeds} seeds × fills "
+    if args.save_model:
+        save_model(model, args.save_model)
+    print(f"# pushes — {len(rows)} training bottles × {args.train_pushes} push(es), "
+          f"{args.seeds} seeds × fills "
           f"{TEST_FILLS_MM} mm, hold {args.hold_s:g} s per push, at most {args.max_pushes} "
           f"pushes ({time.perf_counter() - began:.0f} s to train)\n")  # fmt: skip
     k_rows, stop_rows = [], []
@@ -217,8 +244,8 @@ def upright(args) -> None:
     for name in ("water", "mirin", "olive-oil", "sugar-water 100"):
         nm, _, conc = name.partition(" ")
         for i, h in enumerate(np.linspace(15, 190, 10)):
-            train_rows.append(ring_down(nm, float(h), 2000 + i, 0, args.hold_s, box,
-                                        conc=float(conc) if conc else None))  # fmt: skip
+            train_rows.append(training_row(nm, float(h), 2000 + i, args, box,
+                                           conc=float(conc) if conc else None))  # fmt: skip
     model = train(train_rows, ["height_mm"])
     plan = plan_push(box, "height_mm", 0.5, fills_mm=list(UPRIGHT_FILLS_MM))
     print("\n## Upright bottle (water, target height ± 0.5 mm): out of reach by the physics' "
