@@ -80,3 +80,34 @@ def test_plan_upright_deep_cannot_be_resolved_and_box_proposes_its_length():
     assert box.protocol_values()["push_axis"] == "x"
     limited = plan_push("grooved-cuboid", fills_mm=[30.0], limits={"push_acceleration_m_s2": 1.0})
     assert all(a.acceleration_m_s2 <= 1.0 for a in limited.axes)
+
+
+def test_the_rig_pushes_along_either_axis_each_push_with_fresh_noise():
+    """Three pushes of one bottle on the rig (no network): x, back along x, then y."""
+    import threading
+
+    from liquidtouch.sim.rig.state import Rig
+
+    rig = Rig("mirin", height_mm=25.0, seed=1, gripper_time_scale=0.01, trial_duration_s=5.0)
+    rig.begin("GRIP", [25.0, 59.0, 50.0]).run(threading.Event())
+    pose = rig.pose()
+    lifted = [*pose[:2], pose[2] + 0.05, *pose[3:]]
+    rig.begin_move(lifted, 0.5, 5.0).run(threading.Event())
+    targets = [
+        [lifted[0] + 0.015, *lifted[1:]],
+        lifted,
+        [lifted[0], lifted[1] + 0.02, *lifted[2:]],
+    ]
+    forces = []
+    for target in targets:
+        rig.begin_move(target, 0.3, 3.0).run(threading.Event())
+        forces.append(rig.trial.slosh_force_n())
+    axes = [(p["push_axis"], round(p["push_distance_mm"], 3)) for p in rig.pushes]
+    assert axes == [("x", 15.0), ("x", -15.0), ("y", 20.0)]
+    first, back, across = rig.pushes
+    assert back["true_angular_frequency"] == first["true_angular_frequency"]
+    # across the 55 mm width the slosh is faster than along the 100 mm length
+    assert across["true_angular_frequency"] > 1.3 * first["true_angular_frequency"]
+    # the push back is the mirror of the first, with its own contact noise
+    assert np.corrcoef(forces[0], -forces[1])[0, 1] > 0.9
+    assert not np.allclose(forces[0], -forces[1])
