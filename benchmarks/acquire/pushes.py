@@ -22,8 +22,8 @@ as the simulated rig does), back and forth, holding ``--hold-s`` after each.
 3. The upright bottle (``upright-bottle``, 90 mm across, held upright) with water at fills
    20-170 mm and a height GPR trained on it the same way (15-60 mm, where its fill can be
    told: ``UPRIGHT_TRAIN_TOP_MM``): the physics' floor (``acquire.push_plan``: the best
-   height ± any number of pushes gives) says where ± 0.5 mm is out of reach; the table counts how often the trial said "cannot tell"
-   there, and where it was reachable.
+   height ± any number of pushes gives) says where ± 0.5 mm is out of reach; the table
+   counts how often the trial said "cannot tell" there, and where it was reachable.
 
 Tables: per liquid and fill, with k = 1, 2, 3 pushes (all of them, no stopping): median
 |error|, the share within tolerance (height 1 mm, log10 ν 0.1), ±2σ coverage, median std;
