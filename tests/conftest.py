@@ -5,15 +5,15 @@ never imports another test module (that would import it twice, under two
 names, and run its module-level code outside pytest's control):
 
 - ``tests/helpers.py``: synthetic GelSight marker images (``render_blobs``, ``grid``);
-- ``benchmarks/synthetic_tables.py``: synthetic (λ, ω) feature tables with labels,
-  shared with ``benchmarks/regression.py``.
+- ``liquidtouch.testing`` (in the package, shared with the benchmarks): synthetic (λ, ω)
+  feature tables with labels, marker tracks without rendering, the browser checks.
 
 Fixtures shared by several modules live here: ``synthetic_report`` (the experiments'
 report on the synthetic tables, built once per run for all workers).
 
 pytest's ``pythonpath`` (pyproject.toml) holds the repository root and ``tests/``,
 so these import as ``from helpers import ...`` and
-``from benchmarks.synthetic_tables import ...``.
+``from liquidtouch.testing.synthetic_tables import ...``; no test imports ``benchmarks``.
 
 Tests marked ``slow(seconds=...)`` (the end-to-end runs, seconds to minutes each) and
 the tests of ``synthetic_report`` (a long build) start the workers' shares of the test
@@ -36,10 +36,10 @@ from pathlib import Path
 import pytest
 from helpers import built_once
 
-from benchmarks.experiment_tables import experiment_features
 from liquidtouch.experiments.report import write_report
 from liquidtouch.experiments.reproduce import failure_note
 from liquidtouch.experiments.suite import run_experiments
+from liquidtouch.testing.experiment_tables import experiment_features
 
 
 def _imports_of_test_modules(path: Path) -> list[str]:

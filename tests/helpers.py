@@ -5,7 +5,7 @@ regression stand-in that records what the live estimator gives it.
 
 Test modules import these (``from helpers import grid, render_blobs``; ``tests/`` is on
 pytest's ``pythonpath``) instead of importing each other. The synthetic feature
-tables live in ``benchmarks/synthetic_tables.py`` (shared with the benchmarks).
+tables live in ``liquidtouch.testing.synthetic_tables`` (shared with the benchmarks).
 """
 
 from __future__ import annotations
@@ -68,7 +68,7 @@ def chromium_or_skip() -> str:
     """
     import pytest
 
-    from benchmarks.report_browser import find_chromium
+    from liquidtouch.testing.chromium import find_chromium
 
     path = find_chromium()
     if path is None:

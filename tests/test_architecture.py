@@ -288,3 +288,61 @@ def test_the_tests_mirror_the_stages() -> None:
     }
     stages = {p.name for p in SRC.iterdir() if (p / "__init__.py").exists()}
     assert folders and folders <= stages, sorted(folders - stages)
+
+
+BENCHMARKS = ROOT / "benchmarks"
+
+
+def _imported_modules(path: Path) -> list[tuple[str, list[str], int]]:
+    """``(module, imported names, line)`` of every absolute import in the file at ``path``."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+        if isinstance(node, ast.Import):
+            found += [(alias.name, [], node.lineno) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            found.append((node.module, [a.name for a in node.names], node.lineno))
+    return found
+
+
+def _is_script(path: Path) -> bool:
+    return 'if __name__ == "__main__":' in path.read_text(encoding="utf-8")
+
+
+def test_no_test_imports_the_benchmarks() -> None:
+    """What tests and benchmarks share lives in ``liquidtouch.testing``."""
+    offences = [
+        f"{path.relative_to(ROOT)}:{line} imports {module}"
+        for path in sorted((ROOT / "tests").rglob("*.py"))
+        for module, _, line in _imported_modules(path)
+        if module.split(".")[0] == "benchmarks"
+    ]
+    assert offences == []
+
+
+def test_benchmarks_import_only_public_names_and_no_other_benchmark() -> None:
+    """A benchmark imports no private name, nothing of ``liquidtouch._core`` and no other
+    benchmark script; a module beside it named after it (``time_to_answer_tables.py`` of
+    ``time_to_answer.py``) is its own part, not a script."""
+    scripts = sorted(BENCHMARKS.rglob("*.py"))
+    assert len(scripts) > 20 and all(p.parent != BENCHMARKS for p in scripts)  # stage folders
+    by_stem = {p.stem: p for p in scripts}
+    offences = []
+    for path in scripts:
+        where = path.relative_to(ROOT)
+        for module, names, line in _imported_modules(path):
+            parts = module.split(".")
+            private = [n for n in [*parts, *names] if n.startswith("_") and n != "__future__"]
+            if private:
+                offences.append(f"{where}:{line} imports private {private} ({module})")
+            sibling = by_stem.get(parts[0])
+            own_part = (
+                sibling is not None
+                and sibling.parent == path.parent
+                and parts[0].startswith(path.stem + "_")
+                and not _is_script(sibling)
+            )
+            if parts[0] == "benchmarks" or (sibling is not None and not own_part):
+                offences.append(f"{where}:{line} imports the benchmark {module}")
+        if "sys.path" in path.read_text(encoding="utf-8"):
+            offences.append(f"{where} changes sys.path")
+    assert offences == []

@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 import liquidtouch
-from benchmarks.synthetic_tables import PAPER_CONCENTRATIONS, PAPER_HEIGHTS_MM, sugar_table
+from liquidtouch.testing.synthetic_tables import PAPER_CONCENTRATIONS, PAPER_HEIGHTS_MM, sugar_table
 
 FORBIDDEN = ("av", "cv2", "liquidtouch.tracking", "liquidtouch.extraction.pipeline")
 SRC = Path(liquidtouch.__file__).resolve().parents[1]

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 import liquidtouch as lt
-from benchmarks.synthetic_tables import paper_split
 from liquidtouch._core.numbers import with_uncertainty
 from liquidtouch.cli import format as cli_format
 from liquidtouch.errors import TableError
 from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.live.updates import LiveUpdate
 from liquidtouch.models.feature_space import FeatureMap, TrainingDomain
+from liquidtouch.testing.synthetic_tables import paper_split
 
 
 def short(text: str) -> str:

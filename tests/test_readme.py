@@ -1,10 +1,11 @@
-"""The README runs as written.
+"""The README and the getting-started page run as written.
 
-Every fenced block preceded by ``<!-- runnable -->`` is run, in README order, in one
-fresh directory: the bash blocks with ``bash -euo pipefail`` (each ``liquidtouch`` call
+Every fenced block preceded by ``<!-- runnable -->`` is run, in page order, in one fresh
+directory per page: the bash blocks with ``bash -euo pipefail`` (each ``liquidtouch`` call
 under a timeout), the python blocks with this interpreter. The files the tour says it
-writes must exist afterwards. Every ``liquidtouch <command>`` the README mentions, in a
-code block or an inline code span, must exist (``--help`` exits 0).
+writes must exist afterwards. Every ``liquidtouch <command>`` the README or a page of the
+documentation site mentions, in a code block or an inline code span, must exist
+(``--help`` exits 0).
 """
 
 from __future__ import annotations
@@ -20,10 +21,12 @@ from pathlib import Path
 from typing import NamedTuple
 
 import pytest
+from helpers import REPO
 
 from liquidtouch.cli import main
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+README = REPO / "README.md"
+GETTING_STARTED = REPO / "docs" / "getting-started.md"
 BIN = Path(sys.executable).parent  # the venv's bin: liquidtouch, python
 COMMAND_TIMEOUT_S = 150  # one liquidtouch call of the tour
 BLOCK_TIMEOUT_S = 400  # one whole block (the dataset loop)
@@ -33,23 +36,32 @@ RUNNABLE = re.compile(
     r"<!--\s*runnable\s*-->\s*\n```(\w+)\n(.*?)^```\s*$", re.DOTALL | re.MULTILINE
 )
 INLINE_CODE = re.compile(r"`([^`\n]+)`")
-MENTION = re.compile(r"(?<![\w/.-])liquidtouch((?:[ \t]+[a-z][a-z0-9-]*){1,2})")
+# not `import liquidtouch as lt`
+MENTION = re.compile(r"(?<![\w/.-])(?<!import )liquidtouch((?:[ \t]+[a-z][a-z0-9-]*){1,2})")
 OUTPUT_OPTIONS = {"--out", "-o", "--signal-out", "--tracks-out", "--plot"}
 
-# What the tour says it writes (besides every --out/-o/--signal-out/--tracks-out/--plot path).
-TOUR_FILES = [
+# What each tour says it writes (besides every --out/-o/--signal-out/--tracks-out/--plot path).
+TRIAL_FILES = [
     "trial/meta.json",
     "trial/force.csv",
     "trial/wrench.csv",
     "trial/left.mp4",
     "trial/right.mp4",
-    "trial/truth_tracks.npz",
-    "trial/loads.png",
-    "mine/.liquidtouch-dataset",
-    "mine/manifest.csv",
-    "mine/features.csv",
-    "mine/water/h25/meta.json",
 ]
+TOUR_FILES = {
+    README: [*TRIAL_FILES, "olive-oil-28/meta.json", "olive-oil-height.json"],
+    GETTING_STARTED: [
+        *TRIAL_FILES,
+        "trial/truth_tracks.npz",
+        "trial/loads.png",
+        "mine/.liquidtouch-dataset",
+        "mine/manifest.csv",
+        "mine/features.csv",
+        "mine/water/h25/meta.json",
+    ],
+}
+#: the languages of each page's runnable blocks
+TOUR_LANGUAGES = {README: {"bash", "python"}, GETTING_STARTED: {"bash"}}
 
 # A shell function in front of the console script: each call gets a timeout.
 PREAMBLE = f"""
@@ -65,12 +77,17 @@ class Help(NamedTuple):
     stderr: str
 
 
-def readme_text() -> str:
-    return README.read_text(encoding="utf-8")
+def page_text(page: Path) -> str:
+    return page.read_text(encoding="utf-8")
+
+
+def documentation_pages() -> list[Path]:
+    """The README and every Markdown page of the documentation site."""
+    return [README, *sorted((REPO / "docs").rglob("*.md"))]
 
 
 def runnable_blocks(text: str) -> list[tuple[str, str]]:
-    """(language, code) of every block marked runnable, in README order."""
+    """(language, code) of every block marked runnable, in page order."""
     return [(lang, code) for lang, code in RUNNABLE.findall(text)]
 
 
@@ -100,7 +117,7 @@ def declared_outputs(code: str) -> list[str]:
 
 
 def mentioned_commands(text: str) -> set[tuple[str, ...]]:
-    """Every ``liquidtouch <command> [<subcommand>]`` in the README's code (not its prose).
+    """Every ``liquidtouch <command> [<subcommand>]`` in a page's code (not its prose).
 
     Code is the bash and unlabelled fenced blocks and the inline code spans; python blocks
     are left out (``import liquidtouch as lt``).
@@ -132,10 +149,27 @@ def _help(args: list[str], capsys: pytest.CaptureFixture[str]) -> Help:
     return Help(status, out, err)
 
 
-def test_the_readme_marks_runnable_blocks() -> None:
-    blocks = runnable_blocks(readme_text())
+README_MAX_LINES = 170  # a front door, not a manual: the rest lives in docs/ (issue 37)
+DATE = re.compile(r"\b20\d\d-\d\d-\d\d\b")
+LINK = re.compile(r"\]\(([^)#\s]+)(?:#[^)]*)?\)")
+
+
+def test_the_readme_is_a_front_door() -> None:
+    """Short, no dated timings, and every relative link leads to a file of the repository."""
+    text = page_text(README)
+    assert len(text.splitlines()) <= README_MAX_LINES
+    assert not DATE.findall(text), "dated numbers belong in benchmarks/RESULTS.md"
+    targets = [t for t in LINK.findall(text) if "://" not in t]
+    assert "docs/getting-started.md" in targets and "docs/api/index.md" in targets
+    missing = [t for t in targets if not (REPO / t).exists()]
+    assert not missing, f"README links to files that do not exist: {missing}"
+
+
+@pytest.mark.parametrize("page", list(TOUR_LANGUAGES), ids=lambda p: p.name)
+def test_the_tours_mark_runnable_blocks(page: Path) -> None:
+    blocks = runnable_blocks(page_text(page))
     languages = {lang for lang, _ in blocks}
-    assert languages == {"bash", "python"}, languages
+    assert languages == TOUR_LANGUAGES[page], languages
     for _, code in blocks:
         assert "[--" not in code and "..." not in code, (
             f"a placeholder in a runnable block:\n{code}"
@@ -143,7 +177,7 @@ def test_the_readme_marks_runnable_blocks() -> None:
 
 
 def test_every_mentioned_command_exists(capsys: pytest.CaptureFixture[str]) -> None:
-    mentions = mentioned_commands(readme_text())
+    mentions = set().union(*(mentioned_commands(page_text(p)) for p in documentation_pages()))
     assert ("simulate", "trial") in mentions and ("features",) in {m[:1] for m in mentions}
     helps: dict[tuple[str, ...], Help] = {}
 
@@ -161,13 +195,22 @@ def test_every_mentioned_command_exists(capsys: pytest.CaptureFixture[str]) -> N
             sub = help_of(mention)
             if sub.returncode != 0:
                 missing.add(f"liquidtouch {' '.join(mention)}: {sub.stderr.strip()}")
-    assert not missing, "README mentions commands that do not exist:\n" + "\n".join(sorted(missing))
+    assert not missing, "the docs mention commands that do not exist:\n" + "\n".join(
+        sorted(missing)
+    )
 
 
-@pytest.mark.slow(seconds=55, exclusive=True)  # features -j 2
-def test_the_readme_tour_runs_as_written(tmp_path: Path) -> None:
-    blocks = runnable_blocks(readme_text())
-    expected = list(TOUR_FILES)
+@pytest.mark.parametrize(
+    "page",
+    [
+        pytest.param(README, marks=pytest.mark.slow(seconds=15)),
+        pytest.param(GETTING_STARTED, marks=pytest.mark.slow(seconds=55, exclusive=True)),
+    ],
+    ids=lambda p: p.name,
+)  # the getting-started tour runs features -j 2
+def test_the_tour_runs_as_written(page: Path, tmp_path: Path) -> None:
+    blocks = runnable_blocks(page_text(page))
+    expected = list(TOUR_FILES[page])
     timings = []
     for index, (lang, code) in enumerate(blocks):
         start = time.monotonic()
@@ -197,4 +240,4 @@ def test_the_readme_tour_runs_as_written(tmp_path: Path) -> None:
         )
     print("\n".join(timings))
     missing = [path for path in expected if not (tmp_path / path).exists()]
-    assert not missing, f"the README tour said it writes these, but they are missing: {missing}"
+    assert not missing, f"the {page.name} tour said it writes these, but missing: {missing}"

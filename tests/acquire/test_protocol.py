@@ -122,7 +122,8 @@ def test_a_trial_runs_the_steps_in_order(tmp_path):
     run = trial(gripper, arm, tmp_path, on_step=steps.append)
     recorder = FakeRecorder.instances[0]
     assert steps == [
-        "cameras", "grasp", "lift", "record", "push", "hold", "stop", "lower", "release", "write"
+        "check", "cameras", "grasp", "lift", "record", "push", "hold", "stop", "return",
+        "lower", "release", "write",
     ]  # fmt: skip
     assert recorder.calls == ["open", "start", "stop", "finish"]
     assert recorder.labels == {"liquid": "water"}
@@ -130,9 +131,9 @@ def test_a_trial_runs_the_steps_in_order(tmp_path):
     start = [0.4, 0.0, 0.2, 0.0, math.pi, 0.0]
     lifted = [0.4, 0.0, 0.25, 0.0, math.pi, 0.0]
     pushed = [0.415, 0.0, 0.25, 0.0, math.pi, 0.0]
-    lowered = [0.415, 0.0, 0.2, 0.0, math.pi, 0.0]
-    assert len(arm.moves) == 3
-    for move, expected in zip(arm.moves, (lifted, pushed, lowered), strict=True):
+    # the bottle is carried back over its start, then put down where it was picked up
+    assert len(arm.moves) == 4
+    for move, expected in zip(arm.moves, (lifted, pushed, lifted, start), strict=True):
         assert move == pytest.approx(expected)
     meta = recorder.meta
     assert meta["protocol"]["grasp_force_n"] == 25.0

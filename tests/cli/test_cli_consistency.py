@@ -377,8 +377,10 @@ def test_features_json_settings_cache_and_provenance(fresh: Path, tmp_path: Path
 
     # human output: counts; a bad sensor name is recorded per trial
     status, stdout, err = _run(capsys, "features", fresh, "--sensor", "middle")
-    assert status == 0 and "0 of 2 trials extracted" in stdout
+    assert status == 2 and "0 of 2 trials extracted" in stdout  # nothing worked: not exit 0
     assert "failed: a/water_h25" in err and "no sensor 'middle'" in err
+    assert err.count("no sensor 'middle'") == 2  # each trial's error once
+    assert "error: no trial was extracted: all 2 failed" in err
 
 
 def test_features_options_change_the_features(fresh: Path, capsys) -> None:
@@ -399,7 +401,11 @@ def test_features_options_change_the_features(fresh: Path, capsys) -> None:
 
 
 def test_predict_json(tmp_path: Path, capsys) -> None:
-    from benchmarks.synthetic_tables import PAPER_CONCENTRATIONS, PAPER_HEIGHTS_MM, sugar_table
+    from liquidtouch.testing.synthetic_tables import (
+        PAPER_CONCENTRATIONS,
+        PAPER_HEIGHTS_MM,
+        sugar_table,
+    )
 
     train = tmp_path / "train.csv"
     test = tmp_path / "test.csv"
@@ -429,7 +435,11 @@ def test_predict_json(tmp_path: Path, capsys) -> None:
 
 def test_predict_extracts_a_dataset_with_the_features_options(fresh: Path, tmp_path, capsys):
     """``predict DATASET`` takes ``-j``, ``--dask`` and the extraction and fit options."""
-    from benchmarks.synthetic_tables import PAPER_CONCENTRATIONS, PAPER_HEIGHTS_MM, sugar_table
+    from liquidtouch.testing.synthetic_tables import (
+        PAPER_CONCENTRATIONS,
+        PAPER_HEIGHTS_MM,
+        sugar_table,
+    )
 
     train = tmp_path / "train.csv"
     sugar_table(PAPER_HEIGHTS_MM[::2], PAPER_CONCENTRATIONS[::3], seed=3).to_csv(train, index=False)

@@ -10,15 +10,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from benchmarks.synthetic_tables import (
+from liquidtouch.cli import main
+from liquidtouch.io.tables import FEATURE_COLUMNS
+from liquidtouch.testing.synthetic_tables import (
     CONTAINER_B,
     PAPER_CONCENTRATIONS,
     PAPER_HEIGHTS_MM,
     liquid_table,
     sugar_table,
 )
-from liquidtouch.cli import main
-from liquidtouch.io.tables import FEATURE_COLUMNS
 
 
 @pytest.fixture(scope="module")

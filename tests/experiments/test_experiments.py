@@ -1,7 +1,7 @@
 """The seven experiments and the report, on synthetic feature tables with known physics.
 
-The tables (``benchmarks.experiment_tables``) come from the sloshing formulas of
-``benchmarks.synthetic_tables`` (no video), so the test checks the experiments'
+The tables (``liquidtouch.testing.experiment_tables``) come from the sloshing formulas of
+``liquidtouch.testing.synthetic_tables`` (no video), so the test checks the experiments'
 numbers against what such data allow, and that the report is complete and
 self-contained.
 """
@@ -17,9 +17,9 @@ import pandas as pd
 import pytest
 from helpers import fewer_experiment_draws
 
-from benchmarks.experiment_tables import FAILED, NO_OSCILLATION, experiment_features
 from liquidtouch.experiments.reproduce import failure_note
 from liquidtouch.experiments.suite import run_experiments
+from liquidtouch.testing.experiment_tables import FAILED, NO_OSCILLATION, experiment_features
 
 
 @pytest.fixture(scope="module")

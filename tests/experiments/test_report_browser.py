@@ -1,9 +1,9 @@
 """The report as a reader sees it: report.html opened in headless Chromium.
 
 The report of the seven experiments on the synthetic tables of
-``benchmarks.experiment_tables`` (conftest's ``synthetic_report``, built once per
+``liquidtouch.testing.experiment_tables`` (conftest's ``synthetic_report``, built once per
 run and also checked by ``test_experiments.py``) is rendered to a screenshot and
-to its DOM by ``benchmarks.report_browser``: every image is an embedded PNG that
+to its DOM by ``liquidtouch.testing.report_page``: every image is an embedded PNG that
 decodes, the page is not blank, the headline table is there and no text says "wt%".
 Without Chromium the tests skip locally, and fail when the environment variable
 ``CI`` is set (CI must not skip them silently; ``.ci/run`` installs Debian's
@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 from helpers import chromium_or_skip
 
-from benchmarks.report_browser import check_report
+from liquidtouch.testing.report_page import check_report
 
 
 @pytest.fixture(scope="module")
@@ -64,31 +64,3 @@ def test_the_check_catches_a_blank_page(browser, tmp_path) -> None:
     problems = check_report(path, tmp_path / "blank.png", browser=browser).problems
     assert any("blank" in p for p in problems), problems
     assert any("no headline" in p for p in problems), problems
-
-
-def test_a_stuck_chromium_is_killed_and_run_again(tmp_path) -> None:
-    """A browser that hangs on its first run (with a child that hangs too) is killed,
-    children included, and its second run's output is returned; one stuck every time
-    gives a clear error, not a hang."""
-    from benchmarks.report_browser import _chromium
-
-    script = tmp_path / "browser.sh"
-    runs = tmp_path / "runs"
-    script.write_text(
-        "#!/bin/sh\n"
-        f'echo run >> "{runs}"\n'
-        f'if [ "$(wc -l < "{runs}")" -eq 1 ] || [ -e "{tmp_path / "always"}" ]; then\n'
-        f'  sleep 300 & echo $! > "{tmp_path / "child"}"; wait\n'
-        "fi\n"
-        'echo "<html>dom</html>"\n'
-    )
-    script.chmod(0o755)
-    done = _chromium(str(script), "--dump-dom", "about:blank", timeout=2)
-    assert done.stdout.strip() == "<html>dom</html>"
-    assert runs.read_text().count("run") == 2
-    child = int((tmp_path / "child").read_text())
-    assert not Path(f"/proc/{child}").exists() or "Z" in Path(f"/proc/{child}/stat").read_text()
-
-    (tmp_path / "always").touch()
-    with pytest.raises(RuntimeError, match="stuck 2 times"):
-        _chromium(str(script), "--dump-dom", "about:blank", timeout=1)

@@ -11,7 +11,7 @@ wetting or weighing spread, no contact or wrist noise; the push, grasp, slip
 and arm vibration still vary with the seed, and the renderer's sensor noise,
 flicker, frame jitter and drops stay on), the grooved cuboid, and liquids of low
 to moderate viscosity (1–22 cSt) at mid fills (18–30 mm, 28–55 % full), where the
-sloshing lasts many cycles. Measured with seed 1 (``benchmarks/video_chain_accuracy.py``
+sloshing lasts many cycles. Measured with seed 1 (``benchmarks/extraction/video_chain_accuracy.py``
 has the wider set): λ within +3.2 %, ω within 0.1 %. Before the simulator
 encoded its videos without x264's dead zone these were +17–22 % in λ.
 """

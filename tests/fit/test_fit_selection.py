@@ -88,7 +88,7 @@ def test_exact_two_mode_signal_is_fitted_with_two_modes() -> None:
 )
 def test_non_linear_damping_small_amplitude_rate(make, tolerance) -> None:
     """λ0 of numerically integrated dampers: cubic (p = 2) within 5 %, velocity-squared
-    (p = 1) within 5 % (``benchmarks/fit_accuracy.py``).
+    (p = 1) within 5 % (``benchmarks/fit/fit_accuracy.py``).
 
     By the amplitude model (its exponent p fitted in [1, 2]) or by two modes, which
     mimic a damper's early decay as well and then also find λ0 (these four cubic
@@ -137,7 +137,7 @@ def test_a_transient_beside_the_slosh_is_never_reported(seed) -> None:
     """Detergent's ~1 s slosh (λ 4, ω 14) beside the push's transient (λ 16, ω 3: it decays
     within a radian of its cycle) that carries more energy over the window: the fit
     reports the slosh. Before, the more energetic mode was reported: λ 13-19, ω 1.9-4
-    on 5 of 6 such signals (the same on 1 in 5 detergent trials of ``benchmarks/gaps.py``
+    on 5 of 6 such signals (the same on 1 in 5 detergent trials of ``benchmarks/signal/gaps.py``
     redrawn with other 0.01 px tracking noise)."""
     t = np.arange(0.0, 8.0, 1 / 25)
     rng = np.random.default_rng(seed)

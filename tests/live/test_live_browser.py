@@ -1,7 +1,7 @@
 """The live view as a viewer sees it: the page in headless Chromium while a trial streams.
 
 A simulated trial is replayed in real time through ``live_updates`` into the
-live view's server (``benchmarks.live_browser``); Chromium loads the page while
+live view's server (``liquidtouch.testing.live_page``); Chromium loads the page while
 the updates stream and its DOM is checked once the stream has ended: every
 update arrived, each sensor's frame image decoded, the signal plot and the
 plots over time were drawn, and λ, ω and the predicted properties on the page
@@ -17,7 +17,7 @@ import re
 import pytest
 from helpers import chromium_or_skip
 
-from benchmarks.live_browser import check_page, run_check, simulated_trial
+from liquidtouch.testing.live_page import check_page, run_check, simulated_trial
 
 
 @pytest.fixture(scope="module")
@@ -69,9 +69,9 @@ def test_the_check_catches_a_page_that_missed_the_stream() -> None:
 
 def test_the_page_tolerates_sparse_and_odd_updates(browser, tmp_path) -> None:
     """Missing keys, nulls, class probabilities: the page shows what is there and goes on."""
-    from benchmarks.live_browser import watch
     from liquidtouch.live.hub import LiveHub
     from liquidtouch.live.web import start_server
+    from liquidtouch.testing.live_page import watch
 
     hub = LiveHub()
     hub.publish({})
@@ -92,7 +92,8 @@ def test_the_page_tolerates_sparse_and_odd_updates(browser, tmp_path) -> None:
             "decay_rate_std": 0.01,
             "predicted_height_mm": 24.0,
             "predicted_liquid": "water",  # a classifier's update: the class and its probabilities
-            "predicted_liquid_proba": {"water": 0.9, "mirin": 0.1},
+            "probability_water": 0.9,
+            "probability_mirin": 0.1,
             "final": True,
             "stopped_because": "until_std",
         }
@@ -108,7 +109,7 @@ def test_the_page_tolerates_sparse_and_odd_updates(browser, tmp_path) -> None:
         r'id="est-predicted_liquid".*?<div class="value">water</div><div class="note">p = 0\.90<',
         dom,
     )
-    assert 'id="est-predicted_liquid_proba"' not in dom
+    assert 'id="est-probability_water"' not in dom
     assert re.search(r'id="est-predicted_height_mm".*?<div class="value">24\.000</div>', dom)
     assert re.search(r'id="est-decay_rate".*?<div class="value">0\.300 ± 0\.010</div>', dom)
     assert re.search(r'id="est-angular_frequency".*?<div class="value">–</div>', dom)

@@ -158,8 +158,8 @@ def test_classifier_model_names_the_liquid(capsys, trial, tmp_path) -> None:
     assert status == 0, err
     final = json.loads(out.splitlines()[-1])
     assert final["predicted_liquid"] == "thick"
-    assert final["predicted_liquid_proba"]["thick"] > 0.5
-    assert sum(final["predicted_liquid_proba"].values()) == pytest.approx(1.0)
+    assert final["probability_thick"] > 0.5
+    assert final["probability_thick"] + final["probability_thin"] == pytest.approx(1.0)
 
 
 def test_linger_keeps_the_final_page_served(capsys, trial, monkeypatch) -> None:

@@ -190,9 +190,10 @@ def test_the_ring_down_check_refuses_what_is_not_a_free_decay() -> None:
 
 @pytest.mark.timeout(600)
 def test_a_late_camera_on_a_fast_decay_gives_no_wrong_number() -> None:
-    """Olive oil, 1.5× push, the camera started 2.1 s after it (``benchmarks/segmentation.py``
-    seed 0): a 0.6 s stretch before the lowering was taken for a ring-down and answered
-    λ ≈ 0, ω −78 %; now the ring-down the stream begins in is found, or none."""
+    """Olive oil, 1.5× push, the camera started 2.1 s after it
+    (``benchmarks/ring_down/segmentation.py`` seed 0): a 0.6 s stretch before the lowering
+    was taken for a ring-down and answered λ ≈ 0, ω −78 %; now the ring-down the stream
+    begins in is found, or none."""
     timings = ProtocolTimings(
         grasp_s=0.571, lift_s=1.657, push_s=5.750, push_distance_mm=22.06, hold_s=12.69,
         lower_after_s=0.654, release_after_s=0.445,

@@ -21,7 +21,6 @@ import numpy as np
 import pytest
 from helpers import grid, render_blobs
 
-from benchmarks.live_browser import replay_into, simulated_trial
 from liquidtouch.errors import OutputError
 from liquidtouch.live.hub import (
     ARROW_SCALE,
@@ -31,6 +30,7 @@ from liquidtouch.live.hub import (
     LiveHub,
 )
 from liquidtouch.live.web import create_app, start_server
+from liquidtouch.testing.live_page import replay_into, simulated_trial
 
 with warnings.catch_warnings():  # starlette 1.x prefers httpx2; httpx is what the test extra has
     warnings.simplefilter("ignore")

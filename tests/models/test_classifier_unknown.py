@@ -13,7 +13,6 @@ import json
 import numpy as np
 import pytest
 
-from benchmarks.synthetic_tables import liquid_table
 from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.live.estimator import LiveEstimator
 from liquidtouch.models.classifier import UNKNOWN, LiquidClassifier
@@ -21,6 +20,7 @@ from liquidtouch.models.modelfile import load_model, model_to_dict, save_model
 from liquidtouch.models.training import train_classifier
 from liquidtouch.sim.protocol_scene import protocol_scene
 from liquidtouch.sim.trial import simulate_trial
+from liquidtouch.testing.synthetic_tables import liquid_table
 
 TRAINED = ["water", "olive-oil", "detergent"]
 

@@ -180,8 +180,8 @@ def test_target_calibration_quantiles() -> None:
 def test_grouped_folds_hold_a_height_out_whole_and_still_cover() -> None:
     """5 liquids × 9 heights × 2 trials: folds grouped by height predict each row at an
     unseen height (its twins and the other liquids at that height are held out with it)."""
-    from benchmarks.synthetic_tables import liquid_table
     from liquidtouch.models.conformal import calibration_folds
+    from liquidtouch.testing.synthetic_tables import liquid_table
 
     liquids = ["water", "mirin", "corn-oil", "olive-oil", "detergent"]
     train = liquid_table(liquids, np.linspace(16, 40, 9), repeats=2, seed=1)

@@ -20,12 +20,6 @@ import pandas as pd
 import pytest
 
 import liquidtouch
-from benchmarks.synthetic_tables import (
-    PAPER_CONCENTRATIONS,
-    PAPER_HEIGHTS_MM,
-    liquid_table,
-    sugar_table,
-)
 from liquidtouch.cli import main
 from liquidtouch.errors import LiquidTouchError, ModelFileError, TableError
 from liquidtouch.io.dataset import write_manifest
@@ -38,6 +32,12 @@ from liquidtouch.models.modelfile import MAX_MODEL_FILE_BYTES, load_model, model
 from liquidtouch.models.modelfile_checks import document_sha256
 from liquidtouch.models.regressors import GPRegressor
 from liquidtouch.models.training import train_regression
+from liquidtouch.testing.synthetic_tables import (
+    PAPER_CONCENTRATIONS,
+    PAPER_HEIGHTS_MM,
+    liquid_table,
+    sugar_table,
+)
 
 FEATURES = list(FEATURE_COLUMNS)
 SRC = Path(liquidtouch.__file__).resolve().parents[1]

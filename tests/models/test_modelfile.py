@@ -7,12 +7,6 @@ import json
 import numpy as np
 import pytest
 
-from benchmarks.synthetic_tables import (
-    PAPER_CONCENTRATIONS,
-    PAPER_HEIGHTS_MM,
-    liquid_table,
-    sugar_table,
-)
 from liquidtouch.errors import ModelFileError
 from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.models.feature_space import FeatureMap
@@ -20,6 +14,12 @@ from liquidtouch.models.modelfile import load_model, model_to_dict, save_model
 from liquidtouch.models.modelfile_checks import document_sha256
 from liquidtouch.models.property_model import PropertyModel
 from liquidtouch.models.training import train_classifier, train_regression
+from liquidtouch.testing.synthetic_tables import (
+    PAPER_CONCENTRATIONS,
+    PAPER_HEIGHTS_MM,
+    liquid_table,
+    sugar_table,
+)
 
 FEATURES = list(FEATURE_COLUMNS)
 

@@ -5,16 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.synthetic_tables import (
-    CONTAINER_A,
-    CONTAINER_B,
-    PAPER_CONCENTRATIONS,
-    PAPER_HEIGHTS_MM,
-    liquid_table,
-    paper_split,
-    sloshing_features,
-    sugar_table,
-)
 from liquidtouch.errors import TableError
 from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.models.classifier import LiquidClassifier
@@ -29,6 +19,16 @@ from liquidtouch.models.quadratic import QuadraticRegressor
 from liquidtouch.models.regressors import GPRegressor
 from liquidtouch.models.training import train_classifier, train_regression
 from liquidtouch.models.transfer import fit_transfer
+from liquidtouch.testing.synthetic_tables import (
+    CONTAINER_A,
+    CONTAINER_B,
+    PAPER_CONCENTRATIONS,
+    PAPER_HEIGHTS_MM,
+    liquid_table,
+    paper_split,
+    sloshing_features,
+    sugar_table,
+)
 
 FEATURES = list(FEATURE_COLUMNS)
 TARGETS = ["height_mm", "sugar_concentration", "log10_viscosity_cst"]

@@ -21,7 +21,6 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils.estimator_checks import check_estimator
 
-from benchmarks.synthetic_tables import liquid_table, paper_split
 from liquidtouch.errors import TableError
 from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.models import (
@@ -30,6 +29,7 @@ from liquidtouch.models import (
     PhysicsGPRegressor,
     QuadraticRegressor,
 )
+from liquidtouch.testing.synthetic_tables import liquid_table, paper_split
 
 FEATURES = list(FEATURE_COLUMNS)
 pytestmark = pytest.mark.filterwarnings("ignore::sklearn.exceptions.SkipTestWarning")

@@ -133,7 +133,7 @@ def test_gcl_lines_round_trip():
 
 
 def test_arm_and_mjpeg_messages():
-    assert arm.greeting() == {"server": "liquidtouch-rig-arm", "protocol": 1}
+    assert arm.greeting() == {"server": "liquidtouch-rig-arm", "protocol": 2}
     assert arm.encode_request(3, arm.GET_POSE) == '{"id": 3, "cmd": "get_pose"}'
     assert arm.encode_message(arm.ok_reply(3, pose=[0.0])) == (
         b'{"id": 3, "ok": true, "pose": [0.0]}\n'

@@ -9,7 +9,6 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from benchmarks.scene_tracks import keep_frames, noisy_true_tracks
 from liquidtouch.cli.format import gap_warning
 from liquidtouch.errors import SwallowedRingDownError
 from liquidtouch.extraction.fit_settings import FitSettings, ring_down_swallowed
@@ -18,6 +17,7 @@ from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.gelsight import sensor_scene
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
+from liquidtouch.testing.scene_tracks import keep_frames, noisy_true_tracks
 from liquidtouch.tracking.tracks import MarkerTracks
 
 FPS = 25.0
@@ -86,7 +86,7 @@ def test_a_lone_frame_at_either_end_is_not_observed():
 
 def truth_tracks(liquid: str, seed: int, height_mm: float) -> tuple[list[MarkerTracks], object]:
     """Both sensors' true marker positions (mini profile, 25 fps) and 0.01 px of noise,
-    as ``benchmarks/gaps.py``."""
+    as ``benchmarks/signal/gaps.py``."""
     rng = np.random.default_rng(seed)
     trial = simulate_trial(liquid, height_mm=height_mm, seed=seed)
     scene = sensor_scene(trial.loads, get_sensor_profile("mini"), rng, jitter=False)

@@ -413,3 +413,31 @@ def test_verbose_logs_the_lab_path_to_stderr(tmp_path, caplog):
     finally:
         package.setLevel(logging.NOTSET)
     assert not (tmp_path / "t").exists()
+
+
+def test_the_rig_logs_every_command_and_serves_its_start_pose(rig_factory):
+    """What reached the rig is in ``Rig.commands`` (queries too); the arm protocol's
+    ``start_pose`` is the rig's home, where a trial starts and ends."""
+    from liquidtouch.acquire.arms import RigArm
+    from liquidtouch.acquire.grippers import open_gripper
+    from liquidtouch.sim.rig.state import HOME_POSE
+
+    rig = rig_factory()
+    with RigServer(rig, cameras=False) as server:
+        assert rig.commands == []  # serving sends nothing
+        endpoints = server.endpoints()
+        with RigArm("127.0.0.1", server.arm.port) as arm:
+            assert arm.start_pose() == pytest.approx(list(HOME_POSE))
+            assert arm.get_pose() == pytest.approx(list(HOME_POSE))
+        with open_gripper(endpoints["gripper"]) as gripper:
+            assert gripper.grip_state() == 0
+    assert rig.commands == ["arm start_pose", "arm get_pose", "gripper FSACK", "gripper GRIPSTATE?"]
+    assert rig.status()["commands"] == 4
+
+
+def test_a_simulated_trial_has_a_short_repr():
+    trial = simulate_trial("water", height_mm=25.0, seed=3, duration_s=3.0)
+    text = repr(trial)
+    assert len(text) < 300 and "array" not in text and "\n" not in text
+    assert "'water'" in text and "height_mm=25" in text and "seed=3" in text
+    assert f"{trial.true_decay_rate:.5g}" in text

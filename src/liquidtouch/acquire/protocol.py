@@ -8,24 +8,33 @@ arm lifts it, gives it a short lateral push and holds still while the sensors
 record the sloshing), with the parameters of :class:`ProtocolParameters` (a TOML
 file: :func:`load_protocol`):
 
-1. the cameras are opened and warmed up (a camera that does not deliver stops
-   the trial before the robot moves);
-2. ``GRIP`` with ``grasp_force_n`` on a part of ``part_width_mm``; the gripper
+0. ``check``: the gripper's and the arm's state are read (``GRIPSTATE?``, ``POS?``, the
+   pose) and anything but the start state — fingers open, no part held, no fault, the
+   arm at its start pose — is refused before anything moves, or mended with ``recover``
+   (:mod:`liquidtouch.acquire.start_state`);
+1. ``cameras``: opened and warmed up (a camera that does not deliver stops the trial
+   before the robot moves);
+2. ``grasp``: ``GRIP`` with ``grasp_force_n`` on a part of ``part_width_mm``; the gripper
    must report that it holds the part;
-3. lift by ``lift_mm`` (``moveL`` straight up), wait ``settle_s``;
-4. start recording, wait ``pre_push_s``;
-5. push: ``moveL`` by ``push_distance_mm`` along the base ``push_axis`` at
+3. ``lift`` by ``lift_mm`` (``moveL`` straight up), wait ``settle_s``;
+4. ``record``: start recording, wait ``pre_push_s``;
+5. ``push``: ``moveL`` by ``push_distance_mm`` along the base ``push_axis`` at
    ``push_speed_m_s`` / ``push_acceleration_m_s2`` (a trapezoidal speed profile);
-6. hold still ``hold_s`` while recording (the gripper must keep holding; its
+6. ``hold`` still ``hold_s`` while recording (the gripper must keep holding; its
    readings and the arm's pose are logged every ``log_interval_s``);
-7. stop recording, lower by ``lift_mm``, release (``RELEASE`` by ``release_mm``);
-8. write the trial: meta.json (last) gets the parameters, the push's times on
+7. ``stop`` recording; ``return``: carry the bottle back over its start (at the lifted
+   height); ``lower`` it to the start pose; ``release`` (``RELEASE`` by ``release_mm``):
+   the trial ends where it started, so the next one starts from there;
+8. ``write`` the trial: meta.json (last) gets the parameters, the push's times on
    the recording's clock, the arm's poses and the gripper's readings.
+
+The order is :data:`STEPS`, each step a method of :class:`TrialSteps`.
 
 **Safety.** On any error or Ctrl-C, at any step: the arm is stopped, the gripper
 is left holding (it is never opened, so a lifted bottle is not dropped) and the
-recording is aborted, so no trial directory appears (nothing looks complete).
-Putting the bottle down is then the operator's job.
+recording is aborted, so no trial directory appears (nothing looks complete). The
+next trial then refuses to start (step 0) until the bottle is put down: by hand, or by
+``run-trial --recover``.
 """
 
 from __future__ import annotations
@@ -46,13 +55,17 @@ from liquidtouch.acquire.protocol_params import (
     ProtocolParameters,
 )
 from liquidtouch.acquire.recording import Recorder
+from liquidtouch.acquire.start_state import check_start_state, recover_start_state
 from liquidtouch.errors import DeviceError
 from liquidtouch.protocols import gcl
 
 __all__ = [
     "AXES",
+    "PUSH_STEPS",
+    "STEPS",
     "TrialLog",
     "TrialRun",
+    "TrialSteps",
     "failed_run_dir",
     "make_recorder",
     "run_trial",
@@ -190,6 +203,142 @@ def _safe(action: Callable[[], object], failures: list[str], what: str) -> None:
         failures.append(f"{what}: {type(exc).__name__}: {exc}")
 
 
+#: the protocol's steps in order (:class:`TrialSteps` has a method of each name, ``return``
+#: is ``return_``); a protocol of several pushes repeats :data:`PUSH_STEPS`
+STEPS = (
+    "check", "cameras", "grasp", "lift", "record", "push", "hold", "stop", "return",
+    "lower", "release", "write",
+)  # fmt: skip
+#: the steps of one push and its ring-down
+PUSH_STEPS = ("push", "hold")
+
+
+class TrialSteps:
+    """The protocol's steps on one gripper, arm and recorder (module docstring), each a
+    method named as in :data:`STEPS`; what a step finds (poses, times, the summary) is
+    kept for the next ones and for the trial's meta.json."""
+
+    def __init__(self, gripper, arm, recorder, params: ProtocolParameters, log: TrialLog, *,
+                 recover: bool = False) -> None:  # fmt: skip
+        self.gripper, self.arm, self.recorder = gripper, arm, recorder
+        self.params, self.log, self.recover = params, log, recover
+        self.axis = AXES[params.push_axis]
+        self.start: list[float] = []
+        self.lifted: list[float] = []
+        self.push_start = self.push_end = math.nan
+        self.summary: Any = None
+        self.trial_dir: Path | None = None
+
+    def method(self, name: str) -> Callable[[], None]:
+        return getattr(self, "return_" if name == "return" else name)
+
+    def check(self) -> None:
+        """Read the gripper's and arm's state; refuse (or, ``recover``, mend) a wrong one."""
+        fix = recover_start_state if self.recover else check_start_state
+        state = fix(self.gripper, self.arm, self.params)
+        self.start = list(state.start)
+        self.log.poses["start_pose"] = list(state.start)
+
+    def cameras(self) -> None:
+        self.recorder.open()
+
+    def grasp(self) -> None:
+        p = self.params
+        self.log.pose("start", self.arm)
+        self.log.event("grasp", force_n=p.grasp_force_n, part_width_mm=p.part_width_mm)
+        try:
+            self.gripper.grip(p.grasp_force_n, p.part_width_mm, p.grasp_speed_mm_s)
+        except DeviceError as exc:
+            raise DeviceError(
+                f"{exc}: is the bottle standing between the open fingers at the start pose, "
+                f"and about part_width_mm = {p.part_width_mm:g} mm wide?"
+            ) from None
+        self.log.gripper(self.gripper, "grasped")
+
+    def lift(self) -> None:
+        p = self.params
+        self.log.event("lift")
+        self.arm.move_linear(
+            _offset(self.start, 2, p.lift_mm * 1e-3), p.lift_speed_m_s, p.lift_acceleration_m_s2
+        )
+        self.lifted = self.log.pose("lifted", self.arm)
+        _wait(p.settle_s, lambda: None)
+
+    def record(self) -> None:
+        self.recorder.start()
+        self.log.event("recording")
+        _wait(self.params.pre_push_s, self.recorder.check)
+
+    def push(self) -> None:
+        p = self.params
+        here = self.arm.get_pose()
+        target = _offset(here, self.axis, p.push_distance_mm * 1e-3)
+        self.push_start = self.log.event("push", distance_mm=p.push_distance_mm)
+        self.arm.move_linear(target, p.push_speed_m_s, p.push_acceleration_m_s2)
+        self.push_end = self.log.event("pushed")
+        self.log.pose("pushed", self.arm)
+
+    def hold(self) -> None:
+        hold_end = self.push_end + self.params.hold_s
+        while True:
+            self.recorder.check()
+            reading = self.log.gripper(self.gripper, "holding")
+            if reading["grip_state"] != gcl.HOLDING:
+                state = reading["grip_state"]
+                raise DeviceError(
+                    f"the gripper stopped holding the bottle during the hold (GRIPSTATE="
+                    f"{state} {gcl.GRIP_STATES.get(state, '?')})"
+                )
+            self.log.pose(f"hold_{len(self.log.gripper_readings)}", self.arm)
+            remaining = hold_end - time.monotonic()
+            if remaining <= 0:
+                return
+            _wait(min(self.params.log_interval_s, remaining), self.recorder.check)
+
+    def stop(self) -> None:
+        self.summary = self.recorder.stop()
+        self.log.event("stopped")
+
+    def return_(self) -> None:
+        """Carry the bottle back over its start, at the lifted height (pushes moved it)."""
+        p = self.params
+        self.log.event("return")
+        over_start = [*self.start[:2], self.arm.get_pose()[2], *self.start[3:]]
+        self.arm.move_linear(over_start, p.lift_speed_m_s, p.lift_acceleration_m_s2)
+
+    def lower(self) -> None:
+        p = self.params
+        self.log.event("lower")
+        self.arm.move_linear(self.start, p.lift_speed_m_s, p.lift_acceleration_m_s2)
+        self.log.pose("lowered", self.arm)
+
+    def release(self) -> None:
+        self.gripper.release(self.params.release_mm, self.params.release_speed_mm_s)
+        self.log.gripper(self.gripper, "released")
+        self.log.event("released")
+
+    def write(self, meta: Mapping[str, object]) -> None:
+        self.trial_dir = Path(self.recorder.finish(dict(meta)))
+
+    def meta(self, camera_sources: Sequence[str], extra_meta: Mapping[str, object]) -> dict:
+        """meta.json's protocol fields: the push on the recording's clock, the log."""
+        origin = _recording_origin(self.summary)
+        return {
+            "push_start_s": self.push_start - origin,
+            "push_end_s": self.push_end - origin,
+            "protocol": self.params.model_dump(mode="json"),
+            "acquisition": {
+                "clock": "time.monotonic",
+                "origin_t_s": origin,
+                "gripper": getattr(self.gripper, "url", None),
+                "arm": getattr(self.arm, "url", None),
+                "cameras": [str(s) for s in camera_sources],
+                **self.log.to_dict(),
+            },
+            **dict(extra_meta),
+        }
+
+
 def run_trial(
     gripper: Gripper,
     arm: Arm,
@@ -204,6 +353,8 @@ def run_trial(
     recorder_factory: Callable[..., Any] = make_recorder,
     on_event: Callable[[str, float], None] | None = None,
     camera_timeouts: Mapping[str, float] | None = None,
+    recorder: Any = None,
+    recover: bool = False,
 ) -> TrialRun:
     """Run one trial (module docstring: the steps and the safety rules); return it.
 
@@ -214,107 +365,41 @@ def run_trial(
     event is logged [s, :func:`time.monotonic`] (the live estimate takes the push and the
     end of the hold from them). ``camera_timeouts`` (``open_timeout_s``,
     ``read_timeout_s``, ``warmup_timeout_s`` [s]) go to ``recorder_factory``
-    (:func:`make_recorder`). The trial directory ``out_dir`` appears only when everything
-    succeeded; a failed run writes ``DIR.failed/run.json`` (:func:`write_failed_run`).
+    (:func:`make_recorder`), unless a ``recorder`` made by it is given (so its checks
+    ran before the devices were connected). ``recover``: mend an unexpected start state
+    (:func:`~liquidtouch.acquire.start_state.recover_start_state`) instead of refusing it.
+    The trial directory ``out_dir`` appears only when everything succeeded; a failed run
+    writes ``DIR.failed/run.json`` (:func:`write_failed_run`).
     """
     params = ProtocolParameters() if params is None else params
-    axis = AXES[params.push_axis]
     report = on_step or (lambda _name: None)
-
-    def step(name: str) -> None:
-        logger.info("trial step: %s", name)
-        report(name)
-
     log = TrialLog(on_event=on_event)
-    recorder = recorder_factory(
-        list(camera_sources),
-        out_dir,
-        names=names,
-        params=params,
-        labels=dict(labels or {}),
-        **dict(camera_timeouts or {}),
-    )
-    try:
-        step("cameras")
-        recorder.open()
-        start = log.pose("start", arm)
-
-        step("grasp")
-        log.event("grasp", force_n=params.grasp_force_n, part_width_mm=params.part_width_mm)
-        gripper.grip(params.grasp_force_n, params.part_width_mm, params.grasp_speed_mm_s)
-        log.gripper(gripper, "grasped")
-
-        step("lift")
-        lifted = _offset(start, 2, params.lift_mm * 1e-3)
-        log.event("lift")
-        arm.move_linear(lifted, params.lift_speed_m_s, params.lift_acceleration_m_s2)
-        lifted = log.pose("lifted", arm)
-        _wait(params.settle_s, lambda: None)
-
-        step("record")
-        recorder.start()
-        log.event("recording")
-        _wait(params.pre_push_s, recorder.check)
-
-        step("push")
-        target = _offset(lifted, axis, params.push_distance_mm * 1e-3)
-        push_start = log.event("push", distance_mm=params.push_distance_mm)
-        arm.move_linear(target, params.push_speed_m_s, params.push_acceleration_m_s2)
-        push_end = log.event("pushed")
-        pushed = log.pose("pushed", arm)
-
-        step("hold")
-        hold_end = push_end + params.hold_s
-        while True:
-            recorder.check()
-            reading = log.gripper(gripper, "holding")
-            if reading["grip_state"] != gcl.HOLDING:
-                state = reading["grip_state"]
-                raise DeviceError(
-                    f"the gripper stopped holding the bottle during the hold (GRIPSTATE="
-                    f"{state} {gcl.GRIP_STATES.get(state, '?')})"
-                )
-            log.pose(f"hold_{len(log.gripper_readings)}", arm)
-            remaining = hold_end - time.monotonic()
-            if remaining <= 0:
-                break
-            _wait(min(params.log_interval_s, remaining), recorder.check)
-
-        step("stop")
-        summary = recorder.stop()
-        log.event("stopped")
-
-        step("lower")
-        log.event("lower")
-        arm.move_linear(
-            _offset(pushed, 2, -params.lift_mm * 1e-3),
-            params.lift_speed_m_s,
-            params.lift_acceleration_m_s2,
+    if recorder is None:
+        recorder = recorder_factory(
+            list(camera_sources),
+            out_dir,
+            names=names,
+            params=params,
+            labels=dict(labels or {}),
+            **dict(camera_timeouts or {}),
         )
-        log.pose("lowered", arm)
-
-        step("release")
-        gripper.release(params.release_mm, params.release_speed_mm_s)
-        log.gripper(gripper, "released")
-        log.event("released")
-
-        step("write")
-        origin = _recording_origin(summary)
-        meta: dict[str, Any] = {
-            "push_start_s": push_start - origin,
-            "push_end_s": push_end - origin,
-            "protocol": params.model_dump(mode="json"),
-            "acquisition": {
-                "clock": "time.monotonic",
-                "origin_t_s": origin,
-                "gripper": getattr(gripper, "url", None),
-                "arm": getattr(arm, "url", None),
-                "cameras": [str(s) for s in camera_sources],
-                **log.to_dict(),
-            },
-            **dict(extra_meta or {}),
-        }
-        trial_dir = recorder.finish(meta)
+    steps = TrialSteps(gripper, arm, recorder, params, log, recover=recover)
+    try:  # refused or mended before anything is recorded: no failed run to write
+        report(STEPS[0])
+        steps.check()
+    except BaseException:
+        if recover:
+            _safe(arm.stop, [], "stopping the arm")
+        _safe(recorder.abort, [], "aborting the recording")
+        raise
+    try:
+        for name in STEPS[1:]:
+            logger.info("trial step: %s", name)
+            report(name)
+            if name == "write":
+                steps.write(steps.meta(camera_sources, extra_meta or {}))
+            else:
+                steps.method(name)()
     except BaseException as exc:
         logger.info(
             "the trial failed (%s): stopping the arm, aborting the recording; the gripper "
@@ -333,12 +418,13 @@ def run_trial(
         except OSError as write_error:
             logger.warning("could not write the failed run's record: %s", write_error)
         raise
+    origin = _recording_origin(steps.summary)
     return TrialRun(
-        trial_dir=Path(trial_dir),
-        summary=summary,
+        trial_dir=steps.trial_dir,
+        summary=steps.summary,
         log=log,
-        push_start_s=push_start - origin,
-        push_end_s=push_end - origin,
+        push_start_s=steps.push_start - origin,
+        push_end_s=steps.push_end - origin,
     )
 
 

@@ -6,6 +6,7 @@ Used by :func:`liquidtouch.acquire.protocol.run_trial` (see its module docstring
 
 from __future__ import annotations
 
+import math
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -16,7 +17,13 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from liquidtouch.acquire.arms import linear_move_duration
 from liquidtouch.errors import LiquidTouchError
 
-__all__ = ["MAX_PROTOCOL_BYTES", "ProtocolParameters", "load_protocol", "protocol_from_mapping"]
+__all__ = [
+    "MAX_PROTOCOL_BYTES",
+    "ProtocolParameters",
+    "load_protocol",
+    "protocol_from_mapping",
+    "trial_parameters",
+]
 
 MAX_PROTOCOL_BYTES = 64 * 1024
 
@@ -59,6 +66,11 @@ class ProtocolParameters(BaseModel):
     """The cameras' sensor profile (``acquire.cameras.PROFILES``: ``raw``, ``mini``, ``r15``,
     ``digit``; ``run-trial --sensor``)."""
     recording_format: Literal["ffv1", "png"] = "ffv1"
+    start_pose: tuple[float, float, float, float, float, float] | None = None
+    """The tool pose [x, y, z m; rx, ry, rz rad] the bottle is grasped at, on the table;
+    the trial starts and ends there (default: the arm's own start pose, e.g. the
+    simulated rig's; an arm without one starts wherever it is:
+    :mod:`liquidtouch.acquire.start_state`)."""
 
     def model_post_init(self, _context: Any) -> None:
         if abs(self.push_distance_mm) < 1.0:
@@ -119,3 +131,25 @@ def load_protocol(path: str | Path) -> ProtocolParameters:
     except OSError as exc:
         raise LiquidTouchError(f"cannot read {path}: {exc.strerror or exc}") from None
     return protocol_from_mapping(values, str(path))
+
+
+def trial_parameters(
+    protocol: str | Path | None = None,
+    *,
+    hold_s: float | None = None,
+    camera_profile: str | None = None,
+) -> ProtocolParameters:
+    """The protocol file's parameters (default: the paper's) with ``hold_s`` [s] and
+    ``camera_profile`` overriding it when given; :class:`LiquidTouchError` names a bad one."""
+    params = load_protocol(protocol) if protocol is not None else ProtocolParameters()
+    overrides: dict[str, object] = {}
+    if hold_s is not None:
+        if not math.isfinite(hold_s):
+            raise LiquidTouchError(f"--seconds must be a finite number, got {hold_s}")
+        overrides["hold_s"] = hold_s
+    if camera_profile is not None:
+        overrides["camera_profile"] = str(camera_profile)
+    for key, value in overrides.items():  # one at a time: the error names its option
+        option = "--seconds" if key == "hold_s" else "--sensor"
+        params = protocol_from_mapping({**params.model_dump(), key: value}, option)
+    return params

@@ -294,7 +294,7 @@ def extract_features(
         try:
             fingerprint = _fingerprint(tdir, source, settings)
         except LiquidTouchError as exc:
-            logger.warning("trial %s: %s", trial, exc)
+            logger.info("trial %s: %s", trial, exc)  # in the table's error column
             results[trial] = {"features": {}, "error": str(exc)}
             continue
         cached = _read_cache(_cache_file(root, trial, source), fingerprint)
@@ -317,7 +317,8 @@ def extract_features(
                     atomic.write_json(_cache_file(root, trial, source), entry)
                 results[trial] = result
                 if result["error"]:
-                    logger.warning("trial %s failed: %s", trial, result["error"])
+                    # info: the error column carries it, and the caller reports it (once)
+                    logger.info("trial %s failed: %s", trial, result["error"])
                 else:
                     logger.info("trial %s extracted", trial)
                 if on_trial is not None:

@@ -208,13 +208,17 @@ def features(
             "settings": table.attrs["settings"],
         }
         typer.echo(json.dumps(summary, ensure_ascii=False))
-        return
-    typer.echo(
-        f"{len(table) - len(failed)} of {len(table)} trials extracted → {target} "
-        f"({table.attrs['n_computed']} computed, {table.attrs['n_cached']} from the cache)"
-    )
-    for row in failed.itertuples(index=False):
-        typer.echo(f"failed: {row.trial}: {row.error}", err=True)
+    else:
+        typer.echo(
+            f"{len(table) - len(failed)} of {len(table)} trials extracted → {target} "
+            f"({table.attrs['n_computed']} computed, {table.attrs['n_cached']} from the cache)"
+        )
+        for row in failed.itertuples(index=False):
+            typer.echo(f"failed: {row.trial}: {row.error}", err=True)
+    if len(table) and len(failed) == len(table):  # nothing worked: the exit status says so
+        from liquidtouch.errors import DatasetError
+
+        raise DatasetError(f"no trial was extracted: all {len(table)} failed (see above)")
 
 
 def check_output_paths(**paths: Path | None) -> None:

@@ -13,6 +13,7 @@ import logging
 import math
 import time
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
@@ -23,6 +24,7 @@ from liquidtouch.acquire.deadlines import (
     DEFAULT_WARMUP_TIMEOUT_S,
 )
 from liquidtouch.cli import options
+from liquidtouch.cli.format import warn
 
 logger = logging.getLogger("liquidtouch.cli.live")
 
@@ -47,59 +49,55 @@ def parse_serve(text: str) -> tuple[str, int]:
     return host, int(port)
 
 
-def live(
-    sources: list[str] = typer.Argument(
-        ...,
-        metavar="SRC...",
-        help="Camera sources (0, /dev/video2, name:GelSight Mini, a URL) or recordings "
-        "(video files, image folders, one trial directory).",
+Replay = Annotated[
+    bool, typer.Option("--replay", help="Play recordings at the pace of their timestamps.")
+]
+MaxDuration = Annotated[
+    float | None,
+    typer.Option(
+        "--max-duration", metavar="SECONDS", help="Stop after this much stream time [s].",
         show_default=False,
     ),
-    model_file: Path | None = typer.Option(
-        None, "--model", help="Model file (from train): predict its targets with their std."
-    ),
-    replay: bool = typer.Option(
-        False, "--replay", help="Play recordings at the pace of their timestamps (real time)."
-    ),
-    until_std: list[str] = typer.Option(
-        [],
-        "--until-std",
-        metavar="TARGET=STD",
-        help="Stop once TARGET's std is below STD (repeatable; all must hold): decay_rate, "
-        "angular_frequency or a model target, e.g. height_mm=0.5.",
-        show_default=False,
-    ),
-    max_duration_s: float | None = typer.Option(
-        None,
-        "--max-duration",
-        metavar="SECONDS",
-        help="Stop after this much stream time [s].",
-        show_default=False,
-    ),
-    as_json: bool = typer.Option(
-        False, "--json", help="One JSON object per update on stdout; the last has final=true."
-    ),
-    serve: str | None = typer.Option(
-        None,
-        "--serve",
-        metavar="HOST:PORT",
-        help="Show the stream in a browser at http://HOST:PORT (port 0: any free port).",
-        show_default=False,
-    ),
-    linger_s: float = typer.Option(
-        0.0,
+]  # fmt: skip
+Linger = Annotated[
+    float,
+    typer.Option(
         "--linger",
         metavar="SECONDS",
         help="With --serve: keep serving the final page this long after the stream ends [s], "
         "0 to 86400 (Ctrl-C ends it sooner).",
     ),
-    fps: float | None = typer.Option(
-        None,
-        "--fps",
-        metavar="HZ",
-        help="Frame rate of image folders without timestamps [Hz].",
+]
+Fps = Annotated[
+    float | None,
+    typer.Option(
+        "--fps", metavar="HZ", help="Frame rate of image folders without timestamps [Hz].",
         show_default=False,
     ),
+]  # fmt: skip
+
+
+Sources = Annotated[
+    list[str],
+    typer.Argument(
+        metavar="SRC...",
+        help="Camera sources (0, /dev/video2, name:GelSight Mini, a URL) or recordings "
+        "(video files, image folders, one trial directory).",
+        show_default=False,
+    ),
+]
+
+
+def live(
+    sources: Sources,
+    model_file: options.LiveModel = None,
+    replay: Replay = False,
+    until_std: options.UntilStd = [],  # noqa: B006 - typer reads the default, never mutates it
+    max_duration_s: MaxDuration = None,
+    as_json: options.Json = False,
+    serve: options.Serve = None,
+    linger_s: Linger = 0.0,
+    fps: Fps = None,
     lowpass_hz: options.MarkerLowpass = options.DEFAULT_LOWPASS_HZ,
     n_markers: options.Markers = options.DEFAULT_MARKERS,
     sensor: options.SensorProfile = options.SensorChoice.raw,
@@ -110,50 +108,25 @@ def live(
     """Estimate λ, ω (and, with --model, properties) while the frames come in.
 
     An estimate appears as soon as its std supports it; the stream stops at the end of
-    the recording, after --max-duration, or once every --until-std target is met.
+    the recording, after --max-duration, or once every --until-std target is met (a
+    target the model's calibrated std can never meet is said at once). One line (--json:
+    one JSON object) per new estimate; a repeat of the last one is not printed again.
     """
-    from liquidtouch.errors import LiquidTouchError
-    from liquidtouch.live import live_updates, parse_until_std
+    _check_inputs(sources, linger_s)  # before the heavy imports: answered at once
+    from liquidtouch.live.stopping import parse_until_std
 
-    if not 0 <= linger_s <= MAX_LINGER_S:  # NaN and inf too
-        raise LiquidTouchError(f"--linger must be 0 to {MAX_LINGER_S:g} s, got {linger_s:g}")
     limits = parse_until_std(until_std)
     address = parse_serve(serve) if serve else None
-    model = None
-    if model_file is not None:
-        from liquidtouch.models.modelfile import load_model
-
-        model = load_model(model_file)
-    hub = server = None
-    on_frame = None
+    model, unreachable = live_model(model_file, limits)
+    hub = server = on_frame = None
     if address is not None:
         hub, server, on_frame = _start_serving(*address)
     try:
-        updates = live_updates(
-            sources,
-            model=model,
-            until_std=limits,
-            realtime=replay,
-            max_duration_s=max_duration_s,
-            fps=fps,
-            lowpass_hz=lowpass_hz,
-            n_markers=n_markers,
-            on_frame=on_frame,
-            profile=str(sensor),
-            camera_options={
-                "open_timeout_s": open_timeout_s,
-                "read_timeout_s": read_timeout_s,
-                "warmup_timeout_s": warmup_timeout_s,
-            },
-        )
-        try:
-            for update in updates:
-                _show(update, hub, as_json)
-        except KeyboardInterrupt:  # Ctrl-C while showing an update: the stream's final one
-            try:
-                _show(updates.throw(KeyboardInterrupt), hub, as_json)
-            except StopIteration:
-                pass
+        updates = _updates(
+            sources, model, limits, replay, max_duration_s, fps, lowpass_hz, n_markers,
+            on_frame, sensor, (open_timeout_s, read_timeout_s, warmup_timeout_s),
+        )  # fmt: skip
+        _show_all(updates, hub, as_json, said_at_start=unreachable)
         if server is not None and linger_s > 0:
             hub.close()  # browsers get the end; the page and its history stay served
             _linger(linger_s, server.url)
@@ -164,17 +137,95 @@ def live(
             hub.close()
 
 
-def _show(update, hub, as_json: bool) -> None:
-    """Publish and print one update."""
+def live_model(model_file: Path | None, limits: dict[str, float]):
+    """The ``--model`` (or None) and the ``--until-std`` targets it can never meet, checked
+    (a warning says which); without a model before the heavy imports (a typo is answered
+    at once)."""
+    from liquidtouch.live.stopping import EVERYWHERE, check_until_std, unreachable_message
+
+    if model_file is None:
+        check_until_std(limits)
+        return None, {}
+    from liquidtouch.live.properties import check_live_request
+    from liquidtouch.models.modelfile import load_model
+
+    model = load_model(model_file)
+    unreachable = check_live_request(model, limits)
+    if unreachable:
+        warn(unreachable_message(unreachable, limits, EVERYWHERE))
+    return model, unreachable
+
+
+def _check_inputs(sources: list[str], linger_s: float) -> None:
+    """--linger's range, and every source a recording on disk or a camera (DeviceError)."""
+    from liquidtouch.acquire.cameras.sources import parse_source
+    from liquidtouch.errors import LiquidTouchError
+
+    if not 0 <= linger_s <= MAX_LINGER_S:  # NaN and inf too
+        raise LiquidTouchError(f"--linger must be 0 to {MAX_LINGER_S:g} s, got {linger_s:g}")
+    for source in sources:
+        if not Path(source).exists():
+            parse_source(source)  # a camera, or DeviceError
+
+
+def _updates(sources, model, limits, replay, max_duration_s, fps, lowpass_hz, n_markers,
+             on_frame, sensor, timeouts):  # fmt: skip
+    """:func:`liquidtouch.live.live_updates` of the command's options."""
+    from liquidtouch.live import live_updates
+
+    return live_updates(
+        sources,
+        model=model,
+        until_std=limits,
+        realtime=replay,
+        max_duration_s=max_duration_s,
+        fps=fps,
+        lowpass_hz=lowpass_hz,
+        n_markers=n_markers,
+        on_frame=on_frame,
+        profile=str(sensor),
+        camera_options=dict(
+            zip(("open_timeout_s", "read_timeout_s", "warmup_timeout_s"), timeouts, strict=True)
+        ),
+    )
+
+
+def _show_all(updates, hub, as_json: bool, said_at_start=()) -> None:
+    """Publish every update; print each new one (a repeat of the last printed estimate, as a
+    stream that goes on after its ring-down ended gives every refresh, is not printed); say
+    once, as soon as it is known, an --until-std target this stream cannot meet."""
+    printed, said = None, set(said_at_start)
+    try:
+        for update in updates:
+            printed = _show(update, hub, as_json, printed)
+            new = set(update.until_std_unreachable) - said
+            if new:  # a target this stream cannot meet: said once, as soon as it is known
+                said |= new
+                warn(update.message)
+    except KeyboardInterrupt:  # Ctrl-C while showing an update: the stream's final one
+        try:
+            _show(updates.throw(KeyboardInterrupt), hub, as_json, printed)
+        except StopIteration:
+            pass
+
+
+def _show(update, hub, as_json: bool, printed: str | None) -> str | None:
+    """Publish one update and print it unless it repeats the last printed one; its key."""
+    from liquidtouch.live.updates import repeat_key
+
     if hub is not None:
         hub.publish(update.to_dict(include_signal=True))
+    key = repeat_key(update)
+    if key == printed:
+        return printed
     if as_json:
         typer.echo(json.dumps(update.to_dict(), ensure_ascii=False))
     else:
         typer.echo(_line(update))
     if update.stopped_because == "source_error":
-        typer.echo(f"warning: the stream ended early: {update.message}", err=True)
+        warn(f"the stream ended early: {update.message}")
     logger.info("update: %s", update)
+    return key
 
 
 def _linger(seconds: float, url: str) -> None:

@@ -18,7 +18,7 @@ import threading
 import time
 from pathlib import Path
 
-from liquidtouch.cli.live import SERVE_FRAME_HZ, parse_serve
+from liquidtouch.cli.live import SERVE_FRAME_HZ, live_model, parse_serve
 
 logger = logging.getLogger("liquidtouch.cli.live_trial")
 
@@ -30,15 +30,15 @@ _END = object()
 class LiveTrial:
     """The live estimate beside a ``run-trial`` (module docstring)."""
 
-    def __init__(self, names, *, model_file=None, until_std=(), serve=None, quiet=False):
-        from liquidtouch.live import parse_until_std
-        from liquidtouch.models.modelfile import load_model
+    def __init__(self, names, *, model_file=None, until_std=(), serve=None):
+        """Check everything (model file, targets, serve address) before a robot moves."""
+        from liquidtouch.live.stopping import parse_until_std
 
         self.names = list(names)
-        self.model = load_model(model_file) if model_file is not None else None
         self.limits = parse_until_std(list(until_std))
         self.address = parse_serve(serve) if serve else None
-        self.quiet = quiet
+        #: the model, and the --until-std targets it can never meet {target: its std floor}
+        self.model, self.unreachable = live_model(model_file, self.limits)
         self.frames: queue.Queue = queue.Queue(maxsize=MAX_QUEUED)
         self.events: queue.Queue = queue.Queue()
         self.all_events: list[tuple[str, float]] = []
@@ -59,15 +59,17 @@ class LiveTrial:
         self.all_events.append((name, t_s))
 
     def start(self) -> None:
+        """Start serving (``--serve``) and estimating."""
+        from liquidtouch.cli.format import note
+
         if self.address is not None:
-            from liquidtouch.cli.format import warn
             from liquidtouch.live.hub import LiveHub
             from liquidtouch.live.web import start_server
 
             self.hub = LiveHub()
             self.server = start_server(self.hub, host=self.address[0], port=self.address[1])
             self.url = self.server.url
-            warn(f"serving the live view at {self.server.url}")
+            note(f"serving the live view at {self.server.url}")
         self._thread = threading.Thread(target=self._run, name="live-trial", daemon=True)
         self._thread.start()
 
@@ -93,6 +95,7 @@ class LiveTrial:
         from liquidtouch.live import live_updates
 
         last: dict[str, float] = {}
+        said = set(self.unreachable)  # warned about at the start
 
         def on_frame(frame, positions, reference) -> None:
             now = time.monotonic()
@@ -117,6 +120,10 @@ class LiveTrial:
                 if self.hub is not None:
                     self.hub.publish(update.to_dict(include_signal=True))
                 logger.info("live: %s", update)
+                new = set(update.until_std_unreachable) - said
+                if new:  # a target this trial cannot meet: said once, when first known
+                    said |= new
+                    logger.warning("live: %s", update.message)
                 if update.final:
                     self.final = update.to_dict()
         except Exception as exc:  # the trial matters more than its live view

@@ -232,6 +232,13 @@ def classify(
     fitted = train_classifier(X, label_column(table, label), label=label)
     held_out = None if rest is None else classification_accuracy(fitted, rest, label)
     save_model(fitted, out)
+    rule = fitted.classifier.unknown_status()
+    if rule != "available":
+        fewest = int(fitted.classifier.class_n_.min())
+        warn(
+            f"this classifier cannot flag unknown liquids (unknown_rule: {rule}; the fewest "
+            f"here: {fewest}): it names a liquid it was not trained on as one it was"
+        )
     if as_json:
         clf = fitted.classifier
         typer.echo(
@@ -248,6 +255,7 @@ def classify(
                     "held_out": held_out,
                     "C": clf.C_,
                     "gamma": clf.gamma_,
+                    "unknown_rule": rule,
                 }
             )
         )

@@ -323,3 +323,100 @@ WarmupTimeout = Annotated[
         help="Deadline for the cameras' whole warm-up after opening, first frame included [s].",
     ),
 ]
+
+
+# --- the robot and the live estimate (run-trial, live, rig serve) ------------------------
+
+GripperUrl = Annotated[
+    str,
+    typer.Option(
+        "--gripper", help="Gripper URL: wsg50://HOST[:PORT] (a WSG-50; port 1000) or sim://."
+    ),
+]
+ArmUrl = Annotated[
+    str,
+    typer.Option(
+        "--arm",
+        help="Arm URL: ur-rtde://HOST (a UR arm, needs liquidtouch[robot]), sim://HOST:PORT "
+        "(the simulated rig) or sim://.",
+    ),
+]
+Cameras = Annotated[
+    list[str],
+    typer.Option(
+        "--camera",
+        help="A camera source, repeated (left first): a device index, /dev/videoN, "
+        "name:GelSight Mini, an http/rtsp stream URL.",
+    ),
+]
+TrialOut = Annotated[
+    Path,
+    typer.Option("--out", "-o", file_okay=False, help="Trial directory to create (new or empty)."),
+]
+ProtocolFile = Annotated[
+    Path | None,
+    typer.Option(
+        "--protocol",
+        dir_okay=False,
+        help="Protocol TOML file (grasp force, lift, push, hold, start pose, ...); "
+        "default: the paper's.",
+    ),
+]
+SensorNames = Annotated[
+    list[str],
+    typer.Option(
+        "--name",
+        help="Sensor names, one per camera, in order (default left, right, sensor2, ...).",
+        show_default=False,
+    ),
+]
+HoldSeconds = Annotated[
+    float | None,
+    typer.Option("--seconds", help="Recording after the push [s] (the protocol's hold_s)."),
+]
+TrialSensor = Annotated[
+    SensorChoice | None,
+    typer.Option(
+        "--sensor",
+        help="Sensor profile of the cameras (as record --sensor: mini, r15, digit, raw); "
+        "default: the protocol file's camera_profile, else raw.",
+        show_default=False,
+    ),
+]
+Recover = Annotated[
+    bool,
+    typer.Option(
+        "--recover",
+        help="Start from any state: put a held bottle down (carried back over its start, "
+        "lowered, released), open the fingers, move the arm to its start pose; then run "
+        "the trial.",
+    ),
+]
+LiveModel = Annotated[
+    Path | None,
+    typer.Option(
+        "--model",
+        help="Model file (from train or classify): predict its targets (with their std) or "
+        "the liquid while the frames come in.",
+        show_default=False,
+    ),
+]
+UntilStd = Annotated[
+    list[str],
+    typer.Option(
+        "--until-std",
+        metavar="TARGET=STD",
+        help="Stop once TARGET's std is below STD (repeatable; all must hold): decay_rate, "
+        "angular_frequency or a regression model's target, e.g. height_mm=0.5.",
+        show_default=False,
+    ),
+]
+Serve = Annotated[
+    str | None,
+    typer.Option(
+        "--serve",
+        metavar="HOST:PORT",
+        help="Show the live estimate in a browser at http://HOST:PORT (port 0: any free port).",
+        show_default=False,
+    ),
+]

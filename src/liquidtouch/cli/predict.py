@@ -11,31 +11,48 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
+import numpy as np
 import typer
 
+from liquidtouch._core import atomic
 from liquidtouch.cli import options
 from liquidtouch.cli.format import warn
 
+Level = Annotated[
+    float | None,
+    typer.Option(
+        "--level",
+        help="Add predicted_<target>_lower and _upper: the calibrated interval that holds the "
+        "truth with this probability (0 < LEVEL < 1, e.g. 0.9; regression models).",
+        show_default=False,
+    ),
+]
+
+
+ModelArg = Annotated[
+    Path, typer.Argument(help="Model file from train, classify or transfer.", show_default=False)
+]
+InputArg = Annotated[
+    Path,
+    typer.Argument(
+        metavar="INPUT", help="Features CSV, dataset directory, trial directory or video."
+    ),
+]
+PredictionsOut = Annotated[
+    Path | None,
+    typer.Option(
+        *options.OUT, show_default=False, help="Predictions CSV to write (default: print the "
+        "CSV, or with --json put the rows in the JSON object).",
+    ),
+]  # fmt: skip
+
 
 def predict(
-    model_file: Path = typer.Argument(
-        ..., help="Model file from train, classify or transfer.", show_default=False
-    ),
-    input_path: Path = typer.Argument(
-        ...,
-        metavar="INPUT",
-        help="Features CSV, dataset directory, trial directory or video.",
-        show_default=False,
-    ),
-    out: Path | None = typer.Option(
-        None,
-        *options.OUT,
-        help="Predictions CSV to write (default: print the CSV, or with --json put the "
-        "rows in the JSON object).",
-        show_default=False,
-    ),
+    model_file: ModelArg,
+    input_path: InputArg,
+    out: PredictionsOut = None,
     as_json: options.Json = False,
     jobs: options.Jobs = 1,
     dask: options.Dask = None,
@@ -48,13 +65,7 @@ def predict(
     band_high_hz: options.BandHigh = options.DEFAULT_BAND_HIGH_HZ,
     noise: options.Noise = options.DEFAULT_NOISE,
     start: options.Start = None,
-    level: float | None = typer.Option(
-        None,
-        "--level",
-        help="Add predicted_<target>_lower and _upper: the calibrated interval that holds the "
-        "truth with this probability (0 < LEVEL < 1, e.g. 0.9; regression models).",
-        show_default=False,
-    ),
+    level: Level = None,
 ) -> None:
     """Predict properties (mean and std) or the liquid (with probabilities) for each row.
 
@@ -62,101 +73,92 @@ def predict(
     options of 'features' (--jobs and --dask: a dataset's trials; --model is the
     oscillation fit's); they do not change a features CSV. Rows whose feature
     extraction failed are kept with empty predictions (a warning per row); rows
-    outside the model's training domain are flagged in the ``out_of_domain``
-    column (and a warning): their predictions are extrapolations. The std (and
-    --level's interval) is calibrated on the model's training rows and includes the
-    fit's λ and ω std (decay_rate_std, angular_frequency_std) propagated through
-    the model. --json prints
-    the counts, the output path (or the rows) as one JSON object.
+    outside what the model knows (its training domain; for a classifier, "unknown") are
+    flagged in the ``out_of_domain`` column (and a warning). The std (and --level's
+    interval) is calibrated on the model's training rows and includes the fit's λ and ω
+    std propagated through the model. --json prints the counts, the output path (or the
+    rows) as one JSON object. The columns: liquidtouch.models.predictions.
     """
-    import numpy as np
-
-    from liquidtouch._core import atomic
+    _check_paths(model_file, input_path)  # before the heavy imports: answered at once
     from liquidtouch.batch.inputs import read_prediction_input
-    from liquidtouch.errors import TableError
-    from liquidtouch.io.tables import feature_matrix
-    from liquidtouch.models.conformal import min_rows_for_level
-    from liquidtouch.models.feature_rows import error_messages, failed_rows, row_list
     from liquidtouch.models.modelfile import load_model
+    from liquidtouch.models.predictions import check_level, predict_rows
 
     settings = options.fit_settings(loss, model, band_low_hz, band_high_hz, noise, start)
     fitted = load_model(model_file)
-    if level is not None:
-        if fitted.kind != "regression":
-            raise TableError("--level needs a regression model (from train), not a classifier")
-        need = min_rows_for_level(level)
-        for target in fitted.targets:
-            cal = fitted.calibration.get(target)
-            if cal is None:
-                raise TableError(
-                    f"--level: the model has no interval calibration for {target} (an older "
-                    f"model file, or --calibration-folds 0); retrain it with `liquidtouch "
-                    f"train` on at least {need} rows"
-                )
-            cal.quantile(level)  # refuses a calibration on too few rows, before extracting
-    elif fitted.kind == "regression" and not fitted.calibrated:
-        warn(
-            "the model's std is not calibrated (an older model file or --calibration-folds 0); "
-            "retrain it with `liquidtouch train` for a calibrated std and --level"
-        )
+    uncalibrated = check_level(fitted, level)
+    if uncalibrated:
+        warn(uncalibrated)
     table = read_prediction_input(
-        input_path,
-        jobs=jobs,
-        dask_address=dask,
-        lowpass_hz=lowpass_hz,
-        n_markers=n_markers,
-        sensors=sensor or None,
-        fit_settings=settings,
-    )
-    failed = failed_rows(table)
-    if failed is None:
-        failed = np.zeros(len(table), dtype=bool)
-    else:
-        messages = error_messages(table)
-        for i in np.flatnonzero(failed):
-            who = f"trial {table['trial'].iloc[i]}" if "trial" in table.columns else f"row {i + 1}"
-            warn(f"{who}: {messages.iloc[i] or 'empty decay_rate or angular_frequency'}")
-    good = table[~failed]
-    predicted = fitted.predict_table(good, level=level)
-    result = table.copy()
-    for column in predicted.columns:
-        if column not in table.columns or column.startswith(("predicted_", "probability_")):
-            result[column] = predicted[column].reindex(table.index)
-    outside = np.zeros(len(table), dtype=bool)
-    outside[np.flatnonzero(~failed)] = ~fitted.in_domain(feature_matrix(good))
-    result["out_of_domain"] = outside
-    if outside.any():
-        warn(
-            f"{int(outside.sum())} row(s) outside the training domain "
-            f"({fitted.describe_domain()}): rows {row_list(outside)}"
-        )
+        input_path, jobs=jobs, dask_address=dask, lowpass_hz=lowpass_hz, n_markers=n_markers,
+        sensors=sensor or None, fit_settings=settings,
+    )  # fmt: skip
+    result = predict_rows(fitted, table, level=level)
+    _warn_rows(result, fitted)
     if out is not None:
-        atomic.write_text(out, result.to_csv(index=False))
+        atomic.write_text(out, result.table.to_csv(index=False))
     if as_json:
-        summary: dict[str, Any] = {
-            "out": None if out is None else str(out),
-            "model": str(model_file),
-            "kind": fitted.kind,
-            "targets": fitted.targets,
-            "n_rows": len(table),
-            "n_predicted": int((~failed).sum()),
-            "n_failed": int(failed.sum()),
-            "n_out_of_domain": int(outside.sum()),
-            "level": level,
-            "calibrated": fitted.kind == "regression" and fitted.calibrated,
-            "failed_rows": [int(i) + 1 for i in np.flatnonzero(failed)],
-        }
-        if out is None:  # the predictions themselves, NaN as null
-            records = json.loads(result.to_json(orient="records", double_precision=15))
-            summary["rows"] = records
-        typer.echo(json.dumps(summary, ensure_ascii=False))
+        typer.echo(json.dumps(_summary(result, fitted, model_file, out, level), ensure_ascii=False))
     elif out is None and stdout_is_terminal():
-        _print_table(result, fitted.targets)
+        _print_table(result.table, fitted.targets)
     elif out is None:  # piped: the CSV, as -o writes it
-        typer.echo(result.to_csv(index=False), nl=False)
+        typer.echo(result.table.to_csv(index=False), nl=False)
     else:
-        extra = f", {int(failed.sum())} without features" if failed.any() else ""
+        n_failed = int(result.failed.sum())
+        extra = f", {n_failed} without features" if n_failed else ""
         typer.echo(f"wrote {out} ({len(table)} rows{extra}; predicted {', '.join(fitted.targets)})")
+
+
+def _check_paths(model_file: Path, input_path: Path) -> None:
+    """A missing model file or input, said before anything heavy is imported."""
+    from liquidtouch.errors import DatasetError, ModelFileError
+
+    if not model_file.is_file():
+        raise ModelFileError(f"{model_file}: no such model file")
+    if not input_path.exists():
+        raise DatasetError(f"{input_path}: no such features CSV, dataset, trial or video")
+
+
+def _warn_rows(result, fitted) -> None:
+    """One warning per failed row, one for the rows out of domain, one for a classifier
+    that cannot say "unknown"."""
+    from liquidtouch.models.feature_rows import row_list
+    from liquidtouch.models.predictions import unknown_rule
+
+    for i in np.flatnonzero(result.failed):
+        warn(f"{result.who(i)}: {result.errors[i]}")
+    if result.outside.any():
+        warn(
+            f"{int(result.outside.sum())} row(s) outside what the model knows (its training "
+            f"domain, {fitted.describe_domain()}, or an unknown liquid): rows "
+            f"{row_list(result.outside)}"
+        )
+    rule = unknown_rule(fitted)
+    if rule is not None and rule != "available":
+        warn(f"this classifier cannot flag unknown liquids (unknown_rule: {rule})")
+
+
+def _summary(result, fitted, model_file: Path, out: Path | None, level) -> dict[str, Any]:
+    """predict --json's object: counts, and the rows themselves without --out."""
+    from liquidtouch.models.predictions import unknown_rule
+
+    summary: dict[str, Any] = {
+        "out": None if out is None else str(out),
+        "model": str(model_file),
+        "kind": fitted.kind,
+        "targets": fitted.targets,
+        "n_rows": len(result.table),
+        "n_predicted": int((~result.failed).sum()),
+        "n_failed": int(result.failed.sum()),
+        "n_out_of_domain": int(result.outside.sum()),
+        "level": level,
+        "calibrated": fitted.kind == "regression" and fitted.calibrated,
+        "unknown_rule": unknown_rule(fitted),
+        "failed_rows": [int(i) + 1 for i in np.flatnonzero(result.failed)],
+    }
+    if out is None:  # the predictions themselves, NaN as null
+        summary["rows"] = json.loads(result.table.to_json(orient="records", double_precision=15))
+    return summary
 
 
 def stdout_is_terminal() -> bool:

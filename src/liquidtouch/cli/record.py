@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import math
 from enum import StrEnum
-from pathlib import Path
+from typing import Annotated
 
 import typer
 
@@ -21,6 +21,7 @@ from liquidtouch.acquire.deadlines import (
     DEFAULT_WARMUP_TIMEOUT_S,
 )
 from liquidtouch.cli import options
+from liquidtouch.cli.format import warn
 
 
 class FormatChoice(StrEnum):
@@ -35,9 +36,9 @@ def register(app: typer.Typer) -> None:
     app.command("record")(record)
 
 
-def record(
-    sources: list[str] = typer.Argument(
-        ...,
+Sources = Annotated[
+    list[str],
+    typer.Argument(
         metavar="SRC",
         help="One camera source per sensor: a device index (0), /dev/videoN, "
         "name:GelSight Mini (matched in /sys/class/video4linux), an http/rtsp URL "
@@ -45,41 +46,37 @@ def record(
         "(replayed in real time).",
         show_default=False,
     ),
-    seconds: float = typer.Option(
-        ...,
-        "--seconds",
-        "-s",
-        help="Recording length [s] (a replayed file may end sooner).",
+]
+Seconds = Annotated[
+    float,
+    typer.Option(
+        "--seconds", "-s", help="Recording length [s] (a replayed file may end sooner).",
         show_default=False,
     ),
-    out: Path = typer.Option(
-        ...,
-        "--out",
-        "-o",
-        file_okay=False,
-        help="Trial directory to create (new, or an empty directory).",
-        show_default=False,
-    ),
-    sensor: options.SensorProfile = options.SensorChoice.raw,
-    fmt: FormatChoice = typer.Option(
-        FormatChoice.ffv1,
+]  # fmt: skip
+Format = Annotated[
+    FormatChoice,
+    typer.Option(
         "--format",
         help="ffv1: lossless FFV1 video in Matroska (.mkv), its PTS the frame times; "
         "png: a folder of PNG images with timestamps.csv.",
     ),
+]
+Colour = Annotated[
+    bool, typer.Option("--colour", help="Keep the colour (BGR) frames instead of grey (luma).")
+]
+
+
+def record(
+    sources: Sources,
+    seconds: Seconds,
+    out: options.TrialOut,
+    sensor: options.SensorProfile = options.SensorChoice.raw,
+    fmt: Format = FormatChoice.ffv1,
     label: options.Labels = [],  # noqa: B006 - typer reads the default, never mutates it
-    name: list[str] = typer.Option(
-        [],
-        "--name",
-        help="Sensor names, one per source, in order (default left, right, sensor2, ...).",
-        show_default=False,
-    ),
-    colour: bool = typer.Option(
-        False, "--colour", help="Keep the colour (BGR) frames instead of grey (luma)."
-    ),
-    as_json: bool = typer.Option(
-        False, "--json", help="Print one JSON object on stdout (the recording summary)."
-    ),
+    name: options.SensorNames = [],  # noqa: B006
+    colour: Colour = False,
+    as_json: options.Json = False,
     open_timeout_s: options.OpenTimeout = DEFAULT_OPEN_TIMEOUT_S,
     read_timeout_s: options.ReadTimeout = DEFAULT_READ_TIMEOUT_S,
     warmup_timeout_s: options.WarmupTimeout = DEFAULT_WARMUP_TIMEOUT_S,
@@ -90,6 +87,7 @@ def record(
     (time.monotonic); every frame's time is kept (the video's PTS, and
     NAME.timestamps.csv). meta.json gets the measured fps, the labels and each
     sensor's start time; dropped and duplicated frames are counted and printed.
+    Every option is checked before a camera is opened.
     """
     from liquidtouch._core.progress import on_terminal
     from liquidtouch.acquire.recording import record as run_record
@@ -101,21 +99,11 @@ def record(
     labels = typed_labels(label)
     with _live_progress(enabled=on_terminal()) as on_progress:
         summary = run_record(
-            sources,
-            seconds,
-            out,
-            names=name or None,
-            profile=str(sensor),
-            fmt=str(fmt),
-            labels=labels,
-            grey=not colour,
-            on_progress=on_progress,
-            open_timeout_s=open_timeout_s,
-            read_timeout_s=read_timeout_s,
+            sources, seconds, out, names=name or None, profile=str(sensor), fmt=str(fmt),
+            labels=labels, grey=not colour, on_progress=on_progress,
+            open_timeout_s=open_timeout_s, read_timeout_s=read_timeout_s,
             warmup_timeout_s=warmup_timeout_s,
-        )
-    from liquidtouch.cli.format import warn
-
+        )  # fmt: skip
     for message in summary.warnings:
         warn(message)
     if as_json:

@@ -33,11 +33,10 @@ Example::
         print(update.t_s, update.decay_rate, update.predicted)
 """
 
-from liquidtouch.live.estimator import REFRESH_S, LiveEstimator
-from liquidtouch.live.sources import LiveFrame, camera_frames, open_frames, replay_frames
-from liquidtouch.live.stopping import check_until_std, parse_until_std, stop_reached
-from liquidtouch.live.stream import live_updates, sensor_names
-from liquidtouch.live.updates import PHASES, LiveUpdate
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 __all__ = [
     "PHASES",
@@ -46,6 +45,7 @@ __all__ = [
     "LiveFrame",
     "LiveUpdate",
     "camera_frames",
+    "check_live_request",
     "check_until_std",
     "live_updates",
     "open_frames",
@@ -53,4 +53,31 @@ __all__ = [
     "replay_frames",
     "sensor_names",
     "stop_reached",
+    "unreachable_message",
 ]
+
+_LAZY = {
+    "PHASES": "liquidtouch.live.updates",
+    "REFRESH_S": "liquidtouch.live.estimator",
+    "LiveEstimator": "liquidtouch.live.estimator",
+    "LiveFrame": "liquidtouch.live.sources",
+    "LiveUpdate": "liquidtouch.live.updates",
+    "camera_frames": "liquidtouch.live.sources",
+    "check_live_request": "liquidtouch.live.properties",
+    "check_until_std": "liquidtouch.live.stopping",
+    "live_updates": "liquidtouch.live.stream",
+    "open_frames": "liquidtouch.live.sources",
+    "parse_until_std": "liquidtouch.live.stopping",
+    "replay_frames": "liquidtouch.live.sources",
+    "sensor_names": "liquidtouch.live.stream",
+    "stop_reached": "liquidtouch.live.stopping",
+    "unreachable_message": "liquidtouch.live.stopping",
+}
+
+
+def __getattr__(name: str) -> Any:
+    # lazy (PEP 562), as the ring-down face: the command line checks --until-std (stopping)
+    # before SciPy, scikit-learn and the estimator are imported, so a typo is answered at once
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -12,7 +12,9 @@ final one while its std claimed 6 %). The final update keeps the final fit's
 std. Properties do not wait for these gates: a regression model's targets are
 predicted from every fit, the λ and ω std propagated and added to the model's
 calibrated std (:mod:`liquidtouch.live.properties`), and a target with an
-``until_std`` threshold is reported once its std meets it (so a height that
+``until_std`` threshold is reported once its std meets it — or at once, when the threshold
+lies below the model's own calibrated std at the estimated (λ, ω), which the fit's std only
+adds to (it can never be met: ``until_std_unreachable`` and ``message`` say so) (so a height that
 depends on ω answers before λ's std is below 10 %); a regression model gets the streamed
 std without its floors (:mod:`liquidtouch.live.uncertainty`: its calibrated std holds
 them). A classifier's probabilities wait until λ and ω are both reported.
@@ -28,12 +30,14 @@ import numpy as np
 
 from liquidtouch.live.properties import classify_with_fit_std, out_of_domain, predict_with_fit_std
 from liquidtouch.live.refresh import Refreshed
+from liquidtouch.live.stopping import unreachable_here
 from liquidtouch.live.uncertainty import (
     property_feature_std,
     streamed_decay_rate_std,
     streamed_frequency_std,
 )
 from liquidtouch.live.updates import LiveUpdate
+from liquidtouch.models.predictions import unknown_rule
 
 __all__ = ["MAX_DECAY_REL_STD", "MAX_FREQ_REL_STD", "emitted_update"]
 
@@ -94,13 +98,18 @@ def emitted_update(
             # height that hangs on ω answers before λ is known to 10 %); a target
             # with an until_std threshold is reported once its std meets it
             predicted = predict_with_fit_std(model, *features)
+            gates = dict(until_std or {})
+            # a threshold below the model's own std here can never be met, however long the
+            # stream: such a target is shown as it comes, and the update says why
+            update.until_std_unreachable = unreachable_here(model, lam, omega, gates)
             update.predicted = {
                 t: (mean, std)
                 for t, (mean, std) in predicted.items()
-                if final or std <= (until_std or {}).get(t, math.inf)
+                if final or t in update.until_std_unreachable or std <= gates.get(t, math.inf)
             }
         elif model is not None and show_omega and show_lam:
             update.classified = classify_with_fit_std(model, *features)
+            update.unknown_rule = unknown_rule(model)
         if update.predicted or update.classified:  # an answer: is it one the model knows?
             update.out_of_domain = out_of_domain(model, lam, omega, update.classified)
     if math.isfinite(due_s):

@@ -30,9 +30,6 @@ from liquidtouch.errors import LiquidTouchError, VideoError
 from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.live.combined import combined_answer
 from liquidtouch.live.emission import emitted_update
-from liquidtouch.live.properties import (
-    check_live_model,
-)
 from liquidtouch.live.refresh import (
     EDGE_S,
     Refreshed,
@@ -46,7 +43,13 @@ from liquidtouch.live.ring_downs import (
     signal_start_s,
     streaming_fit,
 )
-from liquidtouch.live.stopping import check_until_std
+from liquidtouch.live.stopping import (
+    EVERYWHERE,
+    check_live_model,
+    check_until_std,
+    unreachable_message,
+    unreachable_targets,
+)
 from liquidtouch.live.tracks import GrowingTracks
 from liquidtouch.live.updates import LiveUpdate
 from liquidtouch.ring_down import (
@@ -123,8 +126,10 @@ class LiveEstimator:
             raise VideoError(f"give one or more distinct sensor names, got {sensors!r}")
         self.model_kind = check_live_model(model) if model is not None else ""
         self.targets = list(model.targets) if self.model_kind == "regression" else []
-        check_until_std(dict(until_std or {}), self.targets)
+        check_until_std(dict(until_std or {}), self.targets, self.model_kind)
         self.until_std = dict(until_std or {})
+        #: until_std targets below the model's calibrated std floor: never met, never a gate
+        self.unreachable = unreachable_targets(model, self.until_std)
         if not 0 < float(refresh_s) < math.inf:
             raise VideoError(f"refresh_s must be a time > 0 in seconds, got {refresh_s!r}")
         self.model = model
@@ -231,7 +236,7 @@ class LiveEstimator:
                 update.decay_rate = update.angular_frequency = math.nan
                 update.decay_rate_std = update.angular_frequency_std = math.nan
                 update.predicted, update.classified = {}, {}
-                update.out_of_domain = None
+                update.out_of_domain = update.unknown_rule = None
                 why = f": {update.message}" if update.message else ""
                 update.message = f"no ring-down found{why}"
         update.final = True
@@ -243,7 +248,8 @@ class LiveEstimator:
                 or not self.finals
                 or previous.segment > self.finals[-1].index
             ):
-                for name in (*KEPT_FIELDS, "t_s", "predicted", "classified", "out_of_domain"):
+                for name in (*KEPT_FIELDS, "t_s", "predicted", "classified", "out_of_domain",
+                             "unknown_rule"):  # fmt: skip
                     setattr(update, name, getattr(previous, name))
                 why = update.message if refit_failed else "stopped on the std thresholds"
                 update.message = f"{why}: the last streamed estimate is kept"
@@ -426,7 +432,7 @@ class LiveEstimator:
     def _emit(
         self, result: Refreshed, frames: int, elapsed_s: float, due_s: float, *, final: bool
     ) -> LiveUpdate:
-        return emitted_update(
+        update = emitted_update(
             result,
             frames,
             elapsed_s,
@@ -434,8 +440,18 @@ class LiveEstimator:
             final=final,
             model=self.model,
             model_kind=self.model_kind,
-            until_std=self.until_std,
+            until_std={t: s for t, s in self.until_std.items() if t not in self.unreachable},
         )
+        here = update.until_std_unreachable  # below the model's std at this (λ, ω)
+        if self.unreachable or here:  # said on every update: the page and --json show why
+            notes = [
+                unreachable_message(self.unreachable, self.until_std, EVERYWHERE),
+                unreachable_message(here, self.until_std),
+            ]
+            update.until_std_unreachable = {**here, **self.unreachable}
+            note = " ".join(n for n in notes if n)
+            update.message = f"{update.message}; {note}" if update.message else note
+        return update
 
     # -- measurements -------------------------------------------------------------------
 

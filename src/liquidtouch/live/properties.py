@@ -28,10 +28,12 @@ outside its training domain (the box ``predict`` flags), or, for a classifier, u
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 
-from liquidtouch.errors import ModelFileError
+from liquidtouch.live.stopping import check_live_model, check_until_std, unreachable_targets
+from liquidtouch.models import predictions
 from liquidtouch.models.classifier import UNKNOWN
 from liquidtouch.models.propagation import MIN_DECAY_RATE
 
@@ -39,18 +41,14 @@ from liquidtouch.models.propagation import MIN_DECAY_RATE
 SIGMA_POINT_WEIGHTS = np.array([1 / 3, 1 / 6, 1 / 6, 1 / 6, 1 / 6])
 
 
-def check_live_model(model: object) -> str:
-    """``"regression"`` or ``"classification"``: the kind of a :class:`PropertyModel`.
-
-    Anything else raises :class:`ModelFileError`.
-    """
-    kind = getattr(model, "kind", None)
-    if kind not in ("regression", "classification"):
-        raise ModelFileError(
-            "the live estimate needs a model from 'train' (targets such as height_mm) or "
-            f"'classify' (liquid names); got {type(model).__name__}"
-        )
-    return kind
+def check_live_request(model: object | None, until_std: Mapping[str, float]) -> dict[str, float]:
+    """Check a live estimate's model and ``until_std`` before any frame is read (or any robot
+    moves): the model's kind, every target; return the targets the model can never meet
+    (:func:`~liquidtouch.live.stopping.unreachable_targets`)."""
+    kind = check_live_model(model) if model is not None else ""
+    targets = list(model.targets) if kind == "regression" else []
+    check_until_std(until_std, targets, kind)
+    return unreachable_targets(model, until_std)
 
 
 def _five_rows(lam: float, d_lam: float, omega: float, d_omega: float) -> np.ndarray:
@@ -121,9 +119,9 @@ def out_of_domain(
     angular_frequency: float,
     classified: dict[str, tuple[str, dict[str, float]]] | None = None,
 ) -> bool:
-    """(λ, ω) is outside what ``model`` knows: outside its training domain (range plus
-    margin, as ``predict``'s ``out_of_domain`` column), or a classifier's answer in
+    """(λ, ω) is outside what ``model`` knows (:func:`liquidtouch.models.predictions.out_of_domain`,
+    the definition ``predict`` uses): outside its training domain, or a classifier's answer in
     ``classified`` is ``"unknown"``."""
-    outside = not bool(model.in_domain([[float(decay_rate), float(angular_frequency)]])[0])
-    unknown = any(name == UNKNOWN for name, _ in (classified or {}).values())
-    return outside or unknown
+    answers = [name for name, _ in (classified or {}).values()][:1] or None
+    X = [[float(decay_rate), float(angular_frequency)]]
+    return bool(predictions.out_of_domain(model, X, answers)[0])

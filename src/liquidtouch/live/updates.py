@@ -7,16 +7,22 @@ and unsupported estimates as ``null``): the keys are documented in
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from liquidtouch._core.numbers import number, with_uncertainty
+from liquidtouch.models.predictions import PROBABILITY_PREFIX
 
 #: the stream's phases: no push yet, a push (or another transient) is under way, the free
 #: decay is being fitted, the hold ended (the ring-down's estimate is final), the stream ended
 PHASES = ("waiting", "push", "decay", "ended", "done")
+
+
+#: what changes with every refresh whatever the estimate (left out of :func:`repeat_key`)
+VOLATILE_FIELDS = ("frames", "elapsed_s", "lag_s", "timing")
 
 
 def _number(value: float | None) -> float | None:
@@ -75,7 +81,14 @@ class LiveUpdate:
         ``until_std``, ``reach`` per target: met, pushes needed, or cannot tell and why).
     out_of_domain : with a model, once λ and ω are reported: (λ, ω) lies outside what the
         model knows — outside its training domain, or a classifier's answer is "unknown"
-        (``liquidtouch.live.properties.out_of_domain``); None without a model or estimate.
+        (``liquidtouch.models.predictions.out_of_domain``, as ``predict``'s column); None
+        without a model or estimate.
+    unknown_rule : with a classifier: whether it can answer "unknown"
+        (``liquidtouch.models.predictions.unknown_rule``: ``"available"`` or ``"unavailable,
+        needs N rows per class"``); None otherwise.
+    until_std_unreachable : ``{target: floor}`` of the ``until_std`` targets the model's
+        calibrated std never falls below (``liquidtouch.live.stopping.std_floors``): their
+        threshold cannot be met (``message`` says so too); they are shown as they come.
     signal_t_s, signal_u, signal_fit : the tactile signal [s, px] on the decay clock
         (0 at the free-decay start, negative before) and the fitted curve (NaN
         where not fitted), for plots.
@@ -109,6 +122,8 @@ class LiveUpdate:
     events: dict[str, float] = field(default_factory=dict)
     combined: dict[str, object] = field(default_factory=dict)
     out_of_domain: bool | None = None
+    unknown_rule: str | None = None
+    until_std_unreachable: dict[str, float] = field(default_factory=dict)
     signal_t_s: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     signal_u: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     signal_fit: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
@@ -152,7 +167,8 @@ class LiveUpdate:
             out[f"predicted_{target}_std"] = _number(std)
         for label, (name, proba) in self.classified.items():
             out[f"predicted_{label}"] = name
-            out[f"predicted_{label}_proba"] = {k: _number(p) for k, p in proba.items()}
+            for k, p in proba.items():  # predict's columns (models.predictions)
+                out[f"{PROBABILITY_PREFIX}{k}"] = _number(p)
         out.update(
             final=bool(self.final),
             elapsed_s=_number(self.elapsed_s),
@@ -166,9 +182,12 @@ class LiveUpdate:
             segment_end_s=_number(self.segment_end_s),
             segment_final=bool(self.segment_final),
             out_of_domain=self.out_of_domain,
+            until_std_unreachable={t: _number(f) for t, f in self.until_std_unreachable.items()},
         )
         if self.combined:
             out["combined"] = self.combined
+        if self.unknown_rule is not None:
+            out["unknown_rule"] = self.unknown_rule
         if self.final:
             out["segments"] = self.segments
             out["stopped_because"] = self.stopped_because
@@ -181,3 +200,10 @@ class LiveUpdate:
                 "fit": _numbers(self.signal_fit),
             }
         return out
+
+
+def repeat_key(update: LiveUpdate) -> str:
+    """The update's JSON without :data:`VOLATILE_FIELDS`: equal for a repeat of the same
+    estimate (a stream whose ring-down ended repeats it every refresh until it stops)."""
+    out = {k: v for k, v in update.to_dict().items() if k not in VOLATILE_FIELDS}
+    return json.dumps(out, sort_keys=True, default=str)

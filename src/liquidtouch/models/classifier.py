@@ -25,6 +25,15 @@ rows are Gaussian, one trial of that class in a thousand is called unknown. A cl
 few rows has a wide region (n = 3: the quantile is ~4000), a class of many a tight one
 (→ the χ²₂ quantile, 13.8). The rule extrapolates nothing: fill heights outside the
 trained range count as unknown too (they are outside what the model knows).
+
+**When the rule is available.** A class of few rows has so wide a region that nothing
+near it is ever unknown: with 4 rows per class (the tour's classifier) the limit is 2997,
+and unseen mirin is named "water". The rule is *available* when every class has at least
+:func:`unknown_rows_needed` rows (15 at ``alpha`` 0.001): its limit is then within
+:data:`UNKNOWN_REGION_FACTOR` of the large-sample χ²₂ quantile, so a liquid as near a trained
+one as simulated mirin is to olive oil (T² 27-58, ``docs/formats.md``) is flagged.
+Otherwise :meth:`LiquidClassifier.unknown_status` says ``"unavailable, needs N rows per
+class"`` (``classify`` warns; the model file and every prediction carry it).
 """
 
 from __future__ import annotations
@@ -49,6 +58,10 @@ MIN_ROWS_PER_CLASS = 3
 UNKNOWN_ALPHA = 0.001
 #: the name given to a row far from every trained class
 UNKNOWN = "unknown"
+#: the "unknown" rule is available when each class's T² limit is at most this many times the
+#: large-sample (χ²₂) one: twice 13.8 is 27.6, the nearest simulated mirin comes to olive oil
+#: (T² 27-58 with 8 or 32 rows per class: docs/formats.md, Model files)
+UNKNOWN_REGION_FACTOR = 2.0
 #: the features of the "unknown" rule: (log λ, ω)
 NOVELTY_FEATURES = ("log_decay_rate", "angular_frequency")
 #: λ below this [1/s] is clipped before its log (a mapped λ can be ≤ 0: far from any class)
@@ -188,10 +201,16 @@ class LiquidClassifier(ClassifierMixin, BaseEstimator):
     def t2_limits(self) -> np.ndarray:
         """Each class's T² limit (k,): the ``1 − alpha`` quantile of p(n−1)/(n−p)·F(p, n−p)."""
         check_is_fitted(self, "model_")
-        p, n = self.class_mean_.shape[1], self.class_n_.astype(float)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            limit = p * (n - 1) / (n - p) * stats.f.ppf(1 - float(self.alpha), p, n - p)
-        return np.where(n > p, limit, np.inf)  # n ≤ p rows: no region can be estimated
+        return t2_limit(self.class_n_, float(self.alpha), self.class_mean_.shape[1])
+
+    def unknown_status(self) -> str:
+        """``"available"``, or ``"unavailable, needs N rows per class"`` when a class has fewer
+        than :func:`unknown_rows_needed` rows (module docstring)."""
+        check_is_fitted(self, "model_")
+        needed = unknown_rows_needed(float(self.alpha))
+        if int(self.class_n_.min()) >= needed:
+            return "available"
+        return f"unavailable, needs {needed} rows per class"
 
     def unknown(self, X: Any, X_std: Any = None) -> np.ndarray:
         """Boolean (n,): the rows outside every class's prediction region (module docstring)."""
@@ -235,6 +254,7 @@ class LiquidClassifier(ClassifierMixin, BaseEstimator):
             "labels_train": self.labels_train_.tolist(),
             "unknown": {
                 "rule": "hotelling-t2",
+                "status": self.unknown_status(),
                 "features": list(NOVELTY_FEATURES),
                 "alpha": float(self.alpha),
                 "classes": {
@@ -263,6 +283,11 @@ class LiquidClassifier(ClassifierMixin, BaseEstimator):
         rule = state.get("unknown")
         alpha = UNKNOWN_ALPHA if rule is None else rule["alpha"]
         clf = cls(C=state["C"], gamma=state["gamma"], alpha=alpha).fit(state["X_train"], labels)
+        if rule is not None and rule.get("status") not in (None, clf.unknown_status()):
+            raise ModelFileError(
+                f"unknown.status {rule['status']!r} does not match the training rows "
+                f"({clf.unknown_status()!r})"
+            )
         if rule is not None:
             stored = rule["classes"]
             if sorted(stored) != sorted(map(str, clf.classes_)):
@@ -279,6 +304,23 @@ class LiquidClassifier(ClassifierMixin, BaseEstimator):
                         f"unknown.classes[{c!r}] does not match the training rows of that class"
                     )
         return clf
+
+
+def t2_limit(n: np.ndarray | float, alpha: float, p: int = 2) -> np.ndarray:
+    """The T² limit of a class of ``n`` rows in ``p`` features at false-alarm rate ``alpha``:
+    the ``1 − alpha`` quantile of p(n−1)/(n−p)·F(p, n−p) (inf for n ≤ p)."""
+    n = np.asarray(n, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        limit = p * (n - 1) / (n - p) * stats.f.ppf(1 - float(alpha), p, n - p)
+    return np.where(n > p, limit, np.inf)
+
+
+def unknown_rows_needed(alpha: float = UNKNOWN_ALPHA, p: int = 2) -> int:
+    """Fewest rows per class for which the "unknown" rule is available (module docstring):
+    the T² limit within :data:`UNKNOWN_REGION_FACTOR` of the χ²_p quantile (15 at 0.001)."""
+    target = UNKNOWN_REGION_FACTOR * stats.chi2.ppf(1 - float(alpha), p)
+    n = np.arange(p + 1, 10_000)
+    return int(n[np.argmax(t2_limit(n, alpha, p) <= target)])
 
 
 def novelty_features(X: np.ndarray) -> np.ndarray:

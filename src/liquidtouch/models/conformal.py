@@ -176,6 +176,11 @@ class TargetCalibration:
                 f"or ask for --level {self.n / (self.n + 1):.3g} or lower)"
             )
         k = math.ceil((self.n + 1) * float(level) - 1e-9)
+        if k < 1:  # below 1/(n + 1) no score is the quantile (index 0 would read the last)
+            raise TableError(
+                f"a {100 * float(level):g} % interval is below what a calibration on {self.n} "
+                f"rows resolves: ask for --level {1 / (self.n + 1):.3g} or higher"
+            )
         return self.scores[k - 1]
 
     @property

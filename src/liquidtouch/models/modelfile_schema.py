@@ -129,6 +129,8 @@ class UnknownRuleState(_Strict):
     """The classifier's "unknown" rule (``models/classifier.py``): Hotelling's T² per class."""
 
     rule: Literal["hotelling-t2"]
+    status: str | None = None
+    """``"available"`` or ``"unavailable, needs N rows per class"`` (checked on loading)."""
     features: tuple[Literal["log_decay_rate"], Literal["angular_frequency"]]
     alpha: float = Field(gt=0, lt=1)
     classes: dict[str, ClassStatistics] = Field(min_length=2)

@@ -121,6 +121,8 @@ class PhysicsGPRegressor(GPRegressor):
     n_restarts, random_state
         As for :class:`GPRegressor`.
 
+    Notes
+    -----
     Extra fitted attributes: ``wavenumber_`` [1/m] (0 for a viscosity prior) and
     ``prior_coef_`` (b0, b1) of the prior mean ``b0 + b1 p(λ, ω)``.
     """

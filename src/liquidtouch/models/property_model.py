@@ -30,6 +30,7 @@ from liquidtouch.models.feature_space import (
     input_interval,
 )
 from liquidtouch.models.physics_prior import PhysicsGPRegressor
+from liquidtouch.models.predictions import PROBABILITY_PREFIX
 from liquidtouch.models.propagation import clean_feature_std, propagated_variance
 from liquidtouch.models.quadratic import QuadraticRegressor
 from liquidtouch.models.reach import FIT_FLOOR, Reach, reach_of
@@ -380,7 +381,7 @@ class PropertyModel:
             predicted = np.where(self.unknown(X, X_std), UNKNOWN, predicted.astype(object))
             out[f"predicted_{self.targets[0]}"] = predicted
             for j, name in enumerate(self.classifier.classes_):
-                out[f"probability_{name}"] = proba[:, j]
+                out[f"{PROBABILITY_PREFIX}{name}"] = proba[:, j]
             return out
         bounds = {} if level is None else self.predict_interval(X, level, X_std)
         for target, (mean, std) in self.predict(X, X_std).items():

@@ -99,6 +99,8 @@ class GPRegressor(RegressorMixin, BaseEstimator):
     random_state : int >= 0, None or numpy RandomState
         Seed of the restarts. Saving to a model file needs an int.
 
+    Notes
+    -----
     Fitted attributes: ``X_train_``, ``y_train_``, ``x_mean_``, ``x_scale_``,
     ``y_mean_``, ``y_scale_``, ``row_noise_`` (each row's own noise variance in
     standardised target units, ``None`` without ``X_std``), ``gp_`` (the inner

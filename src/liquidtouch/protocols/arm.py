@@ -5,7 +5,7 @@ Written once for both sides: :class:`liquidtouch.acquire.arms.RigArm` (the clien
 read their messages with this module.
 
 On connecting the server sends :func:`greeting`, ``{"server": "liquidtouch-rig-arm",
-"protocol": 1}`` (:data:`SERVER_NAME`, :data:`PROTOCOL_VERSION`); a client refuses
+"protocol": 2}`` (:data:`SERVER_NAME`, :data:`PROTOCOL_VERSION`); a client refuses
 another version. Each request carries an ``id`` (an integer the client chooses) and a
 ``cmd``; its reply carries the same ``id``, ``"ok": true`` and the result, or ``"ok":
 false`` and an ``"error"`` text (``"id": null`` when the request could not be read):
@@ -18,6 +18,9 @@ request                                                     reply (besides ``id`
                                                             trapezoidal speed profile); one
                                                             move at a time per connection
 ``{"cmd": "get_pose"}``                                     ``"pose"``
+``{"cmd": "start_pose"}``                                   ``"pose"``: where a trial starts
+                                                            and ends (the bottle on the
+                                                            table between the open fingers)
 ``{"cmd": "stop", "acceleration": a}``                      ``"pose"``; a running ``moveL``
                                                             then fails with ``"stopped"``
 ``{"cmd": "truth"}``                                        ``"truth"``: the simulated liquid's
@@ -44,6 +47,7 @@ __all__ = [
     "POSE_LENGTH",
     "PROTOCOL_VERSION",
     "SERVER_NAME",
+    "START_POSE",
     "STATUS",
     "STOP",
     "STOPPED",
@@ -57,7 +61,7 @@ __all__ = [
     "ok_reply",
 ]
 
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION = 2
 """The protocol's version; client and server must agree."""
 SERVER_NAME = "liquidtouch-rig-arm"
 """The ``server`` field of the greeting."""
@@ -66,7 +70,8 @@ MAX_LINE_BYTES = 65536
 POSE_LENGTH = 6
 
 MOVE_L, GET_POSE, STOP, TRUTH, STATUS = "moveL", "get_pose", "stop", "truth", "status"
-COMMANDS = (MOVE_L, GET_POSE, STOP, TRUTH, STATUS)
+START_POSE = "start_pose"
+COMMANDS = (MOVE_L, GET_POSE, START_POSE, STOP, TRUTH, STATUS)
 STOPPED = "stopped"
 """The ``error`` of a ``moveL`` ended by ``stop``."""
 

@@ -115,6 +115,16 @@ class SimulatedTrial:
     push_axis: str = "x"
     """World axis of the push (``x``: along the container's length)."""
 
+    def __repr__(self) -> str:
+        """One line: the liquid, fill, container, seed, span and the true λ, ω (no arrays)."""
+        return (
+            f"SimulatedTrial({self.liquid!r}, height_mm={self.height_mm:g}, "
+            f"container={self.container!r}, seed={self.seed}, {len(self.t_s)} samples over "
+            f"{float(self.t_s[-1] - self.t_s[0]):.3g} s, true_decay_rate="
+            f"{self.true_decay_rate:.5g} 1/s, true_angular_frequency="
+            f"{self.true_angular_frequency:.5g} rad/s, realism={self.realism.world!r})"
+        )
+
     def realism_record(self) -> dict[str, object]:
         """The ``realism`` object of ``meta.json``: world, every parameter, the draws."""
         return {

@@ -99,6 +99,11 @@ class RigArm:
         reply = self.request(wire.GET_POSE)
         return check_pose(self._result(reply, "pose", wire.GET_POSE), "arm's reported pose")
 
+    def start_pose(self) -> list[float]:
+        """The rig's start pose (its arm's home: the bottle stands between the open fingers)."""
+        reply = self.request(wire.START_POSE)
+        return check_pose(self._result(reply, "pose", wire.START_POSE), "arm's start pose")
+
     def move_linear(
         self, pose: Sequence[float], speed_m_s: float, acceleration_m_s2: float
     ) -> list[float]:

@@ -20,6 +20,7 @@ class SimArm:
     ):
         self.url = "sim://"
         self.pose = check_pose(pose)
+        self.home = list(self.pose)
         self.time_scale = float(time_scale)
         self.moves: list[list[float]] = []
         self.stops = 0
@@ -27,6 +28,10 @@ class SimArm:
 
     def get_pose(self) -> list[float]:
         return list(self.pose)
+
+    def start_pose(self) -> list[float]:
+        """Where a trial starts and ends: the pose this stand-in was made at."""
+        return list(self.home)
 
     def move_linear(
         self, pose: Sequence[float], speed_m_s: float, acceleration_m_s2: float

@@ -109,6 +109,8 @@ class _Connection:
                 return
             if cmd == wire.GET_POSE:
                 result: dict[str, Any] = {"pose": model.pose()}
+            elif cmd == wire.START_POSE:
+                result = {"pose": model.start_pose()}
             elif cmd == wire.STOP:
                 self.stop_move()
                 result = {"pose": model.pose()}

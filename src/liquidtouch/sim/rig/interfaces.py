@@ -64,6 +64,9 @@ class ArmModel(Protocol):
     def pose(self) -> list[float]:
         """The tool pose now."""
 
+    def start_pose(self) -> list[float]:
+        """Where a trial starts and ends."""
+
     def truth(self) -> dict[str, Any]:
         """Ground truth and labels of the simulated liquid."""
 

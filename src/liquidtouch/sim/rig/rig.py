@@ -21,18 +21,20 @@ module (serving); the names are re-exported here.
 from __future__ import annotations
 
 import logging
+import signal
+import threading
+from collections.abc import Callable
 from typing import Any
 
+from liquidtouch.errors import LiquidTouchError
 from liquidtouch.sim.gelsight import SENSOR_NAMES
 from liquidtouch.sim.rig.arm_server import ArmServer
 from liquidtouch.sim.rig.gcl_server import GclServer
 from liquidtouch.sim.rig.interfaces import ArmMove, Motion
 from liquidtouch.sim.rig.mjpeg import MjpegServer
-from liquidtouch.sim.rig.state import (
-    Rig,
-)
+from liquidtouch.sim.rig.state import HOME_POSE, Rig
 
-__all__ = ["RigArmModel", "RigGripper", "RigServer"]
+__all__ = ["RigArmModel", "RigGripper", "RigServer", "check_ports", "serve_rig"]
 
 logger = logging.getLogger(__name__)
 
@@ -44,12 +46,15 @@ class RigGripper:
         self.rig = rig
 
     def begin(self, command: str, args: list[float]) -> Motion:
+        self.rig.note(f"gripper {command}")
         return self.rig.begin(command, args)
 
     def query(self, key: str) -> float:
+        self.rig.note(f"gripper {key}?")
         return self.rig.query(key)
 
     def acknowledge(self) -> None:
+        self.rig.note("gripper FSACK")
         self.rig.acknowledge()
 
     def fast_stop(self) -> None:
@@ -63,12 +68,19 @@ class RigArmModel:
         self.rig = rig
 
     def begin_move(self, pose: list[float], speed: float, acceleration: float) -> ArmMove:
+        self.rig.note("arm moveL")
         return self.rig.begin_move(pose, speed, acceleration)
 
     def pose(self) -> list[float]:
+        self.rig.note("arm get_pose")
         return self.rig.pose()
 
+    def start_pose(self) -> list[float]:
+        self.rig.note("arm start_pose")
+        return list(HOME_POSE)
+
     def stop(self) -> None:
+        self.rig.note("arm stop")
         self.rig.stop_arm()
 
     def truth(self) -> dict[str, Any]:
@@ -159,3 +171,56 @@ class RigServer:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+
+
+def check_ports(gripper_port: int, arm_port: int, camera_port: int) -> None:
+    """:class:`LiquidTouchError` unless each is a TCP port (0: any free one); the cameras
+    take ``camera_port`` and the next."""
+    for name, port, high in (
+        ("--gripper-port", gripper_port, 65535),
+        ("--arm-port", arm_port, 65535),
+        ("--camera-port", camera_port, 65534),
+    ):
+        if not 0 <= port <= high:
+            raise LiquidTouchError(f"{name} {port} is not a TCP port (0-{high})")
+
+
+def serve_rig(
+    rig: Rig,
+    host: str,
+    ports: tuple[int, int, int],
+    *,
+    on_ready: Callable[[dict[str, Any]], None],
+    poll_s: float = 0.5,
+) -> None:
+    """Serve ``rig`` on ``host`` (ports: gripper, arm, left camera; 0 any) until Ctrl-C or
+    SIGTERM; ``on_ready(endpoints)`` once listening. A camera stream that fails ends it
+    with :class:`LiquidTouchError`."""
+    gripper_port, arm_port, camera_port = ports
+    cameras = (camera_port, camera_port + 1 if camera_port else 0)
+    stop = threading.Event()
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    except ValueError:  # not the main thread (e.g. called from a test's thread)
+        previous = None
+    server = RigServer(
+        rig, host=host, gripper_port=gripper_port, arm_port=arm_port, camera_ports=cameras
+    )
+    try:
+        try:
+            server.start()
+        except OSError as exc:
+            raise LiquidTouchError(f"cannot listen on {host}: {exc.strerror or exc}") from None
+        on_ready(server.endpoints())
+        try:
+            while not stop.wait(poll_s):
+                for stream in server.streams:
+                    if stream.error is not None:
+                        raise LiquidTouchError(f"a camera stream failed: {stream.error}")
+        except KeyboardInterrupt:
+            pass
+    finally:
+        server.stop()
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)

@@ -148,6 +148,15 @@ class Rig(FingerCommands):
         self._rests = [marker_rest_positions(self.profile, rng) for _ in SENSOR_NAMES]
         self._geometry = contact_geometry(self.base_trial.loads, self.profile)
         self._sensors: list[LiveSensor | None] = [None, None]
+        #: every command that reached the gripper or the arm over the network, in order
+        #: (``"gripper GRIP"``, ``"gripper GRIPSTATE?"``, ``"arm moveL"``, ...)
+        self.commands: list[str] = []
+
+    def note(self, command: str) -> None:
+        """Log a command that reached the rig (:attr:`commands`; ``rig serve -v`` shows them)."""
+        with self._lock:
+            self.commands.append(command)
+        logger.info("rig: %s", command)
 
     # -- the truth ------------------------------------------------------------------------
 
@@ -350,6 +359,7 @@ class Rig(FingerCommands):
                     "dropped": self.dropped,
                     "width_mm": self.bottle_width_mm,
                 },
+                "commands": len(self.commands),
                 "trial": {
                     "time_s": t,
                     "pushed": self._push_at is not None,
