@@ -37,8 +37,7 @@ def trial_command(
     push_axis: str = typer.Option(
         "x",
         "--push-axis",
-        help="Push along x (the container's length) or y (across it; not a cylinder on its "
-        "side).",
+        help="Push along x (the container's length) or y (across it; not a cylinder on its side).",
     ),
     sugar_concentration: float | None = typer.Option(
         None, "--sugar-concentration", help="Sugar-water only: g sugar per 100 g water."
