@@ -87,3 +87,18 @@ def test_next_push_decision() -> None:
     assert not stop and why == "deep"
     done, why = next_push({"reach": {"a": reach(True, False)}})
     assert not done and why.startswith("every target met")
+
+
+def test_answer_line_of_several_pushes() -> None:
+    from liquidtouch.cli.live_trial import answer_line
+
+    reach = {"met": False, "cannot_tell": False, "message": "height_mm: ±0.8, about 5 push(es)"}
+    combined = {"ring_downs": 3, "message": "3 ring-downs combined, consistent",
+                "predicted": {"height_mm": [25.1234, 0.81]}, "reach": {"height_mm": reach}}  # fmt: skip
+    line = answer_line({"combined": combined})
+    assert line.startswith("answer: height_mm = 25.1 ± 0.8 (3 ring-downs")
+    assert "not met: height_mm" in line
+    told = {**reach, "cannot_tell": True, "message": "cannot tell height_mm to ±0.5 here"}
+    one = {"ring_downs": 1, "reach": {"height_mm": told}, "predicted": {}}
+    assert answer_line({"combined": one}) == "answer: cannot tell height_mm to ±0.5 here"
+    assert answer_line({"combined": {"ring_downs": 1, "reach": {}}}) is None

@@ -215,4 +215,6 @@ def answer_line(final: dict) -> str | None:
     if cannot:
         return "answer: " + "; ".join(cannot)
     parts = [f"{t} = {with_uncertainty(m, s)}" for t, (m, s) in combined["predicted"].items()]
-    return f"answer: {', '.join(parts)} ({combined['message']})"
+    missed = [r["message"] for r in reach.values() if not r["met"]]
+    unmet = f"; not met: {'; '.join(missed)}" if missed else ""
+    return f"answer: {', '.join(parts)} ({combined['message']}{unmet})"
