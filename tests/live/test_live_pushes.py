@@ -93,8 +93,12 @@ def test_answer_line_of_several_pushes() -> None:
     from liquidtouch.cli.live_trial import answer_line
 
     reach = {"met": False, "cannot_tell": False, "message": "height_mm: ±0.8, about 5 push(es)"}
-    combined = {"ring_downs": 3, "message": "3 ring-downs combined, consistent",
-                "predicted": {"height_mm": [25.1234, 0.81]}, "reach": {"height_mm": reach}}  # fmt: skip
+    combined = {
+        "ring_downs": 3,
+        "message": "3 ring-downs combined, consistent",
+        "predicted": {"height_mm": [25.1234, 0.81]},
+        "reach": {"height_mm": reach},
+    }
     line = answer_line({"combined": combined})
     assert line.startswith("answer: height_mm = 25.1 ± 0.8 (3 ring-downs")
     assert "not met: height_mm" in line
