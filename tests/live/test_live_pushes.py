@@ -100,7 +100,7 @@ def test_answer_line_of_several_pushes() -> None:
         "reach": {"height_mm": reach},
     }
     line = answer_line({"combined": combined})
-    assert line.startswith("answer: height_mm = 25.1 ± 0.8 (3 ring-downs")
+    assert line.startswith("answer: height_mm = 25.12 ± 0.81 (3 ring-downs")
     assert "not met: height_mm" in line
     told = {**reach, "cannot_tell": True, "message": "cannot tell height_mm to ±0.5 here"}
     one = {"ring_downs": 1, "reach": {"height_mm": told}, "predicted": {}}
