@@ -90,7 +90,7 @@ def test_next_push_decision() -> None:
 
 
 def test_answer_line_of_several_pushes() -> None:
-    from liquidtouch.cli.live_trial import answer_line
+    from liquidtouch.cli.live import answer_line
 
     reach = {"met": False, "cannot_tell": False, "message": "height_mm: ±0.8, about 5 push(es)"}
     combined = {

@@ -198,23 +198,3 @@ class LiveTrial:
         path = Path(trial_dir) / "live.json"
         path.write_text(json.dumps(record, indent=1, default=str), encoding="utf-8")
         return path
-
-
-def answer_line(final: dict) -> str | None:
-    """The combined answer of a trial of several pushes in one line (``None`` for one push):
-    each target ``mean ± std`` and the ring-downs' agreement, or "cannot tell" and why."""
-    from liquidtouch._core.numbers import with_uncertainty
-
-    combined = final.get("combined") or {}
-    if combined.get("ring_downs", 0) < 2 and not any(
-        r.get("cannot_tell") for r in (combined.get("reach") or {}).values()
-    ):
-        return None
-    reach = combined.get("reach") or {}
-    cannot = [r["message"] for r in reach.values() if r["cannot_tell"]]
-    if cannot:
-        return "answer: " + "; ".join(cannot)
-    parts = [f"{t} = {with_uncertainty(m, s)}" for t, (m, s) in combined["predicted"].items()]
-    missed = [r["message"] for r in reach.values() if not r["met"]]
-    unmet = f"; not met: {'; '.join(missed)}" if missed else ""
-    return f"answer: {', '.join(parts)} ({combined['message']}{unmet})"

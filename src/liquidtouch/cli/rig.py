@@ -210,7 +210,7 @@ def _plan(params, labels: dict, model_file, until_std: list[str], as_json: bool)
 
 def _report(run, as_json: bool, live_run) -> None:
     from liquidtouch.cli.format import warn
-    from liquidtouch.cli.live_trial import answer_line
+    from liquidtouch.cli.live import answer_line
 
     summary = run.summary
     for message in summary.warnings:
