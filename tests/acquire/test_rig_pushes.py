@@ -13,7 +13,7 @@ from liquidtouch.cli import main
 from liquidtouch.testing.rig_runs import rig_serving
 
 
-@pytest.mark.slow(seconds=60)
+@pytest.mark.slow(seconds=60, exclusive=True)  # a rig in real time
 @pytest.mark.timeout(300)
 def test_several_pushes_on_the_rig(tmp_path, capsys):
     from liquidtouch.models.modelfile import save_model

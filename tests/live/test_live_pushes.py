@@ -49,6 +49,7 @@ def test_event_sequence_of_several_pushes(three_pushes) -> None:
     assert single.events() == dict(single.event_sequence())  # one push: as before
 
 
+@pytest.mark.slow(seconds=50)
 @pytest.mark.timeout(600)
 def test_three_ring_downs_final_and_combined(three_pushes) -> None:
     scene = three_pushes

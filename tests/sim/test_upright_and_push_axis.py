@@ -66,6 +66,7 @@ def test_a_repeated_push_draws_fresh_noise_on_the_same_bottle():
     assert across.true_angular_frequency > 1.3 * first.true_angular_frequency  # 55 vs 100 mm
 
 
+@pytest.mark.slow(seconds=12)
 def test_plan_upright_deep_cannot_be_resolved_and_box_proposes_its_length():
     bottle = plan_push("upright-bottle", "height_mm", 0.5, fills_mm=[20.0, 120.0])
     assert not bottle.reachable and "120" in bottle.reason
