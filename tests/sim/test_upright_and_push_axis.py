@@ -112,3 +112,19 @@ def test_the_rig_pushes_along_either_axis_each_push_with_fresh_noise():
     # the push back is the mirror of the first, with its own contact noise
     assert np.corrcoef(forces[0], -forces[1])[0, 1] > 0.9
     assert not np.allclose(forces[0], -forces[1])
+
+
+def test_plan_with_a_model_counts_its_training_range():
+    """A height model of the paper's box (16-40 mm): a fill it was not trained on is out of
+    reach whatever the physics' floor; one inside it is judged by the model's own ±."""
+    from liquidtouch.models.training import train_regression
+
+    box, rows, heights = get_container("grooved-cuboid"), [], []
+    for name in ("water", "mirin", "olive-oil"):
+        for h in np.linspace(16, 40, 9):
+            rows.append(slosh_system(get_liquid(name), box, h).slow_mode())
+            heights.append(h)
+    model = train_regression(np.array(rows), {"height_mm": np.array(heights)})
+    plan = plan_push(box, "height_mm", 2.0, model=model, fills_mm=[25.0, 50.0])
+    along = next(a for a in plan.axes if a.axis == "x")
+    assert along.reachable == (True, False) and math.isinf(along.limit_std[1])

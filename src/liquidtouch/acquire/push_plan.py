@@ -201,12 +201,9 @@ def _axis_plan(
     omega = tuple(m[1] for m in modes)
     if model is not None:
         X = np.array([lam, omega]).T
-        limit = tuple(
-            model.reach(X[i : i + 1], np.zeros((1, 2)), {target: asked})[target].limit_std
-            if model.in_domain(X[i : i + 1])[0]
-            else math.inf
-            for i in range(len(fills))
-        )
+        reach = [model.reach(X[i : i + 1], None, {target: asked})[target] for i in range(len(X))]
+        # outside the training range the model's ± would be an extrapolation: out of reach
+        limit = tuple(math.inf if r.reason == "domain" else r.limit_std for r in reach)
     else:
         limit = tuple(_height_floor(box, axis, h, w) for h, w in zip(fills, omega, strict=True))
     push = _strongest_push(box, axis, fills[len(fills) // 2], limits)
