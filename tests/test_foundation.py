@@ -92,6 +92,7 @@ PUBLIC_API = {
     *("save_model", "load_model", "TrialMeta", "read_trial_meta", "read_manifest"),
     *("extract_features", "simulate_trial", "write_trial", "simulate_dataset"),
     *("write_sensor_videos", "FingerLoads", "reproduce", "plot_extraction"),
+    "combine_ring_downs",
 }
 
 

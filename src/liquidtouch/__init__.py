@@ -51,6 +51,7 @@ _EXPORTS: dict[str, str] = {
     "fit_transfer": "models",
     "save_model": "models",
     "load_model": "models",
+    "combine_ring_downs": "models",
     # datasets and batch work
     "TrialMeta": "io",
     "read_trial_meta": "io",

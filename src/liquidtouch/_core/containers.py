@@ -1,9 +1,13 @@
 """Container catalogue: inner geometry, wall factor and mass of each container.
 
-Every container is held lying on its side by the two fingers, which press on
-its two large side faces; the liquid sloshes along the container's length
-``length_mm`` (world ``x``), the fill height is measured vertically from the
-lowest inner point, and ``width_mm`` is the inner size along the grasp axis.
+The paper's containers are held lying on their side by the two fingers, which
+press on their two large side faces; pushed along world ``x`` the liquid sloshes
+along the container's length ``length_mm``, pushed along the grasp axis (world
+``y``) across ``width_mm`` (:meth:`Container.along`); the fill height is measured
+vertically from the lowest inner point. The upright bottle (shape ``upright``, the
+way most bottles are grasped) stands on its base: ``length_mm`` and ``width_mm``
+are both its inner diameter, ``depth_mm`` its inner height, and it sloshes alike
+along either horizontal axis.
 
 Where the numbers come from (all are choices consistent with the paper, which
 gives no drawings): the paper fills the grooved cuboid 16-40 mm, "25-75 %
@@ -16,13 +20,19 @@ paper's fill ranges. Wall factors multiply the Stokes boundary-layer damping
 smooth glass less).
 ``contact_line_damping`` is the small viscosity-independent contact-line term
 [1/s]. Masses: thin plastic 40-70 g; the glass container is heavy (320 g),
-comparable to the liquid it holds.
+comparable to the liquid it holds. The upright bottle is a 1.5 L-class round
+bottle (inner diameter 90 mm, inner height 200 mm): its first slosh mode,
+``ω² = g k tanh(k h)`` with ``k = 1.841/R`` (the first root of J1'), stays at
+2.4-3.2 Hz over 15-190 mm of fill, inside the signal's 4 Hz low-pass; a
+narrower bottle (R = 30 mm: 3.9 Hz) would slosh above it. Its damping is the
+empirical upright-cylinder formula (:mod:`liquidtouch.sim.slosh`), which already
+describes real walls, so its wall factor is 1.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from liquidtouch.errors import CatalogueError
 
@@ -32,7 +42,7 @@ class Container:
     """Inner geometry [mm], shape, wall factor, contact-line damping [1/s] and mass [g]."""
 
     name: str
-    shape: str  # "box" or "cylinder" (a cylinder lying on its side, axis along x)
+    shape: str  # "box", "cylinder" (lying on its side, axis along x) or "upright"
     length_mm: float
     width_mm: float
     depth_mm: float
@@ -49,13 +59,49 @@ class Container:
                 f"(inner height {self.depth_mm:g} mm)"
             )
 
+    @property
+    def upright(self) -> bool:
+        """Whether the container stands on its base (a round bottle held upright)."""
+        return self.shape == "upright"
+
+    def along(self, axis: str) -> Container:
+        """The container as a push along world ``axis`` (``"x"`` or ``"y"``) sloshes it.
+
+        ``x``: itself (the slosh runs along ``length_mm``); ``y``, the grasp axis: a box
+        with its length and width exchanged; an upright bottle is round, the same either
+        way. A cylinder on its side has no rectangular section across its axis:
+        :class:`CatalogueError`.
+        """
+        if axis not in ("x", "y"):
+            raise CatalogueError(f"push axis {axis!r}: use x or y (the horizontal axes)")
+        if axis == "x" or self.upright:
+            return self
+        if self.shape != "box":
+            raise CatalogueError(
+                f"container {self.name!r} ({self.shape} on its side) sloshes along its length "
+                "only: push it along x"
+            )
+        return replace(self, length_mm=self.width_mm, width_mm=self.length_mm)
+
+    def axes(self) -> tuple[str, ...]:
+        """The push axes :meth:`along` accepts for this container."""
+        return ("x", "y") if self.shape in ("box", "upright") else ("x",)
+
+    def liquid_volume_mm3(self, height_mm: float) -> float:
+        """Volume of liquid [mm³] at fill ``height_mm``."""
+        if self.upright:
+            self.check_height(height_mm)
+            return math.pi * (self.length_mm / 2.0) ** 2 * height_mm
+        return self.cross_section(height_mm)[0] * self.length_mm
+
     def cross_section(self, height_mm: float) -> tuple[float, float]:
         """Wetted cross-section area [mm²] and free-surface width [mm] at fill ``height_mm``.
 
-        The cross-section is perpendicular to the slosh direction.
+        The cross-section is perpendicular to the slosh direction (an upright bottle's:
+        its diametral plane, ``diameter × height``).
         """
         self.check_height(height_mm)
-        if self.shape == "box":
+        if self.shape in ("box", "upright"):
             return self.width_mm * height_mm, self.width_mm
         r = self.depth_mm / 2.0
         d = r - height_mm
@@ -70,8 +116,9 @@ class Container:
 
     def fill_fraction(self, height_mm: float) -> float:
         """Fraction of the inner volume that is filled (0-1)."""
-        full, _ = self.cross_section(self.depth_mm * (1 - 1e-12))
-        return self.cross_section(height_mm)[0] / full
+        return self.liquid_volume_mm3(height_mm) / self.liquid_volume_mm3(
+            self.depth_mm * (1 - 1e-12)
+        )
 
 
 CONTAINERS: dict[str, Container] = {
@@ -89,6 +136,10 @@ CONTAINERS: dict[str, Container] = {
     "glass": Container(
         "glass", "box", 95.0, 60.0, 56.0, 320.0, 1.40, 0.015,
         note="heavy glass container, mass comparable to the liquid's",
+    ),
+    "upright-bottle": Container(
+        "upright-bottle", "upright", 90.0, 90.0, 200.0, 45.0, 1.0, 0.02,
+        note="round plastic bottle held upright (inner diameter 90 mm, height 200 mm)",
     ),
 }  # fmt: skip
 

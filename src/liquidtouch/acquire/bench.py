@@ -40,6 +40,7 @@ def run_trial_at(
     on_frame: Callable[..., None] | None = None,
     on_event: Callable[[str, float], None] | None = None,
     camera_timeouts: Mapping[str, float] | None = None,
+    decide: Callable[[int], bool | None] | None = None,
 ) -> TrialRun:
     """Check the inputs, connect, run one trial (module docstring); the finished trial.
 
@@ -82,6 +83,7 @@ def run_trial_at(
                 on_event=on_event,
                 recorder=recorder,
                 recover=recover,
+                decide=decide,
             )
     finally:
         recorder.abort()  # no-op once finished; frees the writers of a trial that never ran

@@ -21,7 +21,12 @@ file: :func:`load_protocol`):
 5. ``push``: ``moveL`` by ``push_distance_mm`` along the base ``push_axis`` at
    ``push_speed_m_s`` / ``push_acceleration_m_s2`` (a trapezoidal speed profile);
 6. ``hold`` still ``hold_s`` while recording (the gripper must keep holding; its
-   readings and the arm's pose are logged every ``log_interval_s``);
+   readings and the arm's pose are logged every ``log_interval_s``); with
+   ``max_pushes`` > 1, the hold ends with a ``hold_end`` event and ``decide(k)`` (the
+   live estimate's combined answer after push ``k``: every target met, or "cannot tell
+   here") says whether to ``push`` and ``hold`` again — each push goes back the way the
+   previous one came, so the bottle never leaves one push's distance of where it was
+   lifted — while the gripper's hold and the recording are still checked;
 7. ``stop`` recording; ``return``: carry the bottle back over its start (at the lifted
    height); ``lower`` it to the start pose; ``release`` (``RELEASE`` by ``release_mm``):
    the trial ends where it started, so the next one starts from there;
@@ -123,13 +128,25 @@ class TrialLog:
 
 @dataclass
 class TrialRun:
-    """A finished trial: its directory, the recording's summary and the log."""
+    """A finished trial: its directory, the recording's summary and the log; the first
+    push's times and every push's (``pushes``: ``push_start_s``, ``push_end_s``,
+    ``distance_mm``, on the recording's clock [s])."""
 
     trial_dir: Path
     summary: Any
     log: TrialLog
     push_start_s: float
     push_end_s: float
+    pushes: list[dict[str, float]] = field(default_factory=list)
+
+
+#: how long the protocol waits after a hold for ``decide`` to judge the ring-down [s]: the
+#: live estimate's final fit needs ~2 s of signal after the hold (its guard, settle time
+#: and trusted edge) and a few seconds of fitting on a loaded machine; past it the bottle
+#: is pushed again (more data, as without an estimate)
+DECISION_TIMEOUT_S = 20.0
+#: how often ``decide`` is asked meanwhile [s]
+DECISION_POLL_S = 0.1
 
 
 def _offset(pose: Sequence[float], axis: int, delta_m: float) -> list[float]:
@@ -219,9 +236,12 @@ class TrialSteps:
     kept for the next ones and for the trial's meta.json."""
 
     def __init__(self, gripper, arm, recorder, params: ProtocolParameters, log: TrialLog, *,
-                 recover: bool = False) -> None:  # fmt: skip
+                 recover: bool = False,
+                 decide: Callable[[int], bool | None] | None = None) -> None:  # fmt: skip
         self.gripper, self.arm, self.recorder = gripper, arm, recorder
         self.params, self.log, self.recover = params, log, recover
+        self.decide = decide
+        self.pushes: list[dict[str, float]] = []  # [s, monotonic]
         self.axis = AXES[params.push_axis]
         self.start: list[float] = []
         self.lifted: list[float] = []
@@ -270,30 +290,58 @@ class TrialSteps:
         _wait(self.params.pre_push_s, self.recorder.check)
 
     def push(self) -> None:
+        """Push along the axis; every second push goes back the way the first came."""
         p = self.params
+        k = len(self.pushes) + 1
+        distance = p.push_distance_mm if k % 2 else -p.push_distance_mm
         here = self.arm.get_pose()
-        target = _offset(here, self.axis, p.push_distance_mm * 1e-3)
-        self.push_start = self.log.event("push", distance_mm=p.push_distance_mm)
+        target = _offset(here, self.axis, distance * 1e-3)
+        start = self.log.event("push", distance_mm=distance, push=k)
         self.arm.move_linear(target, p.push_speed_m_s, p.push_acceleration_m_s2)
-        self.push_end = self.log.event("pushed")
-        self.log.pose("pushed", self.arm)
+        end = self.log.event("pushed", push=k)
+        self.log.pose("pushed" if k == 1 else f"pushed_{k}", self.arm)
+        self.pushes.append({"push_start": start, "push_end": end, "distance_mm": distance})
+        if k == 1:
+            self.push_start, self.push_end = start, end
+
+    def _still_holding(self) -> None:
+        """The recording runs and the gripper holds the bottle (else :class:`DeviceError`)."""
+        self.recorder.check()
+        reading = self.log.gripper(self.gripper, "holding")
+        if reading["grip_state"] != gcl.HOLDING:
+            state = reading["grip_state"]
+            raise DeviceError(
+                f"the gripper stopped holding the bottle during the hold (GRIPSTATE="
+                f"{state} {gcl.GRIP_STATES.get(state, '?')})"
+            )
 
     def hold(self) -> None:
-        hold_end = self.push_end + self.params.hold_s
+        hold_end = self.pushes[-1]["push_end"] + self.params.hold_s
         while True:
-            self.recorder.check()
-            reading = self.log.gripper(self.gripper, "holding")
-            if reading["grip_state"] != gcl.HOLDING:
-                state = reading["grip_state"]
-                raise DeviceError(
-                    f"the gripper stopped holding the bottle during the hold (GRIPSTATE="
-                    f"{state} {gcl.GRIP_STATES.get(state, '?')})"
-                )
+            self._still_holding()
             self.log.pose(f"hold_{len(self.log.gripper_readings)}", self.arm)
             remaining = hold_end - time.monotonic()
             if remaining <= 0:
                 return
             _wait(min(self.params.log_interval_s, remaining), self.recorder.check)
+
+    def again(self) -> bool:
+        """After a hold: push again? (``max_pushes``; ``decide(k)``, polled while the gripper's
+        hold and the recording are checked, up to :data:`DECISION_TIMEOUT_S`)."""
+        k = len(self.pushes)
+        if k >= self.params.max_pushes:
+            return False
+        self.log.event("hold_end", push=k)
+        deadline = time.monotonic() + DECISION_TIMEOUT_S
+        verdict = None if self.decide is not None else True
+        while verdict is None and time.monotonic() < deadline:
+            verdict = self.decide(k)
+            if verdict is None:
+                self._still_holding()
+                _wait(DECISION_POLL_S, self.recorder.check)
+        again = True if verdict is None else bool(verdict)
+        self.log.event("decided", push=k, push_again=again, timed_out=verdict is None)
+        return again
 
     def stop(self) -> None:
         self.summary = self.recorder.stop()
@@ -320,12 +368,21 @@ class TrialSteps:
     def write(self, meta: Mapping[str, object]) -> None:
         self.trial_dir = Path(self.recorder.finish(dict(meta)))
 
+    def pushes_on(self, origin: float) -> list[dict[str, float]]:
+        """Every push's start and end on the recording's clock [s] and its distance [mm]."""
+        return [
+            {"push_start_s": q["push_start"] - origin, "push_end_s": q["push_end"] - origin,
+             "distance_mm": q["distance_mm"]}
+            for q in self.pushes
+        ]  # fmt: skip
+
     def meta(self, camera_sources: Sequence[str], extra_meta: Mapping[str, object]) -> dict:
         """meta.json's protocol fields: the push on the recording's clock, the log."""
         origin = _recording_origin(self.summary)
         return {
             "push_start_s": self.push_start - origin,
             "push_end_s": self.push_end - origin,
+            "pushes": self.pushes_on(origin),
             "protocol": self.params.model_dump(mode="json"),
             "acquisition": {
                 "clock": "time.monotonic",
@@ -355,6 +412,7 @@ def run_trial(
     camera_timeouts: Mapping[str, float] | None = None,
     recorder: Any = None,
     recover: bool = False,
+    decide: Callable[[int], bool | None] | None = None,
 ) -> TrialRun:
     """Run one trial (module docstring: the steps and the safety rules); return it.
 
@@ -368,6 +426,9 @@ def run_trial(
     (:func:`make_recorder`), unless a ``recorder`` made by it is given (so its checks
     ran before the devices were connected). ``recover``: mend an unexpected start state
     (:func:`~liquidtouch.acquire.start_state.recover_start_state`) instead of refusing it.
+    ``decide(k)``: after push ``k`` (of at most ``params.max_pushes``), ``True`` to push
+    again, ``False`` to end, ``None`` while it cannot tell yet (module docstring, step 6);
+    without it every push up to ``max_pushes`` is made.
     The trial directory ``out_dir`` appears only when everything succeeded; a failed run
     writes ``DIR.failed/run.json`` (:func:`write_failed_run`).
     """
@@ -383,7 +444,7 @@ def run_trial(
             labels=dict(labels or {}),
             **dict(camera_timeouts or {}),
         )
-    steps = TrialSteps(gripper, arm, recorder, params, log, recover=recover)
+    steps = TrialSteps(gripper, arm, recorder, params, log, recover=recover, decide=decide)
     try:  # refused or mended before anything is recorded: no failed run to write
         report(STEPS[0])
         steps.check()
@@ -400,6 +461,10 @@ def run_trial(
                 steps.write(steps.meta(camera_sources, extra_meta or {}))
             else:
                 steps.method(name)()
+            while name == PUSH_STEPS[-1] and steps.again():  # another push and its hold
+                for again in PUSH_STEPS:
+                    report(again)
+                    steps.method(again)()
     except BaseException as exc:
         logger.info(
             "the trial failed (%s): stopping the arm, aborting the recording; the gripper "
@@ -425,6 +490,7 @@ def run_trial(
         log=log,
         push_start_s=steps.push_start - origin,
         push_end_s=steps.push_end - origin,
+        pushes=steps.pushes_on(origin),
     )
 
 

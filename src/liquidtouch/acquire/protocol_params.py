@@ -14,6 +14,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from liquidtouch._core.containers import CONTAINERS
 from liquidtouch.acquire.arms import linear_move_duration
 from liquidtouch.errors import LiquidTouchError
 
@@ -66,6 +67,13 @@ class ProtocolParameters(BaseModel):
     """The cameras' sensor profile (``acquire.cameras.PROFILES``: ``raw``, ``mini``, ``r15``,
     ``digit``; ``run-trial --sensor``)."""
     recording_format: Literal["ffv1", "png"] = "ffv1"
+    max_pushes: int = Field(1, ge=1, le=10)
+    """Pushes at most (``run-trial --max-pushes``): after a hold whose combined answer misses
+    a ``--until-std`` target, the bottle is pushed again, back and forth along ``push_axis``
+    (never more than one push from where it was lifted); at most 10 (about 2.5 min of
+    holds at the default ``hold_s``)."""
+    container: str | None = None
+    """The container's catalogue name (``run-trial --plan``: the push is planned for it)."""
     start_pose: tuple[float, float, float, float, float, float] | None = None
     """The tool pose [x, y, z m; rx, ry, rz rad] the bottle is grasped at, on the table;
     the trial starts and ends there (default: the arm's own start pose, e.g. the
@@ -75,6 +83,10 @@ class ProtocolParameters(BaseModel):
     def model_post_init(self, _context: Any) -> None:
         if abs(self.push_distance_mm) < 1.0:
             raise ValueError("push_distance_mm must be at least 1 mm either way")
+        if self.container is not None and self.container not in CONTAINERS:
+            raise ValueError(
+                f"container {self.container!r} is not in the catalogue ({', '.join(CONTAINERS)})"
+            )
 
     @property
     def push_duration_s(self) -> float:
@@ -138,9 +150,11 @@ def trial_parameters(
     *,
     hold_s: float | None = None,
     camera_profile: str | None = None,
+    max_pushes: int | None = None,
 ) -> ProtocolParameters:
-    """The protocol file's parameters (default: the paper's) with ``hold_s`` [s] and
-    ``camera_profile`` overriding it when given; :class:`LiquidTouchError` names a bad one."""
+    """The protocol file's parameters (default: the paper's) with ``hold_s`` [s],
+    ``camera_profile`` and ``max_pushes`` overriding it when given; :class:`LiquidTouchError`
+    names a bad one."""
     params = load_protocol(protocol) if protocol is not None else ProtocolParameters()
     overrides: dict[str, object] = {}
     if hold_s is not None:
@@ -149,7 +163,10 @@ def trial_parameters(
         overrides["hold_s"] = hold_s
     if camera_profile is not None:
         overrides["camera_profile"] = str(camera_profile)
+    if max_pushes is not None:
+        overrides["max_pushes"] = max_pushes
+    options = {"hold_s": "--seconds", "camera_profile": "--sensor", "max_pushes": "--max-pushes"}
     for key, value in overrides.items():  # one at a time: the error names its option
-        option = "--seconds" if key == "hold_s" else "--sensor"
+        option = options[key]
         params = protocol_from_mapping({**params.model_dump(), key: value}, option)
     return params

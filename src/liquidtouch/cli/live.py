@@ -273,6 +273,26 @@ def _line(update) -> str:
         parts.append(f"{target} = {with_uncertainty(mean, std)}")
     if update.final:
         parts.append(f"(stopped: {update.stopped_because.replace('_', ' ')})")
+        if (answer := answer_line(update.to_dict())) is not None:  # several ring-downs
+            parts.append(f"\n{answer}")
     elif update.message and not math.isfinite(update.angular_frequency):
         parts.append(f"({update.message})")
     return "  ".join(parts)
+
+
+def answer_line(final: dict) -> str | None:
+    """The combined answer of a trial of several pushes in one line (``None`` for one push):
+    each target ``mean ± std`` and the ring-downs' agreement, or "cannot tell" and why."""
+    combined = final.get("combined") or {}
+    if combined.get("ring_downs", 0) < 2 and not any(
+        r.get("cannot_tell") for r in (combined.get("reach") or {}).values()
+    ):
+        return None
+    reach = combined.get("reach") or {}
+    cannot = [r["message"] for r in reach.values() if r["cannot_tell"]]
+    if cannot:
+        return "answer: " + "; ".join(cannot)
+    parts = [f"{t} = {with_uncertainty(m, s)}" for t, (m, s) in combined["predicted"].items()]
+    missed = [r["message"] for r in reach.values() if not r["met"]]
+    unmet = f"; not met: {'; '.join(missed)}" if missed else ""
+    return f"answer: {', '.join(parts)} ({combined['message']}{unmet})"

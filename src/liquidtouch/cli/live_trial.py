@@ -4,8 +4,11 @@ The recorder hands every captured frame to :meth:`LiveTrial.tap` (on its capture
 it only queues, and drops a frame when the estimator is behind), the protocol's events
 to :meth:`LiveTrial.event`; a thread runs :func:`liquidtouch.live.live_updates` over them
 with ``protocol=True`` (the push and the end of the hold are the protocol's, not guessed)
-and publishes to the live page when ``--serve`` is given. :meth:`LiveTrial.write` puts
-the final update (every ring-down's estimate, the events) into the trial as ``live.json``.
+and publishes to the live page when ``--serve`` is given. With ``--max-pushes`` the
+protocol asks :meth:`LiveTrial.decide` after each hold whether to push again (the
+ring-downs so far combined: every target met, or "cannot tell here", ends the trial).
+:meth:`LiveTrial.write` puts the final update (every ring-down's estimate, their
+combination, the events, the decisions) into the trial as ``live.json``.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ import time
 from pathlib import Path
 
 from liquidtouch.cli.live import SERVE_FRAME_HZ, live_model, parse_serve
+from liquidtouch.errors import LiquidTouchError
 
 logger = logging.getLogger("liquidtouch.cli.live_trial")
 
@@ -30,8 +34,9 @@ _END = object()
 class LiveTrial:
     """The live estimate beside a ``run-trial`` (module docstring)."""
 
-    def __init__(self, names, *, model_file=None, until_std=(), serve=None):
-        """Check everything (model file, targets, serve address) before a robot moves."""
+    def __init__(self, names, *, model_file=None, until_std=(), serve=None, max_pushes=1):
+        """Check everything (model file, targets, serve address, --max-pushes) before a
+        robot moves."""
         from liquidtouch.live.stopping import parse_until_std
 
         self.names = list(names)
@@ -39,6 +44,18 @@ class LiveTrial:
         self.address = parse_serve(serve) if serve else None
         #: the model, and the --until-std targets it can never meet {target: its std floor}
         self.model, self.unreachable = live_model(model_file, self.limits)
+        self.max_pushes = int(max_pushes)
+        if self.max_pushes > 1 and (getattr(self.model, "kind", "") != "regression"
+                                    or not self.limits):  # fmt: skip
+            raise LiquidTouchError(
+                f"--max-pushes {self.max_pushes} needs --model (a regression model, from "
+                "train) and --until-std TARGET=STD: another push is made only when the "
+                "answer misses a target"
+            )
+        #: ring-downs judged final so far, the latest combined answer, the decisions made
+        self.finals_seen = 0
+        self.combined: dict = {}
+        self.decisions: list[dict] = []
         self.frames: queue.Queue = queue.Queue(maxsize=MAX_QUEUED)
         self.events: queue.Queue = queue.Queue()
         self.all_events: list[tuple[str, float]] = []
@@ -116,7 +133,11 @@ class LiveTrial:
                 protocol=True,
                 on_event=self._new_events,
                 on_frame=on_frame,
+                stop_on_until_std=self.max_pushes <= 1,  # else the pushes' answer decides
             ):
+                if update.segment_final and update.combined:
+                    self.finals_seen = max(self.finals_seen, update.segment)
+                    self.combined = update.combined
                 if self.hub is not None:
                     self.hub.publish(update.to_dict(include_signal=True))
                 logger.info("live: %s", update)
@@ -129,6 +150,27 @@ class LiveTrial:
         except Exception as exc:  # the trial matters more than its live view
             logger.warning("the live estimate failed: %s", exc)
             self.final = {"error": str(exc)}
+
+    def decide(self, pushes: int) -> bool | None:
+        """After push ``pushes``: push again? ``None`` until the live estimate has judged
+        that push's ring-down (:func:`liquidtouch.live.combined.next_push`); ``False`` when
+        the estimate has ended or failed (another push would go unjudged)."""
+        from liquidtouch.live.combined import next_push
+
+        if self.finals_seen < pushes:
+            alive = self._thread is not None and self._thread.is_alive()
+            if alive and self.final is None:
+                return None
+            again, why = (
+                False,
+                "the live estimate ended: "
+                + str((self.final or {}).get("error") or (self.final or {}).get("message") or "?"),
+            )
+        else:
+            again, why = next_push(self.combined)
+        self.decisions.append({"after_push": pushes, "push_again": again, "why": why})
+        logger.info("after push %d: %s (%s)", pushes, "push again" if again else "done", why)
+        return again
 
     def end(self) -> None:
         """The recording is over: end the stream, wait for the final update, stop serving."""
@@ -150,6 +192,7 @@ class LiveTrial:
         record = {
             **self.final,
             "protocol_events": [{"event": n, "t_s": t} for n, t in self.all_events],
+            "decisions": self.decisions,
             "frames_dropped_by_live": self.dropped,
         }
         path = Path(trial_dir) / "live.json"

@@ -411,6 +411,26 @@ UntilStd = Annotated[
         show_default=False,
     ),
 ]
+MaxPushes = Annotated[
+    int | None,
+    typer.Option(
+        "--max-pushes",
+        help="Push again (back and forth) after a hold whose answer misses an --until-std "
+        "target, up to N pushes; the ring-downs are combined, and a target no push can "
+        "reach here ends the trial with 'cannot tell' (needs --model, --until-std; default: "
+        "the protocol file's max_pushes, else 1).",
+        show_default=False,
+    ),
+]
+Plan = Annotated[
+    bool,
+    typer.Option(
+        "--plan",
+        help="Propose the push (axis, distance, speed, acceleration) for the container "
+        "(--label container=NAME or the protocol file's) and the first --until-std target, "
+        "and exit: nothing is connected.",
+    ),
+]
 Serve = Annotated[
     str | None,
     typer.Option(

@@ -113,6 +113,8 @@ def run_trial_command(
     live: bool = typer.Option(False, "--live", help="Estimate live (as --model, without one)."),
     serve: options.Serve = None,
     until_std: options.UntilStd = [],  # noqa: B006
+    max_pushes: options.MaxPushes = None,
+    plan: options.Plan = False,
     sensor: options.TrialSensor = None,
     recover: options.Recover = False,
     open_timeout_s: options.OpenTimeout = DEFAULT_OPEN_TIMEOUT_S,
@@ -122,24 +124,24 @@ def run_trial_command(
     """Run one trial on a robot: grasp, lift, record, push, hold, return, lower, release.
 
     Every option is checked before anything is connected. A held bottle, an arm off its
-    start pose or a gripper fault is refused (saying what to do) or, with --recover, put
-    right. The bottle ends where it started. --model/--live/--serve estimate live from the
-    frames (live.json). On any error or Ctrl-C the arm stops, the gripper KEEPS holding the
-    bottle and no trial is written; the next run-trial refuses to start until --recover
-    (or you) put it down.
+    start pose or a gripper fault is refused or, with --recover, put right. The bottle ends
+    where it started. --model/--live/--serve estimate live (live.json); --max-pushes pushes
+    again until the answer is known or cannot be told. On any error or Ctrl-C the arm
+    stops, the gripper KEEPS holding the bottle and no trial is written.
     """
-    from liquidtouch._core.progress import on_terminal
     from liquidtouch.acquire.protocol_params import trial_parameters
     from liquidtouch.io.labels import typed_labels
 
-    params = trial_parameters(protocol, hold_s=seconds, camera_profile=sensor)
+    params = trial_parameters(protocol, hold_s=seconds, camera_profile=sensor,
+                              max_pushes=max_pushes)  # fmt: skip
     labels = {k: v for k, v in typed_labels(label).items() if v is not None}
+    if plan:
+        return _plan(params, labels, model_file, until_std, as_json)
     live_run = None
-    if live or model_file is not None or serve or until_std:
-        live_run = _live_trial(name, len(camera), model_file, until_std, serve)
+    if live or model_file is not None or serve or until_std or params.max_pushes > 1:
+        live_run = _live_trial(name, len(camera), model_file, until_std, serve, params)
     from liquidtouch.acquire.bench import run_trial_at  # after the checks: it imports more
 
-    verbose = on_terminal() and not as_json
     timeouts = dict(open_timeout_s=open_timeout_s, read_timeout_s=read_timeout_s,
                     warmup_timeout_s=warmup_timeout_s)  # fmt: skip
     if live_run is not None:
@@ -147,11 +149,9 @@ def run_trial_command(
     try:
         run = run_trial_at(
             gripper, arm, camera, out, params, labels, names=name, recover=recover,
-            on_step=(lambda step: print(f"{step} ...", file=sys.stderr, flush=True))
-            if verbose else None,
-            on_frame=None if live_run is None else live_run.tap,
+            on_step=_progress(as_json), on_frame=None if live_run is None else live_run.tap,
             on_event=None if live_run is None else live_run.event,
-            camera_timeouts=timeouts,
+            camera_timeouts=timeouts, decide=None if live_run is None else live_run.decide,
         )  # fmt: skip
     finally:
         if live_run is not None:
@@ -161,17 +161,56 @@ def run_trial_command(
     _report(run, as_json, live_run)
 
 
-def _live_trial(names: list[str], n_cameras: int, model_file, until_std, serve):
-    """The live estimate beside the trial (its model and targets checked now)."""
+def _progress(as_json: bool):
+    """``on_step`` printing each step on stderr, on a terminal and without --json."""
+    from liquidtouch._core.progress import on_terminal
+
+    if as_json or not on_terminal():
+        return None
+    return lambda step: print(f"{step} ...", file=sys.stderr, flush=True)
+
+
+def _live_trial(names: list[str], n_cameras: int, model_file, until_std, serve, params):
+    """The live estimate beside the trial (its model, targets and pushes checked now)."""
     from liquidtouch.acquire.cameras.capture import default_names
     from liquidtouch.cli.live_trial import LiveTrial
 
     names = list(names) or default_names(n_cameras)
-    return LiveTrial(names, model_file=model_file, until_std=until_std, serve=serve)
+    return LiveTrial(names, model_file=model_file, until_std=until_std, serve=serve,
+                     max_pushes=params.max_pushes)  # fmt: skip
+
+
+def _plan(params, labels: dict, model_file, until_std: list[str], as_json: bool) -> None:
+    """``run-trial --plan``: the proposed push for the container, printed; nothing moves."""
+    from liquidtouch.acquire.push_plan import plan_push
+    from liquidtouch.errors import LiquidTouchError
+    from liquidtouch.live.stopping import parse_until_std
+    from liquidtouch.models.modelfile import load_model
+
+    container = labels.get("container") or params.container
+    if container is None:
+        raise LiquidTouchError(
+            "--plan needs the container: --label container=NAME or the protocol file's container"
+        )
+    if not until_std:
+        raise LiquidTouchError("--plan needs --until-std TARGET=STD: the ± the push should reach")
+    target, asked = next(iter(parse_until_std(until_std).items()))
+    model = load_model(model_file) if model_file is not None else None
+    limits = {k: getattr(params, k) for k in ("push_distance_mm", "push_speed_m_s",
+                                              "push_acceleration_m_s2")}  # fmt: skip
+    found = plan_push(str(container), target, asked, model=model, limits=limits)
+    if as_json:
+        typer.echo(json.dumps(found.to_dict()))
+        return
+    typer.echo("\n".join(found.lines()))
+    typer.echo("protocol file lines:")
+    for key, value in found.protocol_values().items():
+        typer.echo(f"{key} = {json.dumps(value)}")
 
 
 def _report(run, as_json: bool, live_run) -> None:
     from liquidtouch.cli.format import warn
+    from liquidtouch.cli.live import answer_line
 
     summary = run.summary
     for message in summary.warnings:
@@ -180,6 +219,7 @@ def _report(run, as_json: bool, live_run) -> None:
         "trial": str(run.trial_dir),
         "push_start_s": run.push_start_s,
         "push_end_s": run.push_end_s,
+        "pushes": run.pushes,
         "recording": summary.to_dict(),
     }
     final = None if live_run is None else live_run.final
@@ -192,8 +232,12 @@ def _report(run, as_json: bool, live_run) -> None:
         fps = f"{s.measured_fps:.2f}" if s.measured_fps else "—"
         typer.echo(f"{s.name}: {s.frames} frames at {fps} fps, {s.drops} dropped ({s.source})")
     typer.echo(f"push {run.push_start_s:.2f}-{run.push_end_s:.2f} s; wrote {run.trial_dir}")
+    if len(run.pushes) > 1:
+        typer.echo(f"{len(run.pushes)} pushes, the last at {run.pushes[-1]['push_start_s']:.2f} s")
     if final is not None:
         typer.echo(f"{live_line(final)}; wrote live.json")
+        if (answer := answer_line(final)) is not None:
+            typer.echo(answer)
 
 
 def live_line(final: dict) -> str:

@@ -33,7 +33,8 @@ TrialOut = Annotated[
     ),
 ]
 Container = Annotated[
-    str, typer.Option("--container", help="grooved-cuboid, cuboid, cylinder or glass.")
+    str,
+    typer.Option("--container", help="grooved-cuboid, cuboid, cylinder, glass or upright-bottle."),
 ]
 SugarConcentration = Annotated[
     float | None,
@@ -55,6 +56,13 @@ TrialVideo = Annotated[
     bool,
     typer.Option("--video/--no-video", help="Render the GelSight videos (left.mp4, right.mp4)."),
 ]
+PushAxis = Annotated[
+    str,
+    typer.Option(
+        "--push-axis",
+        help="Push along x (the container's length) or y (across it; not a cylinder on its side).",
+    ),
+]
 SimSensor = Annotated[str, typer.Option("--sensor", help="GelSight sensor profile name.")]
 LoadsPlot = Annotated[
     bool, typer.Option("--plot", help="Also save loads.png in the trial directory.")
@@ -75,6 +83,7 @@ def trial_command(
     sensor: SimSensor = "default",
     plot: LoadsPlot = False,
     realism: options.Realism = options.RealismChoice.clean,
+    push_axis: PushAxis = "x",
     as_json: SimJson = False,
 ) -> None:
     """Simulate one trial (lift, lateral push, hold) and write meta.json, force.csv, wrench.csv.
@@ -100,6 +109,7 @@ def trial_command(
         seed=seed,
         temperature_c=temperature_c,
         realism=realism.value,
+        push_axis=push_axis,
     )
     directory = write_trial(trial, out, video=video, sensor=sensor, plot=plot)
     files = sorted(p.name for p in directory.iterdir() if not p.name.startswith("."))

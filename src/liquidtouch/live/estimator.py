@@ -28,6 +28,7 @@ import numpy as np
 
 from liquidtouch.errors import LiquidTouchError, VideoError
 from liquidtouch.extraction.fit_settings import FitSettings
+from liquidtouch.live.combined import combined_answer
 from liquidtouch.live.emission import emitted_update
 from liquidtouch.live.refresh import (
     EDGE_S,
@@ -402,6 +403,9 @@ class LiveEstimator:
             update.decay_rate, update.angular_frequency,
         )  # fmt: skip
         self.finals.append(RingDown(index, seg.start_s, seg.end_s, update))
+        update.combined = combined_answer(
+            [r.update for r in self.finals], self.model, self.until_std
+        )
         self.warm_start = None
 
     def _stream_fit(self, tracks, seg: Segment, window_from: float, frames, elapsed_s, due_s):

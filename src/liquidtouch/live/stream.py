@@ -63,6 +63,7 @@ def live_updates(
     stop: Callable[[], bool] | None = None,
     profile: str = "raw",
     camera_options: Mapping[str, float] | None = None,
+    stop_on_until_std: bool = True,
 ) -> Iterator[LiveUpdate]:
     """Updates of the streaming estimate of ``sources``; the last has ``final=True``.
 
@@ -77,6 +78,9 @@ def live_updates(
     until_std : ``{target: std}`` or ``["target=std", ...]``: stop once every
         target's std is below its threshold (targets: ``decay_rate``,
         ``angular_frequency``, the model's targets). Checked before any frame.
+    stop_on_until_std : False: ``until_std`` does not end the stream (the updates still
+        judge the targets: ``combined``'s ``reach``); ``run-trial --max-pushes`` decides
+        from the combined ring-downs when the trial ends.
     realtime : replay recordings at the pace of their timestamps (cameras always are).
     max_duration_s : stop after this much stream time [s] (default: the source's end).
     fps : frame rate of image folders without timestamps [Hz].
@@ -153,7 +157,7 @@ def live_updates(
                     if update is not None:
                         yield update
                         stds = {target: update.std_of(target) for target in limits}
-                        if stop_reached(limits, stds):
+                        if stop_on_until_std and stop_reached(limits, stds):
                             stopped = "until_std"
                             break
                     if stop is not None and stop():

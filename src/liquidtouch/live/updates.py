@@ -75,6 +75,10 @@ class LiveUpdate:
         (a later push starts segment ``segment + 1``).
     segments : final update only: every ring-down's final estimate (``RingDown.summary``).
     events : the protocol's events on the decay clock [s] (``run-trial``), for the plot.
+    combined : once a ring-down is final: every final ring-down so far combined by its ±
+        (:func:`liquidtouch.live.combined.combined_answer`: λ, ω, their std, ``ring_downs``,
+        ``consistent``, ``outliers``; with a regression model ``predicted`` and, given
+        ``until_std``, ``reach`` per target: met, pushes needed, or cannot tell and why).
     out_of_domain : with a model, once λ and ω are reported: (λ, ω) lies outside what the
         model knows — outside its training domain, or a classifier's answer is "unknown"
         (``liquidtouch.models.predictions.out_of_domain``, as ``predict``'s column); None
@@ -116,6 +120,7 @@ class LiveUpdate:
     segment_final: bool = False
     segments: list[dict[str, object]] = field(default_factory=list)
     events: dict[str, float] = field(default_factory=dict)
+    combined: dict[str, object] = field(default_factory=dict)
     out_of_domain: bool | None = None
     unknown_rule: str | None = None
     until_std_unreachable: dict[str, float] = field(default_factory=dict)
@@ -179,6 +184,8 @@ class LiveUpdate:
             out_of_domain=self.out_of_domain,
             until_std_unreachable={t: _number(f) for t, f in self.until_std_unreachable.items()},
         )
+        if self.combined:
+            out["combined"] = self.combined
         if self.unknown_rule is not None:
             out["unknown_rule"] = self.unknown_rule
         if self.final:

@@ -2,8 +2,10 @@
 
 Regressors (Gaussian process, quadratic, physics-informed GP) for fill height
 [mm], sugar concentration [g per 100 g water] and log10 viscosity [cSt]; the
-liquid classifier (RBF SVM); container transfer; the JSON model files; and
-:func:`predict_rows`, a features table's predictions as ``predict`` and ``live`` give them.
+liquid classifier (RBF SVM); container transfer; the JSON model files;
+:func:`predict_rows`, a features table's predictions as ``predict`` and ``live`` give them;
+and several ring-downs of one bottle combined by their ± (:func:`combine_ring_downs`), with
+whether a target can reach its ± at all (:meth:`PropertyModel.reach`).
 The estimators are scikit-learn estimators (one target each); see
 :mod:`liquidtouch.models.regressors`. This layer imports neither PyAV nor
 OpenCV nor the video stages: it trains on feature tables alone
@@ -11,6 +13,7 @@ OpenCV nor the video stages: it trains on feature tables alone
 """
 
 from liquidtouch.models.classifier import LiquidClassifier
+from liquidtouch.models.combine import combine_ring_downs
 from liquidtouch.models.feature_space import TrainingDomain
 from liquidtouch.models.modelfile import load_model, save_model
 from liquidtouch.models.physics_prior import PhysicsGPRegressor
@@ -29,6 +32,7 @@ __all__ = [
     "PropertyModel",
     "QuadraticRegressor",
     "TrainingDomain",
+    "combine_ring_downs",
     "fit_transfer",
     "load_model",
     "predict_rows",

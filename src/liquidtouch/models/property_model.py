@@ -33,6 +33,7 @@ from liquidtouch.models.physics_prior import PhysicsGPRegressor
 from liquidtouch.models.predictions import PROBABILITY_PREFIX
 from liquidtouch.models.propagation import clean_feature_std, propagated_variance
 from liquidtouch.models.quadratic import QuadraticRegressor
+from liquidtouch.models.reach import FIT_FLOOR, Reach, reach_of
 from liquidtouch.models.regressors import GPRegressor
 from liquidtouch.models.validation import check_features
 
@@ -273,6 +274,50 @@ class PropertyModel:
             t: (mean, np.hypot(model_std, fit_std))
             for t, (mean, model_std, fit_std) in self._predict_parts(X, X_std, corr).items()
         }
+
+    def reach(
+        self, X: Any, X_std: Any, until_std: Mapping[str, float], pushes: int = 1
+    ) -> dict[str, Reach]:
+        """``{target: Reach}``: can each target of ``until_std`` reach its std at these features?
+
+        ``X`` (1, 2) are the (λ [1/s], ω [rad/s]) of ``pushes`` combined ring-downs
+        (:func:`~liquidtouch.models.combine.combine_ring_downs`), ``X_std`` their std.
+        A target whose asked std is below what any number of pushes of this kind gives —
+        the model's own std, or the fit's :data:`~liquidtouch.models.reach.FIT_FLOOR`
+        through the model's slope — or whose (λ, ω) or predicted value lies outside the
+        training range "cannot be told here" (:mod:`liquidtouch.models.reach`).
+        ``until_std`` may also name ``decay_rate`` and ``angular_frequency`` (the fit's own
+        std, no model part).
+        """
+        X = check_features(X)[:1]
+        X_std = clean_feature_std(X_std, 1)
+        floor = np.abs(X) * np.asarray(FIT_FLOOR)
+        parts = self._predict_parts(X, X_std) if self.regressors else {}
+        floors = self._predict_parts(X, floor) if self.regressors else {}
+        inside = bool(self.in_domain(X)[0])
+        out = {}
+        for target, asked in until_std.items():
+            if target in FEATURE_COLUMNS:
+                j = FEATURE_COLUMNS.index(target)
+                model_std, fit_std, floor_std, known = 0.0, X_std[0, j], floor[0, j], True
+            elif target in parts:
+                mean, model_std, fit_std = (v[0] for v in parts[target])
+                floor_std = floors[target][2][0]
+                known = inside and self._trained_on(target, mean, model_std)
+            else:
+                raise TableError(f"the model does not predict {target!r}; it predicts "
+                                 f"{', '.join(self.targets)}")  # fmt: skip
+            out[target] = reach_of(
+                target, float(asked), model_std=float(model_std), fit_std=float(fit_std),
+                floor_std=float(floor_std), pushes=pushes, in_domain=known,
+            )  # fmt: skip
+        return out
+
+    def _trained_on(self, target: str, value: float, std: float) -> bool:
+        """Whether ``value`` lies within the range of ``target`` the model was trained on,
+        give or take its own ``std`` (``True`` when the estimator keeps no training targets)."""
+        y = getattr(self.regressors[target], "y_train_", None)
+        return y is None or bool(np.min(y) - std <= value <= np.max(y) + std)
 
     def predict_interval(
         self, X: Any, level: float, X_std: Any = None, corr: Any = 0.0

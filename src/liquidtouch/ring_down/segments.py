@@ -297,8 +297,14 @@ def _known_segments(t: np.ndarray, x: np.ndarray, events: dict[str, float]) -> l
     a = _excursions(t, x)
     t0, t_end = float(t[0]), float(t[-1])
     push, pushed = float(events["push"]), float(events.get("pushed", events["push"]))
+    # the end of this push's hold: the first end event after it (an earlier push's hold
+    # ended before it: run-trial --max-pushes gives several pushes, the latest is ``push``)
     hold_end = min(
-        (float(events[k]) for k in ("stopped", "hold_end", "lower") if k in events),
+        (
+            float(events[k])
+            for k in ("stopped", "hold_end", "lower")
+            if k in events and float(events[k]) > push
+        ),
         default=math.inf,
     )
     peak = _peak_s(t, a, max(push, t0), pushed + PEAK_S, hold_end)

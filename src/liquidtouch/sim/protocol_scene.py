@@ -59,21 +59,42 @@ class ProtocolTimings:
             abs(self.push_distance_mm) * 1e-3, self.push_speed_m_s, self.push_acceleration_m_s2
         )
 
-    def events(self) -> dict[str, float]:
-        """The protocol's events [s]: as ``run_trial`` logs them."""
-        pushed = self.push_s + self.push_duration_s
+    pushes: int = 1
+    """Pushes of the same bottle (``run-trial --max-pushes``): each after the previous hold
+    and ``between_s``, back and forth (every other push goes the other way)."""
+    between_s: float = 3.0
+    """Wait between a hold's end and the next push [s]: ``run-trial`` waits for the live
+    estimate's final fit of the ring-down, which needs ~2 s of signal after the hold
+    (``live.estimator.SETTLE_S`` after the guard, behind the trusted edge)."""
+
+    def event_sequence(self) -> list[tuple[str, float]]:
+        """The protocol's events in time order [s], as ``run_trial`` logs them; a hold that
+        another push follows ends with ``hold_end``, the last with ``stopped``."""
+        out = [("grasp", self.grasp_s), ("lift", self.lift_s)]
+        push = self.push_s
+        for k in range(self.pushes):
+            pushed = push + self.push_duration_s
+            out += [("push", push), ("pushed", pushed)]
+            if k + 1 < self.pushes:
+                out.append(("hold_end", pushed + self.hold_s))
+                push = pushed + self.hold_s + self.between_s
         stopped = pushed + self.hold_s
         lower = stopped + self.lower_after_s
         lowered = lower + self.lift_duration_s
-        return {
-            "grasp": self.grasp_s,
-            "lift": self.lift_s,
-            "push": self.push_s,
-            "pushed": pushed,
-            "stopped": stopped,
-            "lower": lower,
-            "release": lowered + self.release_after_s,
-        }
+        return [
+            *out,
+            ("stopped", stopped),
+            ("lower", lower),
+            ("release", lowered + self.release_after_s),
+        ]
+
+    def events(self) -> dict[str, float]:
+        """The protocol's events [s]: the last of each name (:meth:`event_sequence`)."""
+        return dict(self.event_sequence())
+
+    def push_starts(self) -> list[float]:
+        """When each push starts [s]."""
+        return [t for name, t in self.event_sequence() if name == "push"]
 
 
 @dataclass
@@ -87,6 +108,8 @@ class ProtocolScene:
     true_decay_rate: float
     true_angular_frequency: float
     extra: dict[str, float] = field(default_factory=dict)
+    event_sequence: list[tuple[str, float]] = field(default_factory=list)
+    """Every event in time order (several pushes: ``ProtocolTimings.pushes``)."""
 
 
 def _weight_fraction(now: np.ndarray, move_s: float, duration_s: float, mm: float) -> np.ndarray:
@@ -128,15 +151,20 @@ def protocol_scene(
         "container": container,
     }
     base = simulate_trial(liquid, **args, duration_s=30.0)
-    pushed = simulate_trial(
-        liquid,
-        **args,
-        duration_s=max(30.0, timings.hold_s + 5.0),
-        parameters={
-            "push_distance_mm": timings.push_distance_mm,
-            "push_duration_s": timings.push_duration_s,
-        },
-    )
+    starts = timings.push_starts()
+    pushed = [
+        simulate_trial(
+            liquid,
+            **args,
+            duration_s=max(30.0, timings.hold_s + 5.0),
+            parameters={
+                "push_distance_mm": timings.push_distance_mm * (-1) ** k,
+                "push_duration_s": timings.push_duration_s,
+            },
+            noise_seed=k + 1 if k else None,  # a repeated push: the contact noise drawn afresh
+        )
+        for k in range(len(starts))
+    ]
     rng = np.random.default_rng([base.seed, 7])
     rests = np.stack([marker_rest_positions(profile, rng) for _ in range(2)])
     # the weight on the fingers: on over the lift, off over the end of the lowering
@@ -146,19 +174,19 @@ def protocol_scene(
     weight = np.where(t < events["lower"], up, down)
     contact = (t >= events["grasp"]) & (t < events["release"])
     squeeze = np.clip((t - events["grasp"]) / timings.grasp_duration_s, 0.0, 1.0) * contact
-    # the trial clock: the base trial's lifted rest before the push, the pushed trial after
-    before = t < events["push"]
-    trial_t = np.where(
-        before,
-        np.minimum(np.maximum(t - events["lift"], 0.0), base.params.push_start_s - 1e-3),
-        pushed.params.push_start_s + (t - events["push"]),
-    )
-    trial_t = np.clip(trial_t, 0.0, float(pushed.t_s[-1]) - 0.1)
+    # the trial clock: the base trial's lifted rest before the first push, each pushed
+    # trial from its push on (each push restarts the simulation from rest, as the rig)
+    which = np.searchsorted(starts, t, side="right") - 1  # -1: before the first push
+    spans = [(base, which < 0, np.minimum(np.maximum(t - events["lift"], 0.0),
+                                         base.params.push_start_s - 1e-3))]  # fmt: skip
+    for k, trial in enumerate(pushed):
+        spans.append((trial, which == k, trial.params.push_start_s + (t - starts[k])))
     positions = np.repeat(rests[:, None], len(t), axis=1)
-    for trial, mask in ((base, before), (pushed, ~before)):
+    for trial, mask, trial_t in spans:
         if mask.any():
+            at = np.clip(trial_t[mask], 0.0, float(trial.t_s[-1]) - 0.1)
             for s in range(2):
-                moved = marker_positions(trial.loads, profile, trial_t[mask], rest_px=rests[s])[s]
+                moved = marker_positions(trial.loads, profile, at, rest_px=rests[s])[s]
                 positions[s, mask] = rests[s] + weight[mask, None, None] * (moved - rests[s])
     positions[..., 1] += grasp_px * squeeze[None, :, None]
     positions = positions + rng.normal(0.0, noise_px, positions.shape)
@@ -166,7 +194,8 @@ def protocol_scene(
         t=t,
         positions=positions,
         events=events,
-        true_decay_rate=float(pushed.true_decay_rate),
-        true_angular_frequency=float(pushed.true_angular_frequency),
+        true_decay_rate=float(pushed[0].true_decay_rate),
+        true_angular_frequency=float(pushed[0].true_angular_frequency),
         extra={"push_duration_s": timings.push_duration_s},
+        event_sequence=timings.event_sequence(),
     )

@@ -10,6 +10,21 @@ tuned to the linear potential-theory frequency ``ω_n² = g k_n tanh(k_n h)``
 (``h`` = equivalent depth A/W for a cylinder on its side), with
 ``m_n = M·8 tanh(k_n h)/((2j−1)³π³ h/L)``.
 
+An upright round bottle of radius ``R`` (shape ``upright``) has the same analogue
+with the antisymmetric Bessel modes: ``k_n = ξ_n/R``, ``ξ`` the roots of J1'
+(1.841, 5.331), and ``m_n = M·2 tanh(ξ_n h/R)/(ξ_n(ξ_n² − 1) h/R)`` (Abramson,
+SP-106, ch. 6); its wave steepness per slosh-mass displacement is taken as the
+rectangular channel's of length ``2R``, and its linear damping is the empirical
+upright-cylinder rate of Mikishev & Dorozhkin (Abramson SP-106, eq. 4.21)
+``λ = ω·0.79 sqrt(ν)/(g^¼ R^¾)·[1 + 0.318/sinh(ξh/R)·(1 + (1 − h/R)/cosh(ξh/R))]``
+(times the container's wall factor, 1 for the catalogue's bottle), in place of the
+rectangular Stokes bracket.
+
+A push along the grasp axis (world ``y``) sloshes the liquid across the container
+(:meth:`~liquidtouch._core.containers.Container.along`); the simulator keeps the
+slosh force on the gels' lateral (shear) axis either way — a simplification: a real
+push along the grasp axis loads the gels mostly in their normal direction.
+
 Damping of mode ``n`` (amplitude decay rate) is the Stokes boundary-layer rate
 ``α = sqrt(νω/2)·[1/b + 1/L + k(1 − 2h/L)/sinh(2kh)]`` times the container's
 wall factor, plus bulk dissipation ``2νk²`` and a small contact-line term. It
@@ -54,6 +69,10 @@ GRAVITY_M_S2 = 9.81
 NONLINEAR_GAIN = 8.0  # κ1: relative growth of the damping per squared wave steepness
 BREAKING_GAIN = 0.15  # κ2: extra damping ∝ ω·steepness², a choice
 SUPPORT_DAMPING_RATIO = 0.15
+#: roots of J1' (the upright cylinder's antisymmetric modes): the first two
+BESSEL_ROOTS = (1.8412, 5.3314)
+#: Mikishev & Dorozhkin's coefficient of the upright cylinder's damping ratio (Abramson SP-106)
+UPRIGHT_DAMPING_COEFFICIENT = 0.79
 
 
 @dataclass(frozen=True)
@@ -154,9 +173,17 @@ def slosh_system(
     contact_line_damping: float | None = None,
     support_stiffness_n_m: float = 2500.0,
     n_modes: int = 2,
+    axis: str = "x",
 ) -> SloshSystem:
-    """Build the mechanical analogue of ``liquid`` filled to ``height_mm`` in ``container``."""
+    """Build the mechanical analogue of ``liquid`` filled to ``height_mm`` in ``container``,
+    pushed along world ``axis`` (``"x"``: the container's length; ``"y"``: across it)."""
+    container = container.along(axis)
     container.check_height(height_mm)
+    if container.upright:
+        return _upright_system(
+            liquid, container, height_mm, wall_factor, contact_line_damping,
+            support_stiffness_n_m, n_modes,
+        )  # fmt: skip
     area_mm2, surface_width_mm = container.cross_section(height_mm)
     length = container.length_mm * 1e-3
     b = surface_width_mm * 1e-3
@@ -183,6 +210,62 @@ def slosh_system(
                 steepness_per_m=4.0 * th / length,
             )
         )
+    return _system(
+        modes, liquid, liquid_mass, container, height_mm, contact_line_damping,
+        support_stiffness_n_m,
+    )  # fmt: skip
+
+
+def _upright_system(
+    liquid: LiquidProperties,
+    container: Container,
+    height_mm: float,
+    wall_factor: float | None,
+    contact_line_damping: float | None,
+    support_stiffness_n_m: float,
+    n_modes: int,
+) -> SloshSystem:
+    """The mechanical analogue of an upright round bottle (module docstring)."""
+    radius = container.length_mm / 2.0 * 1e-3
+    h = height_mm * 1e-3
+    liquid_mass = liquid.density_kg_m3 * container.liquid_volume_mm3(height_mm) * 1e-9
+    factor = container.wall_factor if wall_factor is None else wall_factor
+    modes = []
+    for j, xi in enumerate(BESSEL_ROOTS[:n_modes]):
+        k = xi / radius
+        th = math.tanh(k * h)
+        w = math.sqrt(GRAVITY_M_S2 * k * th)
+        shape = 1.0 + 0.318 / math.sinh(k * h) * (1.0 + (1.0 - h / radius) / math.cosh(k * h))
+        # λ = ζ ω with ζ ∝ sqrt(ν) (Mikishev & Dorozhkin), written as wall term × sqrt(νω/2)
+        zeta_per_sqrt_nu = UPRIGHT_DAMPING_COEFFICIENT / (GRAVITY_M_S2**0.25 * radius**0.75)
+        modes.append(
+            SloshMode(
+                order=2 * j + 1,
+                wavenumber_1_m=k,
+                natural_frequency=w,
+                mass_kg=liquid_mass * 2.0 * th / (xi * (xi * xi - 1.0) * h / radius),
+                height_m=h / 2.0 - math.tanh(k * h / 2.0) / k,
+                wall_term_1_m=factor * zeta_per_sqrt_nu * shape * math.sqrt(2.0 * w),
+                bulk_term_1_m2=2.0 * k * k,
+                steepness_per_m=4.0 * th / (2.0 * radius),
+            )
+        )
+    return _system(
+        modes, liquid, liquid_mass, container, height_mm, contact_line_damping,
+        support_stiffness_n_m,
+    )  # fmt: skip
+
+
+def _system(
+    modes: list[SloshMode],
+    liquid: LiquidProperties,
+    liquid_mass: float,
+    container: Container,
+    height_mm: float,
+    contact_line_damping: float | None,
+    support_stiffness_n_m: float,
+) -> SloshSystem:
+    """The :class:`SloshSystem` of ``modes``: the rigid rest and the grasp's support."""
     sloshing = sum(m.mass_kg for m in modes)
     container_mass = container.mass_g * 1e-3
     rigid = container_mass + liquid_mass - sloshing

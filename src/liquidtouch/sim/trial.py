@@ -112,6 +112,8 @@ class SimulatedTrial:
     realism: Realism = field(default_factory=Realism.clean)
     realism_drawn: dict[str, object] = field(default_factory=dict)
     """What the nuisances drew for this trial (``meta.json``: ``realism.drawn``)."""
+    push_axis: str = "x"
+    """World axis of the push (``x``: along the container's length)."""
 
     def __repr__(self) -> str:
         """One line: the liquid, fill, container, seed, span and the true λ, ω (no arrays)."""
@@ -158,6 +160,8 @@ def simulate_trial(
     variability: Variability | None = None,
     parameters: Mapping[str, float] | None = None,
     realism: Realism | str | None = None,
+    push_axis: str = "x",
+    noise_seed: int | None = None,
 ) -> SimulatedTrial:
     """Simulate one trial: lift, lateral push, hold; return loads, wrench and ground truth.
 
@@ -177,7 +181,11 @@ def simulate_trial(
     ``realism`` adds the nuisances of a real bench (:class:`~liquidtouch.sim.realism.Realism`,
     or ``"clean"``/``"lab"``; default clean, bit-identical to the simulator
     without it); the physical ones act here, after ``parameters``, the gel and
-    camera ones when the videos are written. Labels stay the nominal, measured
+    camera ones when the videos are written. ``push_axis``: the world axis of the push,
+    ``"x"`` (the container's length, the paper's) or ``"y"`` (across it,
+    :meth:`~liquidtouch._core.containers.Container.along`). ``noise_seed``: another
+    draw of the contact and wrist noise for the same bottle and conditions (a repeated
+    push of one bottle); ``None`` keeps the seed's own. Labels stay the nominal, measured
     values: under ``temperature`` the viscosity label is the one at the recorded
     temperature while the liquid sloshes at another.
 
@@ -191,6 +199,9 @@ def simulate_trial(
     world = get_realism(realism)
     seed = check_seed(seed)
     box = get_container(container)
+    box.along(push_axis)  # validate the axis early
+    if noise_seed is not None:
+        noise_seed = check_seed(noise_seed)
     get_liquid(liquid, sugar_concentration=sugar_concentration)  # validate names early
     box.check_height(height_mm)
     if not FILL_MARGIN_MM <= height_mm <= box.depth_mm - FILL_MARGIN_MM:
@@ -238,6 +249,7 @@ def simulate_trial(
         wall_factor=params.wall_factor,
         contact_line_damping=params.contact_line_damping,
         support_stiffness_n_m=params.support_stiffness_n_m,
+        axis=push_axis,
     )
     true_lambda, true_omega = system.slow_mode()
 
@@ -265,6 +277,8 @@ def simulate_trial(
     hand_acc = push(t) + vib_hand
 
     net = net_loads(system, state, t, params, box.depth_mm)
+    if noise_seed is not None:  # the same bottle and conditions, the noise drawn afresh
+        rng = np.random.default_rng([seed, noise_seed])
     loads = finger_loads(t, net, params, rng, var)
     wrench = wrist_wrench(t, net, hand_acc, rng, var)
     if "grip_ratio_left_right" in drawn:
@@ -307,4 +321,5 @@ def simulate_trial(
         },
         realism=world,
         realism_drawn=drawn,
+        push_axis=push_axis,
     )

@@ -102,6 +102,8 @@ def trial_meta(
         sample_rate_hz=float(1.0 / (trial.t_s[1] - trial.t_s[0])),
         duration_s=trial.loads.duration_s,
         **trial.extra,
+        # a push across the container is recorded; the paper's push (x) leaves meta as it was
+        **({"push_axis": trial.push_axis} if trial.push_axis != "x" else {}),
         simulator=asdict(trial.params),
         realism=realism,
     )

@@ -46,7 +46,9 @@ CLI = [sys.executable, "-c", "from liquidtouch.cli import run; run()"]
 
 @contextmanager
 def rig_serving(**liquid: object) -> Iterator[dict]:
-    """``rig serve --json`` in a subprocess; yields its endpoints (and truth)."""
+    """``rig serve --json`` in a subprocess; yields its endpoints (and truth). ``liquid``:
+    ``liquid``, ``height_mm``, ``seed`` (default :data:`LIQUID`), ``sugar_concentration``,
+    ``container``."""
     spec = {**LIQUID, **liquid}
     argv = [
         *CLI,
@@ -62,6 +64,9 @@ def rig_serving(**liquid: object) -> Iterator[dict]:
         "mini",
         "--json",
     ]
+    for key in ("sugar_concentration", "container"):  # optional: sugar water, other bottles
+        if spec.get(key) is not None:
+            argv += [f"--{key.replace('_', '-')}", str(spec[key])]
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 90

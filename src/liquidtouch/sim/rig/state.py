@@ -20,7 +20,9 @@ What the rig simulates:
 - **The push**: a horizontal ``moveL`` of a lifted bottle runs the simulator
   (:func:`~liquidtouch.sim.trial.simulate_trial`, same liquid, seed and drawn
   conditions) with the push it commands: distance = the move along base x (the
-  container's length, the slosh direction), duration = the move's (a UR-style
+  container's length, the slosh direction) or y (across it: the container's
+  width; :meth:`~liquidtouch._core.containers.Container.along`), whichever the move
+  is mostly along; any strength the arm accepts; duration = the move's (a UR-style
   trapezoidal profile; the simulator moves the hand by a minimum-jerk profile of
   that length and duration). Time alignment: the wall-clock moment the push starts
   is the trial's ``push_start_s``, so a frame captured at wall time t shows the
@@ -28,8 +30,12 @@ What the rig simulates:
   exposure as in the simulator's videos. Before the push the gel shows the
   lifted grasp at rest (the trial's state just before its push); after the end of
   the simulated span (:data:`TRIAL_DURATION_S`) the last state stays.
-- **The truth**: the simulator's small-amplitude slow slosh mode (λ, ω), the same
-  for every push (:meth:`Rig.truth`).
+- **The truth**: the simulator's small-amplitude slow slosh mode (λ, ω) of a push
+  along x (:meth:`Rig.truth`; a push along y sloshes across the container, and its
+  truth is in :attr:`Rig.pushes`).
+- **Repeated pushes** of the same bottle: every push restarts the simulated trial from
+  rest with the same conditions and fresh contact noise (``noise_seed`` = the push's
+  number), so their ring-downs are independent measurements of one liquid.
 
 Not simulated: the arm's dynamics and limits beyond a sanity check, a gripper force
 other than the simulator's drawn grasp (the commanded force is reported by
@@ -136,7 +142,7 @@ class Rig(FingerCommands):
         self.trial: SimulatedTrial = self.base_trial
         self._lifted_since: float | None = None
         self._push_at: float | None = None
-        self.pushes: list[dict[str, float]] = []
+        self.pushes: list[dict[str, Any]] = []
         # rendering
         rng = np.random.default_rng([self.seed, 0])
         self._rests = [marker_rest_positions(self.profile, rng) for _ in SENSOR_NAMES]
@@ -194,14 +200,16 @@ class Rig(FingerCommands):
                 )
             distance = math.dist(start[:3], pose[:3])
             duration = move_duration(distance, speed, acceleration)
-            dx = pose[0] - start[0]
+            dx, dy = pose[0] - start[0], pose[1] - start[1]
+            axis, along = ("x", dx) if abs(dx) >= abs(dy) else ("y", dy)
             push = (
                 self.holding
                 and not self.dropped
                 and self._weight(start[2]) >= 1.0
                 and abs(pose[2] - start[2]) < 0.001
-                and abs(dx) >= 0.0005
+                and abs(along) >= 0.0005
             )
+            number = len(self.pushes) + 1
         motion = ArmMotion(start, list(pose), 0.0, distance, speed, acceleration, duration)
         cancel = threading.Event()
 
@@ -211,7 +219,9 @@ class Rig(FingerCommands):
                 trial = simulate_trial(
                     self.liquid,
                     **self._sim_args,
-                    parameters={"push_distance_mm": dx * 1e3, "push_duration_s": duration},
+                    parameters={"push_distance_mm": along * 1e3, "push_duration_s": duration},
+                    push_axis=axis,
+                    noise_seed=number if number > 1 else None,
                 )
             with self._lock:
                 if cancel.is_set() or cancelled.is_set():
@@ -221,8 +231,10 @@ class Rig(FingerCommands):
                 self._arm_motion = motion
                 if trial is not None:
                     logger.info(
-                        "rig: push of %.1f mm over %.3f s starts the simulated trial",
-                        dx * 1e3,
+                        "rig: push %d of %.1f mm along %s over %.3f s starts the simulated trial",
+                        number,
+                        along * 1e3,
+                        axis,
                         duration,
                     )
                     self.trial, self._push_at = trial, now
@@ -230,8 +242,11 @@ class Rig(FingerCommands):
                         self._lifted_since = now
                     self.pushes.append(
                         {
-                            "push_distance_mm": dx * 1e3,
+                            "push_distance_mm": along * 1e3,
+                            "push_axis": axis,
                             "push_duration_s": duration,
+                            "true_decay_rate": trial.true_decay_rate,
+                            "true_angular_frequency": trial.true_angular_frequency,
                             "push_start_trial_s": trial.params.push_start_s,
                             "t_monotonic": now,
                         }
