@@ -1,6 +1,6 @@
 """Which model the data support: the Bayesian information criterion under correlated noise.
 
-Each candidate model ``m`` (single-mode, two-mode, amplitude-dependent damping) is
+Each candidate model ``m`` (:data:`~liquidtouch.fit.choices.AUTO_CANDIDATES`) is
 fitted to the same samples; its criterion is::
 
     BIC_m = n_eff · ln(RSS_m / n) + k_m · ln(n_eff)
@@ -18,10 +18,17 @@ use (:func:`~liquidtouch.fit.solve.long_run_ratio`), taken from the residual of
 the best-fitting candidate (so every model is judged against one noise level). For
 white noise ``n_eff ≈ n`` and this is the textbook BIC.
 
-The candidate with the lowest criterion is fitted; equal criteria go to the
+The candidate with the lowest criterion is named; equal criteria go to the
 simpler model. The criterion differences are reported
 (``OscillationFit.delta_bic_*``: 0 for the chosen model, NaN for a model not
 fitted): a difference above ~6 is strong evidence (Kass & Raftery 1995).
+
+Where the criterion cannot tell the models apart, none is chosen outright: each gets its
+posterior weight ``w_m ∝ exp(−BIC_m / 2)`` (the BIC approximation of the posterior model
+probability under equal prior odds; Raftery 1995, Hoeting et al. 1999), and the fit
+reports the weighted mean of the models' λ and ω with the law of total variance
+``Σ w_m (σ_m² + (θ_m − θ̄)²)``: the ± then holds the spread between the models too
+(:mod:`liquidtouch.fit.oscillation`).
 """
 
 from __future__ import annotations
@@ -49,6 +56,12 @@ class Selection:
     bic: Mapping[str, float]
     n_effective: float
 
+    def weights(self) -> dict[str, float]:
+        """Posterior weight of each candidate, ``exp(−ΔBIC/2)`` normalised (module docstring)."""
+        raw = {name: math.exp(-0.5 * self.delta(name)) for name in self.bic}
+        total = sum(raw.values())
+        return {name: w / total for name, w in raw.items()}
+
     def delta(self, name: str) -> float:
         """``BIC_name − BIC_chosen`` (NaN when ``name`` was not a candidate)."""
         return self.bic[name] - self.bic[self.chosen] if name in self.bic else math.nan
@@ -57,9 +70,12 @@ class Selection:
         """One line: the chosen model, then the others with their BIC over its."""
         others = sorted((self.delta(n), n) for n in self.bic if n != self.chosen)
         tail = "".join(f", {name} {delta:+.1f}" for delta, name in others)
+        weights = self.weights()
+        mixed = sorted(((w, n) for n, w in weights.items() if w >= 0.005), reverse=True)
+        mixture = "; weights " + ", ".join(f"{n} {w:.2f}" for w, n in mixed)
         return (
             f"lowest BIC of {len(self.bic)} (correlated noise, n_eff {self.n_effective:.0f}): "
-            f"{self.chosen}{tail}"
+            f"{self.chosen}{tail}{mixture if len(mixed) > 1 else ''}"
         )
 
 
