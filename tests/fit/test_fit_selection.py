@@ -56,7 +56,7 @@ def test_close_frequencies_do_not_collapse_lambda(fast) -> None:
     assert fit_oscillation(T, u, model="amplitude").decay_rate < 0.75 * 0.055
     assert fit.delta_bic_two_mode == 0.0
     assert min(fit.delta_bic_amplitude, fit.delta_bic_single_mode) > 6  # strong evidence
-    assert fit.model_reason.startswith("auto; lowest BIC of 4")
+    assert fit.model_reason.startswith("auto; lowest BIC of 5")
 
 
 def test_single_mode_signal_gets_no_spurious_mode() -> None:
