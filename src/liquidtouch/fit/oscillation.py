@@ -341,6 +341,7 @@ def fit_oscillation(
         )
     if isinstance(chosen, DriftingLineState):
         correlated = noise != "white"
+        harmonic_amplitude, harmonic_phase = chosen.harmonic()
         fit = replace(
             fit,
             model="drifting-line",
@@ -349,6 +350,8 @@ def fit_oscillation(
             damping_exponent=DRIFT_EXPONENT,
             frequency_shift=chosen.shift,
             frequency_shift_std=chosen.shift_std(weights, correlated=correlated),
+            harmonic_amplitude=harmonic_amplitude * scale,
+            harmonic_phase=harmonic_phase,
         )
     return fit
 

@@ -35,8 +35,9 @@ class OscillationFit:
     amplitude, ``λ(A) = λ0 (1 + κ A²)``, ``ω(A) = ω0 (1 + η A²)``; ``decay_rate`` and
     ``angular_frequency`` are the small-amplitude λ0 and ω0, ``damping_gain`` κ
     (``damping_exponent`` 2), ``frequency_shift`` ``f = η A0² = ω(A0)/ω0 − 1`` at ``t0``
-    (negative: a softening line) and ``frequency_shift_std`` its standard error (NaN for
-    the other models).
+    (negative: a softening line), ``frequency_shift_std`` its standard error, and
+    ``harmonic_amplitude`` [u], ``harmonic_phase`` [rad] the mode's third harmonic at ``t0``
+    (NaN for the other models).
 
     Model averaging (:mod:`liquidtouch.fit.selection`): ``decay_rate``,
     ``angular_frequency`` and their std are the criterion-weighted mean over the models
@@ -101,6 +102,8 @@ class OscillationFit:
     model_weight: float = 1.0
     frequency_shift: float = math.nan
     frequency_shift_std: float = math.nan
+    harmonic_amplitude: float = math.nan
+    harmonic_phase: float = math.nan
     gap_share: float = 0.0
     gap_before_start_s: float = 0.0
     ring_down_gap_share: float = 0.0
@@ -130,6 +133,8 @@ class OscillationFit:
                 self.phase,
                 self.damping_gain,
                 self.frequency_shift,
+                self.harmonic_amplitude,
+                self.harmonic_phase,
             )
         elif self.model in ("amplitude", "amplitude-two-mode"):
             slow = amplitude_damped_cosine(
