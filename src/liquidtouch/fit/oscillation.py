@@ -43,29 +43,22 @@ left out), the one of the three whose coverage of the truth was measured right
 Model selection
 ---------------
 ``model="auto"`` (the default, :data:`~liquidtouch.fit.choices.DEFAULT_MODEL`)
-fits the single-mode model, the paper's two-mode model and the amplitude-dependent
-damping (:mod:`liquidtouch.fit.amplitude`: one mode whose decay rate grows with
-its amplitude; it reports the small-amplitude λ0, which does not depend on how hard
-the container was pushed) and keeps the one with the lowest information criterion
-under the correlated noise the fit estimates (:mod:`liquidtouch.fit.selection`).
-``model`` of the result says which was fitted, ``model_reason`` why, and
-``delta_bic_*`` the criterion of each candidate over the chosen one. Asking for
-``"two-mode"`` chooses between one and two modes the same way (fast-mode fields NaN
-when one mode is kept: ``model == "single-mode"``); ``"amplitude"`` keeps a gain
-of 0 (λ0 the single-mode λ) unless the gain lowers the criterion; ``"single-mode"``
-fits one mode only. Two oscillating modes closer together than the one-mode fit's λ
-(the half-width of its spectral line), each about as broad as the line, cannot be told
-apart from one mode whose frequency drifts through the ring-down (a shear-thinning
-liquid's damping changes as it decays; a non-linear slosh's frequency moves with its
-amplitude): ``"auto"`` leaves out a fit with two such modes. Fitted anyway, the pair
-trades its parameters: the reported mode moved ω by up to 15 % on simulated detergent
-and came out as λ 2.1 ± 9.4 1/s, ω 14 ± 13 rad/s on a corn-oil trial (the one-mode fit:
-λ +3 %, ω +0.6 % of the simulator's). A far narrower mode inside the line is kept: it
-outlives the ring-down, so the record tells it apart (a persistent 12.4 rad/s component
-beside a 13.0 rad/s slosh at λ 1.1 1/s in simulated force signals; left out, the one
-mode left took λ 40-54 % low) — unless the ring-down loses more than a factor e per
-cycle (single-mode ω/λ < 2π): ~3 cycles above the noise are too few to tell any second
-mode inside the line from the drift.
+fits every model of :data:`~liquidtouch.fit.choices.AUTO_CANDIDATES`: one mode, the
+amplitude-dependent damping (:mod:`liquidtouch.fit.amplitude`: one mode whose decay rate
+grows with its amplitude; it reports the small-amplitude λ0, which does not depend on how
+hard the container was pushed), the drifting line (:mod:`liquidtouch.fit.drifting_line`:
+damping and frequency both move with the amplitude, λ0 and ω0 reported), the paper's two
+modes, and the amplitude-damped mode beside a second one. The information criterion alone
+weighs them (:mod:`liquidtouch.fit.selection`: BIC under the noise the fit estimates near
+the slosh); no rule leaves a candidate out. ``decay_rate``, ``angular_frequency`` and their
+std are the average over the candidates by their criterion weights, with the law of total
+variance: where the data cannot tell two models apart (two modes inside one line, or one
+line whose frequency drifts), the ± holds the spread between them. ``model`` of the result
+names the candidate of most weight, ``model_weight`` its weight, ``model_reason`` why (the
+criteria and the weights), and ``delta_bic_*`` the criterion of each candidate over it.
+Asking for ``"two-mode"`` weighs one and two modes the same way (fast-mode fields NaN when
+one mode leads: ``model == "single-mode"``); ``"amplitude"`` keeps a gain of 0 (λ0 the
+single-mode λ) unless the gain lowers the criterion; ``"single-mode"`` fits one mode only.
 
 Gaps
 ----

@@ -102,7 +102,8 @@ def duffing_signal(
     rng: np.random.Generator,
     drift: tuple[float, float, float] = DRIFT,
 ) -> np.ndarray:
-    """``u = ε''`` of ``ε'' + 2λ0 (1 + k ε²) ε' + ω0² ε (1 − s ε²) = 0``, ``ε(0) = 1``, ``ε'(0) = 0``.
+    """``u = ε''`` of ``ε'' + 2λ0 (1 + k ε²) ε' + ω0² ε (1 − s ε²) = 0``, ``ε(0) = 1``,
+    ``ε'(0) = 0``.
 
     ``softening`` s [1/ε²] (negative: a hardening spring); other arguments as
     :func:`cubic_damper_signal` (``angular_frequency`` the damped small-amplitude ω).
