@@ -21,7 +21,7 @@ and the phase is::
 A non-linear oscillation is not a pure cosine: the same non-linearity drives a third
 harmonic, ``∝ A³`` at the phase ``3φ`` (harmonic balance; a sensor that sees acceleration or
 force sees it 9× stronger than the displacement's). On the validation's cubic dampers it is
-6-9 % of the fundamental; left out, a second "mode" at 3ω took its place and moved ω by
+2-9 % of the fundamental; left out, a second "mode" at 3ω took its place and moved ω by
 0.2-0.4 % (``benchmarks/fit/validation.py``). The fitted signal is::
 
     u(τ) = A(τ) cos(φ(τ) + ψ) + A3 (A(τ)/A0)³ cos(3φ(τ) + ψ3) + quadratic drift,
