@@ -56,7 +56,7 @@ def test_close_frequencies_do_not_collapse_lambda(fast) -> None:
     assert fit_oscillation(T, u, model="amplitude").decay_rate < 0.75 * 0.055
     assert fit.delta_bic_two_mode == 0.0
     assert min(fit.delta_bic_amplitude, fit.delta_bic_single_mode) > 6  # strong evidence
-    assert fit.model_reason.startswith("auto; lowest BIC of 4")
+    assert fit.model_reason.startswith("auto; lowest BIC of 5")
 
 
 def test_single_mode_signal_gets_no_spurious_mode() -> None:
@@ -151,8 +151,8 @@ def test_a_transient_beside_the_slosh_is_never_reported(seed) -> None:
 
 
 #: simulated trials (Mini videos, the time-to-answer benchmark's held-out seeds), from the
-#: free decay on: the simulator's small-amplitude λ [1/s] and ω [rad/s], and the model
-#: ``auto`` chose before it left out two oscillating modes inside the one-mode line
+#: free decay on: the simulator's small-amplitude λ [1/s] and ω [rad/s], and a model with two
+#: oscillating modes inside the one-mode line that fits them
 RING_DOWNS_OF_ONE_LINE = {
     "detergent_ringdown_36p9mm.csv": (3.946, 15.320, "two-mode"),
     "detergent_ringdown_29p8mm.csv": (3.720, 14.541, "amplitude-two-mode"),
@@ -160,22 +160,32 @@ RING_DOWNS_OF_ONE_LINE = {
 }
 
 
-@pytest.mark.parametrize("name", sorted(RING_DOWNS_OF_ONE_LINE))
-def test_two_modes_inside_one_line_are_left_out(name) -> None:
-    """Two oscillating modes closer than the one-mode fit's λ fitted to one line whose
-    frequency drifts won the criterion and moved the reported mode. A shear-thinning slosh
-    losing ~4× per cycle (detergent; modes 0.4 and 2.4 rad/s apart): ω +9.1 % / −3.2 %,
-    λ +14 % / −25 %. Corn oil (ω/λ ~9; modes 1.0 rad/s apart, one-mode λ 1.6): the reported
-    mode was λ 2.1 ± 9.4 1/s, ω 13.9 ± 12.8 rad/s (+47 %, +6.5 %). ``auto`` leaves such
-    pairs out (a second mode at the low-pass filter's ringing stays: ``test_lowpass_bias``);
-    asked for, they are still fitted."""
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(
+            name,
+            marks=pytest.mark.xfail(
+                name == "detergent_ringdown_29p8mm.csv",
+                reason="open (issue 38): amplitude-two-mode wins the criterion by 15, λ −25 % "
+                "at −6σ; the in-line veto that reported one mode was removed",
+                strict=True,
+            ),
+        )
+        for name in sorted(RING_DOWNS_OF_ONE_LINE)
+    ],
+)
+def test_ring_downs_of_one_line_carry_an_honest_error(name) -> None:
+    """A slosh losing ~4× per cycle (detergent) or a low-passed corn-oil ring-down: two
+    modes inside the one-mode line fit them better than any one-mode model, and the
+    reported mode then lies off the simulator's (ω up to +9 %). No rule leaves such pairs
+    out any more (issue 38); the ± must say how far off they can be: λ and ω within 3σ of
+    the truth."""
     decay_rate, omega, before = RING_DOWNS_OF_ONE_LINE[name]
     t, u = read_signal_csv(Path(__file__).parent / "data" / name)
     fit = fit_oscillation(t, u)
-    assert fit.model in ("single-mode", "amplitude")
-    assert "no two modes within the line" in fit.model_reason
-    assert fit.angular_frequency == pytest.approx(omega, rel=0.015)
-    assert fit.decay_rate == pytest.approx(decay_rate, rel=0.12)
+    assert abs(fit.angular_frequency - omega) <= 3 * fit.angular_frequency_std
+    assert abs(fit.decay_rate - decay_rate) <= 3 * fit.decay_rate_std
     both = fit_oscillation(t, u, model=before)
     assert both.model == before
     assert both.fast_angular_frequency >= both.fast_decay_rate  # two oscillating modes

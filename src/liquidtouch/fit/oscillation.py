@@ -43,29 +43,22 @@ left out), the one of the three whose coverage of the truth was measured right
 Model selection
 ---------------
 ``model="auto"`` (the default, :data:`~liquidtouch.fit.choices.DEFAULT_MODEL`)
-fits the single-mode model, the paper's two-mode model and the amplitude-dependent
-damping (:mod:`liquidtouch.fit.amplitude`: one mode whose decay rate grows with
-its amplitude; it reports the small-amplitude λ0, which does not depend on how hard
-the container was pushed) and keeps the one with the lowest information criterion
-under the correlated noise the fit estimates (:mod:`liquidtouch.fit.selection`).
-``model`` of the result says which was fitted, ``model_reason`` why, and
-``delta_bic_*`` the criterion of each candidate over the chosen one. Asking for
-``"two-mode"`` chooses between one and two modes the same way (fast-mode fields NaN
-when one mode is kept: ``model == "single-mode"``); ``"amplitude"`` keeps a gain
-of 0 (λ0 the single-mode λ) unless the gain lowers the criterion; ``"single-mode"``
-fits one mode only. Two oscillating modes closer together than the one-mode fit's λ
-(the half-width of its spectral line), each about as broad as the line, cannot be told
-apart from one mode whose frequency drifts through the ring-down (a shear-thinning
-liquid's damping changes as it decays; a non-linear slosh's frequency moves with its
-amplitude): ``"auto"`` leaves out a fit with two such modes. Fitted anyway, the pair
-trades its parameters: the reported mode moved ω by up to 15 % on simulated detergent
-and came out as λ 2.1 ± 9.4 1/s, ω 14 ± 13 rad/s on a corn-oil trial (the one-mode fit:
-λ +3 %, ω +0.6 % of the simulator's). A far narrower mode inside the line is kept: it
-outlives the ring-down, so the record tells it apart (a persistent 12.4 rad/s component
-beside a 13.0 rad/s slosh at λ 1.1 1/s in simulated force signals; left out, the one
-mode left took λ 40-54 % low) — unless the ring-down loses more than a factor e per
-cycle (single-mode ω/λ < 2π): ~3 cycles above the noise are too few to tell any second
-mode inside the line from the drift.
+fits every model of :data:`~liquidtouch.fit.choices.AUTO_CANDIDATES`: one mode, the
+amplitude-dependent damping (:mod:`liquidtouch.fit.amplitude`: one mode whose decay rate
+grows with its amplitude; it reports the small-amplitude λ0, which does not depend on how
+hard the container was pushed), the drifting line (:mod:`liquidtouch.fit.drifting_line`:
+damping and frequency both move with the amplitude, λ0 and ω0 reported), the paper's two
+modes, and the amplitude-damped mode beside a second one. The information criterion alone
+weighs them (:mod:`liquidtouch.fit.selection`: BIC under the noise the fit estimates near
+the slosh); no rule leaves a candidate out. ``decay_rate``, ``angular_frequency`` and their
+std are the average over the candidates by their criterion weights, with the law of total
+variance: where the data cannot tell two models apart (two modes inside one line, or one
+line whose frequency drifts), the ± holds the spread between them. ``model`` of the result
+names the candidate of most weight, ``model_weight`` its weight, ``model_reason`` why (the
+criteria and the weights), and ``delta_bic_*`` the criterion of each candidate over it.
+Asking for ``"two-mode"`` weighs one and two modes the same way (fast-mode fields NaN when
+one mode leads: ``model == "single-mode"``); ``"amplitude"`` keeps a gain of 0 (λ0 the
+single-mode λ) unless the gain lowers the criterion; ``"single-mode"`` fits one mode only.
 
 Gaps
 ----
@@ -96,11 +89,11 @@ from liquidtouch.fit.choices import (
     DEFAULT_MODEL,
     DEFAULT_NOISE,
     LOSSES,
-    MIN_LINE_WIDTH_SHARE,
-    MIN_QUALITY_FOR_TWO_MODES,
     MODELS,
     NOISE_MODELS,
 )
+from liquidtouch.fit.drifting_line import EXPONENT as DRIFT_EXPONENT
+from liquidtouch.fit.drifting_line import DriftingLineState, optimise_drifting_line
 from liquidtouch.fit.jackknife import jackknife_std
 from liquidtouch.fit.result import OscillationFit
 from liquidtouch.fit.selection import Selection, select_model
@@ -123,6 +116,9 @@ MIN_OSCILLATION_SNR = 30.0
 GAP_STEPS = 1.5
 #: the amplitude-damped mode and a second mode together
 COMBINED = "amplitude-two-mode"
+#: models the criterion gives a smaller weight than this are left out of the average (their
+#: jackknife is not computed): they could move λ̄, ω̄ by at most this share of their distance
+MIN_MODEL_WEIGHT = 1e-3
 
 
 def validate_signal(
@@ -300,35 +296,33 @@ def fit_oscillation(
         _check_is_oscillation(single, band)
     candidates: dict[str, FitState] = {"single-mode": single}
     wanted = AUTO_CANDIDATES if model == AUTO else (model,)
-    amp = two = None
-    if "amplitude" in wanted or COMBINED in wanted:
+    two = None
+    if {"amplitude", "drifting-line", COMBINED} & set(wanted):
         ends = optimise_amplitude_ends(tau, x, u_n, sqrt_w, band, single)
-        amp = optimise_amplitude(ends, band)
+        at_two = next(e for e in ends if e.exponent == TWO_MODE_EXPONENT)
         if "amplitude" in wanted:
-            candidates["amplitude"] = amp
+            candidates["amplitude"] = optimise_amplitude(ends, band)
+        if "drifting-line" in wanted:
+            candidates["drifting-line"] = optimise_drifting_line(band, at_two)
     if "two-mode" in wanted or COMBINED in wanted:
         two = optimise_two_mode(tau, x, u_n, sqrt_w, band, single)
         if two is not None and "two-mode" in wanted:
             candidates["two-mode"] = two
     if COMBINED in wanted:
-        at_two = next(e for e in ends if e.exponent == TWO_MODE_EXPONENT)
-        both = optimise_amplitude_two_mode(tau, x, u_n, sqrt_w, band, at_two, two)
-        candidates[COMBINED] = both
-    candidates, why = _identifiable(candidates, model)
+        candidates[COMBINED] = optimise_amplitude_two_mode(tau, x, u_n, sqrt_w, band, at_two, two)
     selection = select_model(candidates)
     chosen = candidates[selection.chosen]
     if model == "amplitude" and selection.chosen == "single-mode":
         chosen = without_gain(single, candidates["amplitude"].exponent)
     fit = _build_result(chosen, weights, noise, loss, delta_n * scale**2, t, mean, scale)
+    why = "auto" if model == AUTO else f"{model} asked for"
     fit = replace(fit, **_selection_fields(selection, why), gap_share=gap_share(t))
-    if noise == "jackknife":  # the larger: conservative when the model is right
-        decay_jk, freq_jk = jackknife_std(chosen)
-        if math.isfinite(decay_jk):
-            fit = replace(
-                fit,
-                decay_rate_std=max(fit.decay_rate_std, decay_jk),
-                angular_frequency_std=max(fit.angular_frequency_std, freq_jk),
-            )
+    kept = {n: w for n, w in selection.weights().items() if w >= MIN_MODEL_WEIGHT}
+    features = {
+        n: _features(chosen if n == selection.chosen else candidates[n], weights, noise)
+        for n in kept
+    }
+    fit = replace(fit, **_model_average(features, kept))
     if isinstance(chosen, AmplitudeState):
         gain_std = chosen.damping_gain_std(weights, correlated=noise != "white", scale=scale)
         fit = replace(
@@ -338,35 +332,52 @@ def fit_oscillation(
             damping_gain_std=gain_std,
             damping_exponent=float(chosen.exponent),
         )
+    if isinstance(chosen, DriftingLineState):
+        correlated = noise != "white"
+        harmonic_amplitude, harmonic_phase = chosen.harmonic()
+        fit = replace(
+            fit,
+            model="drifting-line",
+            damping_gain=chosen.damping_gain(scale),
+            damping_gain_std=chosen.damping_gain_std(weights, correlated=correlated, scale=scale),
+            damping_exponent=DRIFT_EXPONENT,
+            frequency_shift=chosen.shift,
+            frequency_shift_std=chosen.shift_std(weights, correlated=correlated),
+            harmonic_amplitude=harmonic_amplitude * scale,
+            harmonic_phase=harmonic_phase,
+        )
     return fit
 
 
-def _identifiable(candidates: dict[str, FitState], model: str) -> tuple[dict[str, FitState], str]:
-    """The candidates ``"auto"`` may choose, and why: all of them but a fit with two
-    oscillating modes closer together than the one-mode line's half-width λ, both about as
-    broad as the line (:data:`~liquidtouch.fit.choices.MIN_LINE_WIDTH_SHARE`) or any two
-    when the ring-down rings for only a few cycles
-    (:data:`~liquidtouch.fit.choices.MIN_QUALITY_FOR_TWO_MODES`): module docstring. A second
-    mode further off (e.g. the low-pass filter's ringing) or a transient stays."""
-    if model != AUTO:
-        return candidates, f"{model} asked for"
-    single = candidates["single-mode"]
-    half_width = float(single.rates[0])
-    quality = float(single.freqs[0]) / max(half_width, 1e-300)
-    narrowest = 0.0 if quality < MIN_QUALITY_FOR_TWO_MODES else MIN_LINE_WIDTH_SHARE * half_width
+def _features(state: FitState, weights: np.ndarray, noise: str) -> np.ndarray:
+    """``[λ, ω, σ_λ, σ_ω]`` of ``state``'s reported mode [1/s, rad/s]: the standard errors
+    of the ``noise`` assumption (module docstring, Uncertainty)."""
+    mode = state.reported_mode()
+    std = state.standard_errors(weights, correlated=noise != "white")[2 * mode : 2 * mode + 2]
+    if noise == "jackknife":  # the larger: conservative when the model is right
+        jack = jackknife_std(state)
+        if math.isfinite(jack[0]):
+            std = [max(std[0], jack[0]), max(std[1], jack[1])]
+    return np.array([state.rates[mode], state.freqs[mode], *std])
 
-    def one_drifting_line(state: FitState) -> bool:
-        return (
-            state.n_modes == 2
-            and bool(state.oscillates().all())
-            and abs(float(np.diff(state.freqs)[0])) < half_width
-            and float(state.rates.min()) >= narrowest
-        )
 
-    kept = {name: s for name, s in candidates.items() if not one_drifting_line(s)}
-    if len(kept) == len(candidates):
-        return candidates, "auto"
-    return kept, f"auto, no two modes within the line (|Δω| < λ {half_width:.3g} 1/s)"
+def _model_average(features: dict[str, np.ndarray], weights: dict[str, float]) -> dict[str, float]:
+    """λ, ω and their std averaged over the models by their weights (module docstring, Model
+    selection): the weighted means, and the law of total variance ``Σ w (σ² + (θ − θ̄)²)``.
+    A model whose std is not finite (a singular covariance) leaves it NaN."""
+    w = np.array([weights[n] for n in features])
+    w /= w.sum()
+    values = np.array(list(features.values()))  # (models, [λ, ω, σ_λ, σ_ω])
+    mean = w @ values[:, :2]
+    variance = w @ (values[:, 2:] ** 2 + (values[:, :2] - mean) ** 2)
+    lead = max(weights, key=weights.__getitem__)
+    return {
+        "decay_rate": float(mean[0]),
+        "angular_frequency": float(mean[1]),
+        "decay_rate_std": float(np.sqrt(variance[0])),
+        "angular_frequency_std": float(np.sqrt(variance[1])),
+        "model_weight": float(w[list(features).index(lead)]),
+    }
 
 
 def _selection_fields(selection: Selection, why: str) -> dict[str, object]:
@@ -378,6 +389,7 @@ def _selection_fields(selection: Selection, why: str) -> dict[str, object]:
         "delta_bic_single_mode": selection.delta("single-mode"),
         "delta_bic_two_mode": selection.delta("two-mode"),
         "delta_bic_amplitude": selection.delta("amplitude"),
+        "delta_bic_drifting_line": selection.delta("drifting-line"),
         "delta_bic_amplitude_two_mode": selection.delta(COMBINED),
         "n_effective": selection.n_effective,
     }

@@ -9,6 +9,7 @@ import numpy as np
 
 from liquidtouch._core.numbers import fixed, with_uncertainty
 from liquidtouch.fit.amplitude import amplitude_damped_cosine
+from liquidtouch.fit.drifting_line import drifting_cosine
 from liquidtouch.fit.model import damped_cosine, quadratic_drift
 
 __all__ = ["OscillationFit"]
@@ -29,12 +30,27 @@ class OscillationFit:
     (0 when the data do not support a gain: then λ0 is the single-mode λ),
     ``damping_gain_std`` its standard error and ``damping_exponent`` p (fitted, 1 to 2).
     All three are NaN for the other models. ``model == "amplitude-two-mode"``: that
-    mode plus a second, exponentially damped one (``fast_*``).
+    mode plus a second, exponentially damped one (``fast_*``). ``model == "drifting-line"``
+    (:mod:`liquidtouch.fit.drifting_line`): damping and frequency both move with the
+    amplitude, ``λ(A) = λ0 (1 + κ A²)``, ``ω(A) = ω0 (1 + η A²)``; ``decay_rate`` and
+    ``angular_frequency`` are the small-amplitude λ0 and ω0, ``damping_gain`` κ
+    (``damping_exponent`` 2), ``frequency_shift`` ``f = η A0² = ω(A0)/ω0 − 1`` at ``t0``
+    (negative: a softening line), ``frequency_shift_std`` its standard error, and
+    ``harmonic_amplitude`` [u], ``harmonic_phase`` [rad] the mode's third harmonic at ``t0``
+    (NaN for the other models).
+
+    Model averaging (:mod:`liquidtouch.fit.selection`): ``decay_rate``,
+    ``angular_frequency`` and their std are the criterion-weighted mean over the models
+    the criterion cannot tell apart, with the law of total variance (the ± holds the
+    spread between them); ``model`` is the one of most weight, ``model_weight`` its
+    weight (1: no other model counts; ``model_reason`` lists the weights), and the
+    other fields (amplitude, phase, fast mode, drift, gain) are that model's.
 
     Which model and why (:mod:`liquidtouch.fit.selection`): ``model`` is the model
     fitted, ``model_reason`` one line on why (asked for, or the candidates by their
     information criterion), ``delta_bic_single_mode``, ``delta_bic_two_mode``,
-    ``delta_bic_amplitude`` and ``delta_bic_amplitude_two_mode`` each candidate's BIC
+    ``delta_bic_amplitude``, ``delta_bic_drifting_line`` and
+    ``delta_bic_amplitude_two_mode`` each candidate's BIC
     minus the chosen one's (0 for the chosen model, NaN when not fitted; over 6:
     strong evidence against it) and
     ``n_effective`` the effective number of independent noise samples the
@@ -82,6 +98,12 @@ class OscillationFit:
     delta_bic_amplitude: float = math.nan
     delta_bic_amplitude_two_mode: float = math.nan
     n_effective: float = math.nan
+    delta_bic_drifting_line: float = math.nan
+    model_weight: float = 1.0
+    frequency_shift: float = math.nan
+    frequency_shift_std: float = math.nan
+    harmonic_amplitude: float = math.nan
+    harmonic_phase: float = math.nan
     gap_share: float = 0.0
     gap_before_start_s: float = 0.0
     ring_down_gap_share: float = 0.0
@@ -102,7 +124,19 @@ class OscillationFit:
     def modes(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The slow mode, the fast mode (zeros if unused) and the drift at times ``t`` [s]."""
         tau = np.asarray(t, dtype=float) - self.t0
-        if self.model in ("amplitude", "amplitude-two-mode"):
+        if self.model == "drifting-line":
+            slow = drifting_cosine(
+                tau,
+                self.amplitude,
+                self.decay_rate,
+                self.angular_frequency,
+                self.phase,
+                self.damping_gain,
+                self.frequency_shift,
+                self.harmonic_amplitude,
+                self.harmonic_phase,
+            )
+        elif self.model in ("amplitude", "amplitude-two-mode"):
             slow = amplitude_damped_cosine(
                 tau,
                 self.amplitude,

@@ -28,6 +28,10 @@ MIN_OSCILLATION_OMEGA_OVER_LAMBDA = 1.0
 #: 0.10); the slow mode of exact two-mode signals whose optimum shares the energy
 #: differently from the truth 0.69-0.72 (``benchmarks/fit_accuracy.py``)
 SLIVER_ENERGY_SHARE = 0.3
+#: half-width [Hz] of the band around a mode's frequency whose residual periodogram is its
+#: local noise level (:meth:`FitState.mode_snr`, :func:`local_noise_ratio`): a slosh line
+#: (λ ≤ 1 1/s: ±0.16 Hz) with its skirts, ~13 bins of a 13 s record to average
+LOCAL_NOISE_HALF_WIDTH_HZ = 0.5
 #: above this many samples, autocorrelations are computed by FFT
 FFT_MIN_SAMPLES = 4096
 
@@ -122,14 +126,11 @@ class FitState:
         k = om.n_nonlinear(self.n_modes)
         design = om.basis(self.tau, self.x, self.rates, self.freqs)
         lin = self.theta[k:]
-        dt = self.tau[-1] / (self.n - 1)
-        grid = dt * np.arange(self.n)
-        resid = np.interp(grid, self.tau, self.residual())
-        periodogram = np.abs(np.fft.rfft(resid)) ** 2 / (self.n - self.n_params)
-        omega_bins = 2 * np.pi * np.fft.rfftfreq(self.n, dt)
+        omega_bins, power = residual_periodogram(self.tau, self.residual())
+        periodogram = power / (self.n - self.n_params)
         out = []
         for j in range(self.n_modes):
-            near = np.abs(omega_bins - self.freqs[j]) <= 2 * np.pi * 0.5
+            near = np.abs(omega_bins - self.freqs[j]) <= 2 * np.pi * LOCAL_NOISE_HALF_WIDTH_HZ
             local_var = 2 * float(periodogram[near].mean()) if near.any() else self.noise_var()
             m = design[:, 2 * j : 2 * j + 2] @ lin[2 * j : 2 * j + 2]
             out.append(float(m @ m) / max(local_var, 1e-300))
@@ -202,23 +203,29 @@ def std_from_variance(v: float) -> float:
     return math.sqrt(v) if v >= 0 and math.isfinite(v) else math.nan
 
 
-def long_run_ratio(resid: np.ndarray) -> float:
-    """Long-run over plain variance of a residual, ``1 + 2 Σ_l (1 − l/(L+1)) ρ_l`` (≥ 1).
+def residual_periodogram(tau: np.ndarray, resid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Angular frequencies [rad/s] and ``|FFT|²`` of a residual at times ``tau`` [s], resampled
+    to a uniform grid of as many samples (gaps are bridged by linear interpolation)."""
+    n = tau.size
+    dt = (tau[-1] - tau[0]) / (n - 1)
+    uniform = np.interp(tau[0] + dt * np.arange(n), tau, resid)
+    return 2 * np.pi * np.fft.rfftfreq(n, dt), np.abs(np.fft.rfft(uniform)) ** 2
 
-    ``ρ_l`` is the residual's autocorrelation at lag ``l`` and ``L`` the Newey–West
-    truncation lag of the standard errors (:func:`_bartlett_lags`): the number of
-    samples per independent one, 1 for white noise, ~5 for noise low-passed at 3 Hz
-    and sampled at 30 Hz. Samples are taken as equally spaced.
+
+def local_noise_ratio(tau: np.ndarray, resid: np.ndarray, omega: float) -> float:
+    """The residual's noise level near ``omega`` [rad/s] over its variance: ``S(ω) / γ0``.
+
+    The residual periodogram averaged within ±:data:`LOCAL_NOISE_HALF_WIDTH_HZ` of ω over
+    its average over all frequencies (the variance): 1 for white noise, the noise's
+    spectral density at the mode relative to its mean for coloured noise (Whittle: a model
+    whose curve differs near ω is judged against the noise there). 1 when no bin is near.
     """
-    r = resid - resid.mean()
-    n = r.size
-    energy = float(r @ r)
-    if n < 4 or energy <= 0:
+    omega_bins, power = residual_periodogram(tau, resid - resid.mean())
+    near = np.abs(omega_bins - omega) <= 2 * np.pi * LOCAL_NOISE_HALF_WIDTH_HZ
+    total = float(power[1:].mean())
+    if not near.any() or total <= 0:
         return 1.0
-    lags = _bartlett_lags(r)
-    acf = _autocorrelation(r)[1 : lags + 1]
-    ratio = 1.0 + 2.0 * float(np.sum((1.0 - np.arange(1, lags + 1) / (lags + 1)) * acf))
-    return max(ratio, 1.0)
+    return float(power[near].mean()) / total
 
 
 def _autocorrelation(r: np.ndarray) -> np.ndarray:

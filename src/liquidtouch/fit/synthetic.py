@@ -12,7 +12,10 @@ law each oscillator follows, ``λ(A) = λ0 (1 + κ A^p)`` in the units of ``ε``
 - :func:`cubic_damper_signal`: ``ε'' + 2λ0 (1 + k ε²) ε' + ω0² ε = 0`` →
   ``p = 2``, ``κ = k / 4``;
 - :func:`quadratic_damper_signal`: ``ε'' + 2λ0 ε' + c |ε'| ε' + ω0² ε = 0`` (a
-  velocity-squared damper) → ``p = 1``, ``κ = 4 c ω0 / (3π λ0)``.
+  velocity-squared damper) → ``p = 1``, ``κ = 4 c ω0 / (3π λ0)``;
+- :func:`duffing_signal`: the cubic damper with a softening (or hardening) spring,
+  ``ω0² ε (1 − s ε²)``: its frequency moves with the amplitude too,
+  ``ω(A) ≈ ω0 (1 − 3 s A² / 8)`` (:mod:`liquidtouch.fit.drifting_line`).
 """
 
 from __future__ import annotations
@@ -85,5 +88,31 @@ def quadratic_damper_signal(
 
     def acceleration(eps, vel):
         return -2 * decay_rate * vel - drag * np.abs(vel) * vel - w0sq * eps
+
+    return _signal(np.asarray(t, dtype=float), acceleration, sigma, rng, drift)
+
+
+def duffing_signal(
+    t: np.ndarray,
+    decay_rate: float,
+    angular_frequency: float,
+    gain: float,
+    softening: float,
+    sigma: float,
+    rng: np.random.Generator,
+    drift: tuple[float, float, float] = DRIFT,
+) -> np.ndarray:
+    """``u = ε''`` of ``ε'' + 2λ0 (1 + k ε²) ε' + ω0² ε (1 − s ε²) = 0``, ``ε(0) = 1``,
+    ``ε'(0) = 0``.
+
+    ``softening`` s [1/ε²] (negative: a hardening spring); other arguments as
+    :func:`cubic_damper_signal` (``angular_frequency`` the damped small-amplitude ω).
+    """
+    w0sq = angular_frequency**2 + decay_rate**2
+
+    def acceleration(eps, vel):
+        return -2 * decay_rate * (1 + gain * eps * eps) * vel - w0sq * eps * (
+            1 - softening * eps * eps
+        )
 
     return _signal(np.asarray(t, dtype=float), acceleration, sigma, rng, drift)
