@@ -163,7 +163,7 @@ def _tracks_with(**arrays):
         (
             {"tracks": [_tracks_with(t=np.r_[np.arange(199) / 30, np.nan])]},
             SignalError,
-            "left: frame timestamps holds NaN/inf",
+            "left: frame timestamps holds 1 NaN/inf",
         ),
     ],
 )

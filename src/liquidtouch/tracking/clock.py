@@ -39,6 +39,7 @@ if TYPE_CHECKING:
 __all__ = [
     "RATE_TOLERANCE",
     "SPAN_TOLERANCE",
+    "STALL_PERIODS",
     "PeriodFit",
     "check_consistent",
     "check_consistent_times",
@@ -49,6 +50,14 @@ __all__ = [
 
 RATE_TOLERANCE = 0.01  # relative frame-rate difference allowed between the videos of a trial
 SPAN_TOLERANCE = 0.05  # fraction of the longest video the others may not cover
+STALL_PERIODS = 30
+"""A gap of more frame periods than this is a stall, not drops (:func:`fit_frame_period`):
+the median gap that counts the periods is 0.3 % off under a rounded PTS, so a count of
+up to ~(0.5 - 0.3 jitter) / 0.003 = 66 periods is exact; a second at 30 fps."""
+MAX_COLLISIONS = 0.01
+"""Largest share of gaps under half a period that stamps on a camera's lattice may hold: its
+own stamps never are (a glitch timed on arrival 1 µs after the frame before may be,
+``acquire.cameras``); frames delivered in bursts hold 30-50 % of them."""
 
 
 @dataclass(frozen=True)
@@ -85,10 +94,13 @@ class PeriodFit:
         return self.slots - (self.frames - 1)
 
 
-def _line(index: np.ndarray, t: np.ndarray) -> tuple[float, np.ndarray]:
-    """Least-squares slope of ``t`` against ``index`` and the residuals [s]."""
-    index = index - index.mean()  # centred: the slope without the cancellation of large times
-    centred = t - t.mean()
+def _line(index: np.ndarray, t: np.ndarray, piece: np.ndarray) -> tuple[float, np.ndarray]:
+    """Least-squares slope of ``t`` against ``index``, one intercept per ``piece`` (labels
+    0, 1, ... in order), and the residuals [s]."""
+    counts = np.bincount(piece).astype(float)
+    # centred per piece: the slope without the cancellation of large times
+    index = index - (np.bincount(piece, index) / counts)[piece]
+    centred = t - (np.bincount(piece, t) / counts)[piece]
     slope = float(np.dot(index, centred) / np.dot(index, index))
     return slope, centred - slope * index
 
@@ -99,9 +111,15 @@ def fit_frame_period(t: np.ndarray) -> PeriodFit:
     Two readings of the stamps, each a line of ``t`` against a frame index:
 
     - *on the lattice*: each gap is ``round(gap / median gap)`` periods (at least 1), so
-      drops are counted and do not bias the period; only a reading when the median gap
-      is a period, i.e. when it is over half the mean gap (at least half the slots
-      hold a frame);
+      drops are counted and do not bias the period. A gap over :data:`STALL_PERIODS`
+      is a stall: its count of periods is not trusted (0.3 % off in the median gap, a
+      rounded PTS, makes a 170-period count wrong by one), so the runs of frames between
+      stalls share the period and each has its own start. Only a reading when most
+      frames come in runs of at least :data:`STALL_PERIODS` frames: frames delivered in
+      bursts would otherwise read as a camera ``1 / median gap`` fast that stalls after
+      every burst (a folder stamped in bursts, 24.5 fps, read as 534 fps); and only
+      when at most :data:`MAX_COLLISIONS` of the gaps are under half a period (two
+      frames in one slot: a camera's own stamps are never that close);
     - *delivered*: every frame is one period (the index counts frames).
 
     The reading kept is the one with the smaller RMS residual: a camera's stamps lie on
@@ -112,17 +130,30 @@ def fit_frame_period(t: np.ndarray) -> PeriodFit:
     t = check_times(t, "frame timestamps")
     gaps = np.diff(t)
     frames = np.arange(t.size, dtype=float)
-    period, residual = _line(frames, t)
-    index, delivered = frames, True
-    unit = float(np.median(gaps))
-    if unit > 0.5 * (t[-1] - t[0]) / (t.size - 1):
-        lattice = np.concatenate([[0.0], np.cumsum(np.maximum(1.0, np.rint(gaps / unit)))])
-        slope, rest = _line(lattice, t)
+    whole = np.zeros(t.size, int)
+    period, residual = _line(frames, t, whole)
+    index, piece, delivered = frames, whole, True
+    periods = np.rint(gaps / np.median(gaps))
+    steps = np.maximum(1.0, periods)
+    stall = steps > STALL_PERIODS
+    runs = np.concatenate([[0], np.cumsum(stall)])
+    in_runs = np.bincount(runs)[runs] >= STALL_PERIODS
+    collisions = np.count_nonzero(periods == 0)  # two frames in one slot
+    if 2 * np.count_nonzero(in_runs) > t.size and collisions <= MAX_COLLISIONS * gaps.size:
+        lattice = np.concatenate([[0.0], np.cumsum(np.where(stall, 1.0, steps))])
+        slope, rest = _line(lattice, t, runs)
         if np.dot(rest, rest) < np.dot(residual, residual):
-            period, residual, index, delivered = slope, rest, lattice, False
-    slots = int(index[-1])
+            period, residual, index, piece, delivered = slope, rest, lattice, runs, False
+    # frame slots: the runs' own, and each stall's length in periods
+    stalls = np.rint(gaps[stall] / period) if not delivered else np.zeros(0)
+    slots = int(index[-1] + np.sum(stalls - 1.0))
+    n_pieces = int(piece[-1]) + 1
+    first, last = np.full(n_pieces, np.inf), np.full(n_pieces, -np.inf)
+    np.minimum.at(first, piece, index)
+    np.maximum.at(last, piece, index)
+    measured = max(float(np.sum(last - first)), 1.0)  # periods the slope is measured over
     spread = float(residual.max() - residual.min())
-    return PeriodFit(period, spread / slots, slots, int(t.size), delivered)
+    return PeriodFit(period, spread / measured, slots, int(t.size), delivered)
 
 
 def frame_period(t: np.ndarray) -> float:
