@@ -156,7 +156,7 @@ def check_times(
             f"{what} must be times [s] that increase strictly, but #{i + 1} ({t[i + 1]:.9g} s) "
             f"is not after #{i} ({t[i]:.9g} s); sort the frames and drop duplicates"
         )
-    if steps.size and float(steps.min()) < MIN_TIME_STEP_S:
+    if steps.size and float(steps.min()) < MIN_TIME_STEP_S * (1 - 1e-9):  # to rounding
         i = int(np.argmin(steps))
         raise error(
             f"{what} has a step of {float(steps[i]):.3g} s (after #{i}); consecutive times must "

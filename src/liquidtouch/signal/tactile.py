@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -52,7 +52,7 @@ from liquidtouch.signal.lowpass import (
     max_bridged_gap_s,
     observed_samples,
 )
-from liquidtouch.tracking.clock import frame_period
+from liquidtouch.tracking.clock import frame_period, frame_times
 from liquidtouch.tracking.tracks import MarkerTracks
 
 __all__ = [
@@ -253,7 +253,7 @@ def tactile_signal(
     SignalError
         Bad timestamps, a knob out of range, too few frames, or no motion at all.
     """
-    tracks = _check_tracks(tracks)
+    tracks = [_on_the_lattice(tr) for tr in _check_tracks(tracks)]
     check_signal_options(lowpass_hz, n_markers, max_lost_fraction, max_gap_s)
     reference, begin_s, end_s = common_span(tracks)
     t_ref = tracks[reference].t - tracks[reference].t[0]
@@ -306,6 +306,15 @@ def tactile_signal(
         lowpass_hz=lowpass_hz,
         gap_share=float(1.0 - observed.sum() / n_clock),
     )
+
+
+def _on_the_lattice(tracks: MarkerTracks) -> MarkerTracks:
+    """``tracks`` timed as the signal reads them (:func:`~liquidtouch.tracking.clock.frame_times`:
+    stamps taken on delivery moved onto the camera's lattice), on the same shared clock."""
+    t = frame_times(tracks.t)
+    if t is tracks.t:
+        return tracks
+    return replace(tracks, t=t, start_s=float(tracks.start_s) + float(t[0] - tracks.t[0]))
 
 
 def check_signal_options(
