@@ -153,8 +153,8 @@ def check_times(
     if steps.size and not float(steps.min()) > 0:
         i = int(np.argmax(steps <= 0))
         raise error(
-            f"{what} must be times [s] that increase strictly, but #{i + 1} ({t[i + 1]:.9g} s) "
-            f"is not after #{i} ({t[i]:.9g} s); sort the frames and drop duplicates"
+            f"{what} must increase strictly (times [s]), but #{i + 1} ({t[i + 1]:.9g} s) is "
+            f"not after #{i} ({t[i]:.9g} s); sort the frames and drop duplicates"
         )
     if steps.size and float(steps.min()) < MIN_TIME_STEP_S * (1 - 1e-9):  # to rounding
         i = int(np.argmin(steps))

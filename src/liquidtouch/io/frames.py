@@ -40,6 +40,7 @@ from liquidtouch.io.frame_times import (
     video_sidecar,
     video_sidecar_times,
 )
+from liquidtouch.io.image_size import check_frame_size, check_image_file
 
 __all__ = [
     "IMAGE_SUFFIXES",
@@ -94,6 +95,7 @@ def video_info(path: str | Path) -> VideoInfo:
                 raise VideoError(f"{path} holds no video stream; give a GelSight video file")
             stream = container.streams.video[0]
             rate = stream.average_rate or stream.guessed_rate or 0
+            _check_stream_size(path, stream)
             return VideoInfo(
                 path=path,
                 width=int(stream.codec_context.width),
@@ -128,6 +130,7 @@ def iter_video(path: str | Path) -> Iterator[tuple[float, np.ndarray]]:
         if not container.streams.video:
             raise VideoError(f"{path} holds no video stream; give a GelSight video file")
         stream = container.streams.video[0]
+        _check_stream_size(path, stream)
         stream.thread_type = "AUTO"
         rate = float(stream.average_rate or stream.guessed_rate or 30.0)
         time_base = float(stream.time_base) if stream.time_base else 1.0 / rate
@@ -160,6 +163,13 @@ def iter_video(path: str | Path) -> Iterator[tuple[float, np.ndarray]]:
         if count == 0:
             raise VideoError(f"video {path} has no frames; record again or pick another file")
         _check_complete(path, count, previous, declared_frames, declared_s)
+
+
+def _check_stream_size(path: Path, stream) -> None:
+    """Refuse a video stream whose declared frame size is no sensor's, before decoding."""
+    width, height = int(stream.codec_context.width), int(stream.codec_context.height)
+    if width or height:  # 0 x 0: the container does not say; the decoder will
+        check_frame_size(width, height, f"video {path}", VideoError)
 
 
 def _count_frames(path: Path) -> int:
@@ -225,6 +235,7 @@ def iter_image_folder(
     times = folder_times(folder, len(files), fps)
     shape = None
     for file, t_s in zip(files, times, strict=True):
+        check_image_file(file, VideoError)  # before decoding: a header may claim gigapixels
         image = cv2.imread(str(file), cv2.IMREAD_GRAYSCALE)
         if image is None:
             raise VideoError(f"cannot read image {file}; is it a PNG/JPEG/BMP/TIFF image?")

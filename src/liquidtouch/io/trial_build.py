@@ -25,6 +25,7 @@ from liquidtouch.errors import DatasetError
 from liquidtouch.io.dataset import FEATURES_NAME, MANIFEST_NAME, META_NAME, trial_path
 from liquidtouch.io.frame_times import TIMESTAMPS_NAME, read_folder_timestamps
 from liquidtouch.io.frames import IMAGE_SUFFIXES, image_files, video_info
+from liquidtouch.io.image_size import check_image_file
 from liquidtouch.io.labels import MAX_NAME
 from liquidtouch.io.marker_csv import read_marker_csv
 from liquidtouch.io.rosbag import import_bag
@@ -143,13 +144,11 @@ def _inspect_source(path: Path) -> _Source:
     return _Source(path, False, info.fps if info.fps > 0 else None)
 
 
-PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-
-
 def check_image_frames(folder: Path, files: Sequence[Path]) -> None:
     """The checks ``extract`` would make on reading a sensor's image folder, made cheaply
-    up front: at most :data:`MAX_FRAMES` images, none empty, and PNGs (read from their
-    header) of one size. :class:`DatasetError` names the first offender."""
+    up front: at most :data:`MAX_FRAMES` images, each declaring (in its header) a size
+    within :data:`~liquidtouch.io.image_size.MAX_FRAME_PIXELS`, all of one size.
+    :class:`DatasetError` names the first offender."""
     if len(files) > MAX_FRAMES:
         raise DatasetError(
             f"{folder} holds {len(files)} images, more than the {MAX_FRAMES} frames tracked "
@@ -157,18 +156,7 @@ def check_image_frames(folder: Path, files: Sequence[Path]) -> None:
         )
     size = None
     for file in files:
-        try:
-            with open(file, "rb") as handle:
-                head = handle.read(24)
-        except OSError as exc:
-            raise DatasetError(f"cannot read image {file}: {exc.strerror or exc}") from None
-        if not head:
-            raise DatasetError(f"image {file} is empty (0 bytes); every frame must be an image")
-        if file.suffix.lower() != ".png":
-            continue
-        if len(head) < 24 or not head.startswith(PNG_SIGNATURE) or head[12:16] != b"IHDR":
-            raise DatasetError(f"image {file} is not a PNG image (no PNG header)")
-        dims = (int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big"))
+        dims = check_image_file(file, DatasetError)
         if size is None:
             size, first = dims, file
         elif dims != size:

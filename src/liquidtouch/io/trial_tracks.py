@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from liquidtouch._core.checks import check_times
 from liquidtouch.errors import DatasetError, VideoError
 from liquidtouch.io.dataset import META_NAME, read_trial_meta
 from liquidtouch.tracking.clock import check_consistent
@@ -73,8 +74,7 @@ def _check_tracks(tr: MarkerTracks, path: Path) -> None:
             f"positions {tr.positions.shape}, valid {tr.valid.shape}, reference "
             f"{tr.reference.shape}); expected (T,), (T, N, 2), (T, N), (N, 2) with T, N >= 2"
         )
-    if not np.isfinite(t).all() or (np.diff(t) <= 0).any():
-        raise DatasetError(f"{path}: the times of sensor {tr.sensor!r} must increase strictly")
+    check_times(t, f"{path}: the times of sensor {tr.sensor!r}", DatasetError)
     if not np.isfinite(tr.reference).all():
         raise DatasetError(f"{path}: the reference of sensor {tr.sensor!r} holds NaN")
     if not np.isfinite(tr.positions[tr.valid]).all():

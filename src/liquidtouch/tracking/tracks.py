@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from liquidtouch._core import atomic
+from liquidtouch._core.checks import check_times
 from liquidtouch._core.numbers import percent
 from liquidtouch.errors import MarkerError, OutputError, VideoError
 from liquidtouch.tracking.detect import (
@@ -228,12 +229,10 @@ def _frame(item: object, k: int, sensor: str, previous: float | None) -> tuple[f
             f"{sensor}: frame {k} is not a (timestamp [s], image) pair; "
             "iterate liquidtouch.io.frames.iter_frames(source)"
         ) from None
-    if not np.isfinite(t_s) or (previous is not None and t_s <= previous):
-        after = "" if previous is None else f" after {previous:.6g} s"
-        raise VideoError(
-            f"{sensor}: frame {k} has timestamp {t_s:.6g} s{after}; timestamps must be finite "
-            "and increase strictly (drop duplicate or out-of-order frames)"
-        )
+    pair = [t_s] if previous is None else [previous, t_s]
+    check_times(
+        pair, f"{sensor}: the timestamps of frames {k - len(pair) + 1}-{k}", VideoError, min_count=1
+    )
     return t_s, image
 
 
