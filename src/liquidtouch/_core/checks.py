@@ -125,12 +125,14 @@ def check_times(
     error: type[LiquidTouchError] = SignalError,
     *,
     min_count: int = 2,
+    first: int = 0,
 ) -> np.ndarray:
     """Timestamps [s] as a 1-D float array, or ``error``: the one check of a time axis.
 
     At least ``min_count`` finite times, each within :data:`MAX_ABS_TIME_S`, strictly
     increasing by at least :data:`MIN_TIME_STEP_S` (a frame or sample rate of at most
     :data:`MAX_RATE_HZ`): what every stage that reads frame or sample times needs.
+    Messages number the times from ``first`` (``#first`` is ``t[0]``).
     """
     try:
         t = np.asarray(t, dtype=float)
@@ -145,21 +147,22 @@ def check_times(
     bad = ~np.isfinite(t)
     if bad.any():
         raise error(
-            f"{what} holds {int(bad.sum())} NaN/inf value(s) (first at #{int(np.argmax(bad))}); "
-            "drop them or give real times"
+            f"{what} holds {int(bad.sum())} NaN/inf value(s) (first at "
+            f"#{first + int(np.argmax(bad))}); drop them or give real times"
         )
     check_magnitude(t, what, MAX_ABS_TIME_S, "s", error)
     steps = np.diff(t)
     if steps.size and not float(steps.min()) > 0:
         i = int(np.argmax(steps <= 0))
         raise error(
-            f"{what} must increase strictly (times [s]), but #{i + 1} ({t[i + 1]:.9g} s) is "
-            f"not after #{i} ({t[i]:.9g} s); sort the frames and drop duplicates"
+            f"{what} must increase strictly (times [s]), but #{first + i + 1} ({t[i + 1]:.9g} s) "
+            f"is not after #{first + i} ({t[i]:.9g} s); sort the frames and drop duplicates"
         )
     if steps.size and float(steps.min()) < MIN_TIME_STEP_S * (1 - 1e-9):  # to rounding
         i = int(np.argmin(steps))
         raise error(
-            f"{what} has a step of {float(steps[i]):.3g} s (after #{i}); consecutive times must "
+            f"{what} has a step of {float(steps[i]):.3g} s (after #{first + i}); consecutive "
+            "times must "
             f"be at least {MIN_TIME_STEP_S:g} s apart (at most {MAX_RATE_HZ:g} Hz)"
         )
     return t

@@ -110,4 +110,5 @@ def read_timestamps_csv(path: Path, n_rows: int, holder: str, items: str) -> np.
         stamps = np.array([float(row[column]) for row in rows[1:]])
     except (ValueError, IndexError):
         raise VideoError(f"{path}: every t_s value must be a number of seconds") from None
-    return check_times(stamps, f"{path}: column t_s (#0: the first frame)", VideoError, min_count=1)
+    what = f"{path}: column t_s (by data row)"
+    return check_times(stamps, what, VideoError, min_count=1, first=1)

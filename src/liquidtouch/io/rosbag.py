@@ -202,9 +202,10 @@ class _TopicWriter:
         if self.stamps:  # from the first stamp: seconds since 1970 would keep only 0.2 µs
             check_times(
                 (np.array([self.stamps[-1], stamp_ns], dtype=np.int64) - self.stamps[0]) / 1e9,
-                f"topic {self.topic}: the stamps of messages {index - 1}-{index} (unset or "
-                "duplicated header stamps: use --time-source bag, the recording time)",
+                f"topic {self.topic}: the message stamps (unset or duplicated header stamps: use "
+                "--time-source bag, the recording time)",
                 DatasetError,
+                first=index - 1,
             )
         if self.msgtype.endswith("/CompressedImage"):
             data, suffix, shape = _compressed(msg, self.topic, index, cv2)

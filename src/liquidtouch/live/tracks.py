@@ -54,12 +54,8 @@ class GrowingTracks:
 
     def _check_time(self, t_s: float) -> None:
         pair = [self.t[self.n - 1], t_s] if self.n else [t_s]
-        check_times(
-            pair,
-            f"{self.sensor}: the timestamps of frames {self.total - len(pair) + 1}-{self.total}",
-            VideoError,
-            min_count=1,
-        )
+        first = self.total + 1 - len(pair)
+        check_times(pair, f"{self.sensor}: frame timestamps", VideoError, min_count=1, first=first)
 
     def add(self, t_s: float, image: np.ndarray) -> np.ndarray:
         """Track the markers into the frame at ``t_s`` [s]; return their positions (N, 2) [px].

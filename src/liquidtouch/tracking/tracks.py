@@ -230,9 +230,8 @@ def _frame(item: object, k: int, sensor: str, previous: float | None) -> tuple[f
             "iterate liquidtouch.io.frames.iter_frames(source)"
         ) from None
     pair = [t_s] if previous is None else [previous, t_s]
-    check_times(
-        pair, f"{sensor}: the timestamps of frames {k - len(pair) + 1}-{k}", VideoError, min_count=1
-    )
+    first = k + 1 - len(pair)
+    check_times(pair, f"{sensor}: frame timestamps", VideoError, min_count=1, first=first)
     return t_s, image
 
 
