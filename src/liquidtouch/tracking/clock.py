@@ -181,7 +181,7 @@ def fit_frame_period(t: np.ndarray) -> PeriodFit:
     steps = np.maximum(1.0, periods)
     stall = steps > STALL_PERIODS
     runs = np.concatenate([[0], np.cumsum(stall)])
-    in_runs = np.bincount(runs)[runs] >= STALL_PERIODS
+    in_runs = np.bincount(runs)[runs] >= min(STALL_PERIODS, t.size)
     collisions = np.count_nonzero(periods == 0)  # two frames in one slot
     if 2 * np.count_nonzero(in_runs) > t.size and collisions <= MAX_COLLISIONS * gaps.size:
         lattice = np.concatenate([[0.0], np.cumsum(np.where(stall, 1.0, steps))])
@@ -214,14 +214,19 @@ def frame_period(t: np.ndarray) -> float:
 
 def frame_times(t: np.ndarray) -> np.ndarray:
     """The frames' times [s] the signal is built on: a camera's own stamps ``t`` as they
-    are; stamps taken on delivery (:attr:`PeriodFit.delivered`) moved onto the lattice
-    under them, ``start_s + period_s * slot``: a burst's stamps are late by up to the
-    stall before it (0.25 s on a loaded machine, two radians of a 1.3 Hz slosh), the
-    lattice by the least delay only, the same for every frame."""
+    are; stamps taken on delivery (:attr:`PeriodFit.delivered`) moved back to when the
+    frames were taken at the latest: each frame a period before the next, and not after
+    its own delivery, ``min(t[k], time[k + 1] - period)``. A burst's stamps are late by
+    up to the stall before it (0.25 s on a loaded machine, two radians of a 1.3 Hz
+    slosh); its last frame came as it was sent, and the ones before it were a period
+    apart. Not the lattice under all stamps: a frame dropped among delivered ones cannot
+    be seen, and on that lattice every later frame would be a period early."""
     fit = fit_frame_period(t)
     if not fit.delivered:
         return np.asarray(t, dtype=float)
-    return fit.start_s + fit.period_s * fit.slot
+    k = np.arange(fit.frames) * fit.period_s
+    latest = np.minimum.accumulate((np.asarray(t, dtype=float) - k)[::-1])[::-1]
+    return latest + k
 
 
 def uniform_clock(t: np.ndarray, end_s: float | None = None) -> tuple[np.ndarray, float]:
@@ -265,6 +270,7 @@ def check_consistent_times(
     *,
     error: type[LiquidTouchError] = VideoError,
     what: str = "videos",
+    hint: str = "give the videos of one recording",
 ) -> None:
     """The sensors' frame times must be one recording: ``error`` otherwise.
 
@@ -285,8 +291,7 @@ def check_consistent_times(
         if not abs(fit.fps - fits[0].fps) <= allowed * fits[0].fps:
             raise error(
                 f"{what} of one trial differ in frame rate: {names[0]} {fits[0].fps:.3f} "
-                f"fps, {name} {fit.fps:.3f} fps (their timing allows {allowed:.1%}); give the "
-                f"{what} of one recording"
+                f"fps, {name} {fit.fps:.3f} fps (their timing allows {allowed:.1%}); {hint}"
             )
     ends = [s + float(t[-1] - t[0]) for s, t in zip(starts_s, times, strict=True)]
     longest = max(e - s for s, e in zip(starts_s, ends, strict=True))
@@ -297,5 +302,5 @@ def check_consistent_times(
         )
         raise error(
             f"{what} of one trial differ in length: {spans} (together {max(overlap, 0):.2f} "
-            f"s); give the {what} of one recording"
+            f"s); {hint}"
         )

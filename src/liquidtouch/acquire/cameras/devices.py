@@ -30,8 +30,6 @@ logger = logging.getLogger(__name__)
 
 DEFAULT_WARMUP_FRAMES = 10
 """Frames read and thrown away after opening a live camera (auto-exposure, stale buffers)."""
-DROP_GAP_PERIODS = 1.5
-"""A timestamp gap of more than this many frame periods means dropped frames."""
 MAX_TIMEOUT_S = 600.0
 """Largest open, read or warm-up timeout accepted [s]."""
 MIN_FRAME_STEP_S = MIN_TIME_STEP_S
