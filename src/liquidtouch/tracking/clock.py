@@ -61,7 +61,7 @@ own stamps never are (a glitch timed on arrival 1 µs after the frame before may
 ``acquire.cameras``); frames delivered in bursts hold 30-50 % of them."""
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True)
 class PeriodFit:
     """The frame period fitted to one sensor's timestamps (:func:`fit_frame_period`).
 
@@ -75,9 +75,6 @@ class PeriodFit:
     slots : frame periods the recording spans (frames - 1 + frames dropped).
     frames : timestamps fitted.
     delivered : ``True`` when the stamps are delivery times (bursts; module docstring).
-    start_s : the lattice's slot 0 [s] (delivered: the line under the stamps).
-    slot : (frames,) each frame's slot on the lattice (within a run, for a camera's stamps
-        that stall).
     """
 
     period_s: float
@@ -85,8 +82,6 @@ class PeriodFit:
     slots: int
     frames: int
     delivered: bool
-    start_s: float
-    slot: np.ndarray
 
     @property
     def fps(self) -> float:
@@ -188,7 +183,6 @@ def fit_frame_period(t: np.ndarray) -> PeriodFit:
         slope, rest = _line(lattice, t, runs)
         if np.dot(rest, rest) < np.dot(residual, residual):
             period, residual, index, piece, delivered = slope, rest, lattice, runs, False
-    start = float(t[0])
     if delivered:  # the least delayed frames lie on the lattice (module docstring)
         for _ in range(2):  # the line under the stamps, and the slots it gives them
             period, start = _floor_line(index, t)
@@ -204,7 +198,7 @@ def fit_frame_period(t: np.ndarray) -> PeriodFit:
     np.maximum.at(last, piece, index)
     measured = max(float(np.sum(last - first)), 1.0)  # periods the slope is measured over
     spread = float(residual.max() - residual.min())
-    return PeriodFit(period, spread / measured, slots, int(t.size), delivered, start, index)
+    return PeriodFit(period, spread / measured, slots, int(t.size), delivered)
 
 
 def frame_period(t: np.ndarray) -> float:
