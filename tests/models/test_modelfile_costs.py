@@ -69,7 +69,7 @@ def test_the_bounds_are_the_grids_liquidtouch_trains_on(tmp_path):
     for key, bounds in (("C", C_BOUNDS), ("gamma", GAMMA_BOUNDS)):
         _edited(path, lambda doc, k=key, b=bounds: doc["classifier"].__setitem__(k, b[1]))
         assert load_model(path) is not None  # the largest trained value still loads
-    with pytest.raises(TableError, match="C 10000 is outside 0.1-1000"):  # nor trained beyond
+    with pytest.raises(TableError, match=r"C 10000 is outside 0\.1-1000"):  # nor trained beyond
         LiquidClassifier(C=1e4).fit(np.random.default_rng(0).normal(size=(9, 2)), [0, 1, 2] * 3)
 
 
