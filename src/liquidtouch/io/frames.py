@@ -46,6 +46,7 @@ __all__ = [
     "IMAGE_SUFFIXES",
     "VIDEO_SUFFIXES",
     "VideoInfo",
+    "count_frames",
     "image_files",
     "iter_camera",
     "iter_frames",
@@ -121,7 +122,7 @@ def iter_video(path: str | Path) -> Iterator[tuple[float, np.ndarray]]:
     path = _existing_file(path)
     sidecar = None
     if video_sidecar(path).is_file():
-        sidecar = video_sidecar_times(path, _count_frames(path))
+        sidecar = video_sidecar_times(path, count_frames(path))
     try:
         container = av.open(str(path))
     except av.FFmpegError as exc:
@@ -172,7 +173,7 @@ def _check_stream_size(path: Path, stream) -> None:
         check_frame_size(width, height, f"video {path}", VideoError)
 
 
-def _count_frames(path: Path) -> int:
+def count_frames(path: str | Path) -> int:
     """How many frames the video stream of ``path`` holds (its packets; nothing decoded)."""
     import av
 

@@ -25,7 +25,8 @@ from liquidtouch._core.checks import check_times
 from liquidtouch.errors import DatasetError
 from liquidtouch.io.frame_times import TIMESTAMPS_NAME
 from liquidtouch.io.image_size import check_frame_size, check_image_bytes
-from liquidtouch.tracking.tracks import MAX_FRAMES
+from liquidtouch.tracking.clock import fit_frame_period
+from liquidtouch.tracking.tracks import MAX_FRAMES, check_frame_count
 
 ROS_HINT = "pip install 'liquidtouch[ros]'"
 IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
@@ -193,12 +194,8 @@ class _TopicWriter:
 
     def add(self, msg: object, stamp_ns: int, cv2: object) -> None:
         index = self.count
-        if index >= MAX_FRAMES:  # what extract tracks per sensor
-            raise DatasetError(
-                f"topic {self.topic} holds more than {MAX_FRAMES} images, more than the frames "
-                "tracked per sensor (a trial is the push and ~15 s of ring-down); cut the bag "
-                "to the trial first"
-            )
+        if index >= MAX_FRAMES:  # what extract tracks per sensor, before writing more
+            check_frame_count(index + 1, f"topic {self.topic}", DatasetError)
         if self.stamps:  # from the first stamp: seconds since 1970 would keep only 0.2 µs
             check_times(
                 (np.array([self.stamps[-1], stamp_ns], dtype=np.int64) - self.stamps[0]) / 1e9,
@@ -228,10 +225,7 @@ class _TopicWriter:
 
     def finish(self, origin_ns: int, time_source: str) -> BagTopic:
 
-        if self.count < 2:
-            raise DatasetError(
-                f"topic {self.topic} holds {self.count} image(s); a recording needs many frames"
-            )
+        check_frame_count(self.count, f"topic {self.topic}", DatasetError)
         if time_source == "header" and self.stamps[0] == 0:
             raise DatasetError(
                 f"topic {self.topic}: the header stamps are unset (0); use --time-source bag"
@@ -239,8 +233,8 @@ class _TopicWriter:
         lines = ["t_s,stamp_ns"]
         lines += [f"{(s - origin_ns) / 1e9:.9f},{s}" for s in self.stamps]
         atomic.write_text(self.folder / TIMESTAMPS_NAME, "\n".join(lines) + "\n")
-        step_s = float(np.median(np.diff(self.stamps))) / 1e9
-        return BagTopic(self.topic, self.folder.name, self.count, 1.0 / step_s, self.msgtype)
+        fps = fit_frame_period((np.asarray(self.stamps) - self.stamps[0]) / 1e9).fps
+        return BagTopic(self.topic, self.folder.name, self.count, fps, self.msgtype)
 
 
 _CHANNELS = {
