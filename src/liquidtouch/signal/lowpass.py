@@ -20,7 +20,16 @@ the smoother's values in it are not observed (:func:`observed_samples`) and are 
 The whole recording is smoothed at once: cutting it into stretches at its gaps, each
 smoothed on its own, lost the short stretches between gaps and bent the ends of the
 others (15-18 fps streams: 65 % of runs within 5 % of the gap-free λ, against 80 % at
-once; ``benchmarks/gaps.py``). Eilers (2003), "A perfect smoother", Analytical Chemistry
+once; ``benchmarks/gaps.py``). Only a stall longer than :data:`SPLIT_SAMPLES` samples of
+the smoother's clock (2 s at 30 fps) splits the frames into pieces smoothed on their own.
+
+**Numerics.** Across a stretch without frames only the penalty holds the smoother's
+values, and the banded Cholesky of its normal equations failed (``LinAlgError``) on a
+10 s stall at 30 fps, or silently returned garbage at 1000 fps (``lam`` ~ 1e16) and failed
+at a 0.1 Hz cut-off: the smoother therefore runs on at most :data:`MAX_SMOOTHER_RATIO`
+samples per cut-off period (a faster clock on every r-th sample,
+:func:`smoother_step`, read back by a cubic spline), and stalls split it (above).
+Eilers (2003), "A perfect smoother", Analytical Chemistry
 75, 3631, is the method with zero weights for missing data. :mod:`liquidtouch.signal.tactile`
 builds ``u(t)`` with it.
 """
