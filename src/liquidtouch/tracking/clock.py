@@ -181,7 +181,7 @@ def fit_frame_period(t: np.ndarray) -> PeriodFit:
     if 2 * np.count_nonzero(in_runs) > t.size and collisions <= MAX_COLLISIONS * gaps.size:
         lattice = np.concatenate([[0.0], np.cumsum(np.where(stall, 1.0, steps))])
         slope, rest = _line(lattice, t, runs)
-        if np.dot(rest, rest) < np.dot(residual, residual):
+        if np.dot(rest, rest) <= np.dot(residual, residual):  # a tie: no drops, same index
             period, residual, index, piece, delivered = slope, rest, lattice, runs, False
     if delivered:  # the least delayed frames lie on the lattice (module docstring)
         for _ in range(2):  # the line under the stamps, and the slots it gives them
