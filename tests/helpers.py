@@ -137,3 +137,16 @@ class RecordingModel:
 
     def in_domain(self, X) -> np.ndarray:
         return np.ones(len(X), bool)
+
+
+def jpeg_claiming(width: int, height: int) -> bytes:
+    """A small valid JPEG whose frame header (SOF0) claims ``width`` x ``height`` px: a few
+    hundred bytes that would decode to gigabytes (issue 41)."""
+    import cv2
+
+    ok, data = cv2.imencode(".jpg", np.zeros((8, 8), np.uint8))
+    assert ok
+    raw = bytearray(data.tobytes())
+    sof = raw.index(b"\xff\xc0")
+    raw[sof + 5 : sof + 9] = height.to_bytes(2, "big") + width.to_bytes(2, "big")
+    return bytes(raw)

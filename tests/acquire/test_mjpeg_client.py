@@ -14,6 +14,7 @@ import cv2
 import numpy as np
 import pytest
 from camera_frames import CodedFrames, frame_number
+from helpers import jpeg_claiming
 
 from liquidtouch.acquire.cameras import (
     MjpegCamera,
@@ -299,3 +300,25 @@ def test_a_client_leaving_does_not_starve_another():
     assert len(server._clients) == 1 and server._clients[0] is stays
     server._unsubscribe(leaves)  # twice: nothing else goes
     assert server._clients[0] is stays
+
+
+def test_a_frame_claiming_gigapixels_is_refused_before_decoding(tmp_path):
+    """A 689-byte JPEG claiming 20000 x 20000 px cost 2.5 GB in record and live: the size its
+    header declares is checked against the sensor profile first (issue 41)."""
+    script = [HEAD, part(0, body=jpeg_claiming(20000, 20000))]
+    with Scripted(script, then="stall") as server:
+        cam = camera(server.url)
+        try:
+            with pytest.raises(DeviceError, match="declares 20000x20000 px"):
+                cam.read()
+        finally:
+            cam.close()
+    assert get_profile("r15").max_pixels == 4 * 640 * 480  # twice each side of its frames
+    script = [HEAD, part(0, body=jpeg_claiming(4000, 3000))]  # 12 MP: more than an R1.5 gives
+    with Scripted(script, then="stall") as server:
+        cam = MjpegCamera(server.url, get_profile("r15"), open_timeout_s=2.0, read_timeout_s=2.0)
+        try:
+            with pytest.raises(DeviceError, match="declares 4000x3000 px"):
+                cam.read()
+        finally:
+            cam.close()

@@ -334,7 +334,7 @@ def test_frames_are_checked_at_add_time_like_extract_does(tmp_path, capsys) -> N
     cv2.imwrite(str(sizes / "0.png"), np.zeros((20, 30), np.uint8))
     cv2.imwrite(str(sizes / "1.png"), np.zeros((20, 40), np.uint8))
     cases = [
-        (many, "holds 36001 images, more than the 36000 frames"),
+        (many, "holds 36001 frames, more than the 36000"),
         (empty, "is empty (0 bytes)"),
         (sizes, "1.png is 40x20 but 0.png is 30x20"),
     ]

@@ -174,7 +174,7 @@ def test_a_recording_far_longer_than_a_trial_is_refused(monkeypatch: pytest.Monk
     monkeypatch.setattr(tracks, "MAX_FRAMES", 5)
     image = render_blobs(grid())
     frames = ((k / 30.0, image) for k in range(10))
-    with pytest.raises(VideoError, match="more than 5 frames"):
+    with pytest.raises(VideoError, match="more than the 5 tracked"):
         tracks.track_markers(frames)
     assert tracks.track_markers((k / 30.0, image) for k in range(5)).positions.shape[0] == 5
 

@@ -103,7 +103,7 @@ def test_foreign_newer_and_corrupt_files_are_refused(tmp_path, saved_doc, mutate
     "field, value, message",
     [
         ("y_train", [1.0, 2.0], "y_train has 2 values"),
-        ("kernel", {"constant": -1, "length_scale": [1, 1], "noise_level": 0.1}, "greater than 0"),
+        ("kernel", {"constant": -1, "length_scale": [1, 1], "noise_level": 0.1}, "greater than or"),
         ("model", "forest", "corrupt"),
         ("X_train", [[1.0, 2.0, 3.0]], "corrupt"),
         ("prior", {"kind": "height", "wavenumber": 26.0, "coef": [0, 1]}, "must not have one"),

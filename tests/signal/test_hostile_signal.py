@@ -161,7 +161,7 @@ def test_image_folder_is_timed_by_fps_or_by_its_timestamps(tmp_path) -> None:
     [
         ("t_s\n0\n0.1\n", "lists 2 timestamps but the folder holds 3"),
         ("time\n0\n0.1\n0.2\n", "t_s column"),
-        ("t_s\n0\nnan\n0.2\n", "NaN or infinite"),
+        ("t_s\n0\nnan\n0.2\n", "NaN/inf"),
         ("t_s\n0\n0.2\n0.1\n", "increase strictly"),
         ("t_s\n0\n0.1\nsoon\n", "number of seconds"),
     ],

@@ -278,10 +278,10 @@ def _still_frames(n=3, shape=(160, 200)):
         (_still_frames(), {"sensor": ""}, MarkerError, "sensor must be a non-empty name"),
         (_still_frames(), {"on_frame": 5}, MarkerError, "on_frame must be a function"),
         (_still_frames(), {"min_area_px": 10_000}, MarkerError, "no markers found"),
-        ([], {}, VideoError, "no frames to track"),
-        (_still_frames()[::-1], {}, VideoError, "timestamps must be finite and increase"),
+        ([], {}, VideoError, r"holds 0 frame\(s\); a sensor.s recording needs at least 2"),
+        (_still_frames()[::-1], {}, VideoError, "frame timestamps must increase strictly"),
         (_still_frames()[:1] * 2, {}, VideoError, "increase strictly"),
-        ([(float("nan"), _still_frames()[0][1])], {}, VideoError, "finite"),
+        ([(float("nan"), _still_frames()[0][1])], {}, VideoError, "NaN/inf"),
         ([_still_frames()[0][1]], {}, VideoError, r"not a \(timestamp \[s\], image\) pair"),
         (
             [*_still_frames(2), (1.0, render_blobs(grid((120, 200)), shape=(120, 200)))],

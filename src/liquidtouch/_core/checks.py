@@ -107,18 +107,6 @@ def check_magnitude(
         )
 
 
-def check_time_steps(t: np.ndarray, what: str, error: type[LiquidTouchError] = TableError) -> None:
-    """Refuse times [s] beyond :data:`MAX_ABS_TIME_S` or closer than :data:`MIN_TIME_STEP_S`
-    (in order; the caller has checked that they increase)."""
-    check_magnitude(t, what, MAX_ABS_TIME_S, "s", error)
-    steps = np.diff(np.asarray(t, dtype=float))
-    if steps.size and float(np.min(steps)) < MIN_TIME_STEP_S:
-        raise error(
-            f"{what} has steps of {float(np.min(steps)):.3g} s; consecutive times must be at "
-            f"least {MIN_TIME_STEP_S:g} s apart (at most {MAX_RATE_HZ:g} Hz)"
-        )
-
-
 def finite_array(
     x: object, what: str, min_ndim: int, error: type[LiquidTouchError] = SignalError
 ) -> np.ndarray:
@@ -135,13 +123,50 @@ def finite_array(
     return x
 
 
-def check_times(t: object, what: str, error: type[LiquidTouchError] = SignalError) -> np.ndarray:
-    """Timestamps [s] as a 1-D float array: finite, strictly increasing, at least 2;
-    ``error`` otherwise (a file's times: its format's error, e.g. ``DatasetError``)."""
-    t = finite_array(t, what, min_ndim=1, error=error)
-    if t.ndim != 1 or t.size < 2 or not np.all(np.diff(t) > 0):
+def check_times(
+    t: object,
+    what: str,
+    error: type[LiquidTouchError] = SignalError,
+    *,
+    min_count: int = 2,
+    first: int = 0,
+) -> np.ndarray:
+    """Timestamps [s] as a 1-D float array, or ``error``: the one check of a time axis.
+
+    At least ``min_count`` finite times, each within :data:`MAX_ABS_TIME_S`, strictly
+    increasing by at least :data:`MIN_TIME_STEP_S` (a frame or sample rate of at most
+    :data:`MAX_RATE_HZ`): what every stage that reads frame or sample times needs.
+    Messages number the times from ``first`` (``#first`` is ``t[0]``).
+    """
+    try:
+        t = np.asarray(t, dtype=float)
+    except (TypeError, ValueError):
+        raise error(f"{what} must be an array of times in seconds") from None
+    if t.ndim != 1 or t.size < min_count:
         raise error(
-            f"{what} must be a 1-D array of at least 2 strictly increasing times [s] "
+            f"{what} must be a non-empty 1-D array of at least {min_count} strictly increasing "
+            "times [s] "
             f"(got shape {t.shape}); sort the frames and drop duplicates"
+        )
+    bad = ~np.isfinite(t)
+    if bad.any():
+        raise error(
+            f"{what} holds {int(bad.sum())} NaN/inf value(s) (first at "
+            f"#{first + int(np.argmax(bad))}); drop them or give real times"
+        )
+    check_magnitude(t, what, MAX_ABS_TIME_S, "s", error)
+    steps = np.diff(t)
+    if steps.size and not float(steps.min()) > 0:
+        i = int(np.argmax(steps <= 0))
+        raise error(
+            f"{what} must increase strictly (times [s]), but #{first + i + 1} ({t[i + 1]:.9g} s) "
+            f"is not after #{first + i} ({t[i]:.9g} s); sort the frames and drop duplicates"
+        )
+    if steps.size and float(steps.min()) < MIN_TIME_STEP_S * (1 - 1e-9):  # to rounding
+        i = int(np.argmin(steps))
+        raise error(
+            f"{what} has a step of {float(steps[i]):.3g} s (after #{first + i}); consecutive "
+            "times must "
+            f"be at least {MIN_TIME_STEP_S:g} s apart (at most {MAX_RATE_HZ:g} Hz)"
         )
     return t

@@ -213,13 +213,42 @@ def _cache_file(root: Path, trial: str, source: str) -> Path:
 
 
 def _read_cache(path: Path, fingerprint: str) -> dict[str, object] | None:
+    """The cache entry at ``path`` if it is one for ``fingerprint``; ``None`` (the trial is
+    computed again) when it is missing, stale, or not what :func:`_safe_run` writes: the
+    cache is read like any input."""
     try:
         entry = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError, RecursionError):  # unreadable or damaged: recompute
         return None
     if not isinstance(entry, dict) or entry.get("fingerprint") != fingerprint:
         return None
+    if not _valid_entry(entry):
+        logger.warning("cache entry %s is damaged; the trial is computed again", path)
+        return None
     return entry
+
+
+def _valid_entry(entry: dict[str, object]) -> bool:
+    """Whether a cache entry holds what :func:`_safe_run` writes: ``features`` a dict of
+    names to scalars, the table's numeric columns numbers (a good trial's
+    :data:`FEATURE_COLUMNS` among them), ``error`` and the version text."""
+    features, error = entry.get("features"), entry.get("error")
+    if not isinstance(features, dict) or not (error is None or isinstance(error, str)):
+        return False
+    if not isinstance(entry.get("liquidtouch_version", ""), str):
+        return False
+    for name, value in features.items():
+        if not isinstance(name, str) or not isinstance(value, str | float | int | None):
+            return False
+        numeric = name in FEATURE_ROW_COLUMNS and name != "model"
+        if numeric and not (value is None or _is_number(value)):
+            return False
+    return error is not None or all(_is_number(features.get(n)) for n in FEATURE_COLUMNS)
+
+
+def _is_number(value: object) -> bool:
+    """A real number (NaN included: a feature the fit did not give), not a bool."""
+    return isinstance(value, float | int) and not isinstance(value, bool)
 
 
 def cache_trial_features(

@@ -75,6 +75,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from liquidtouch._core.checks import check_times
 from liquidtouch.errors import NoOscillationError, SignalError
 from liquidtouch.fit.amplitude import TWO_MODE_EXPONENT, AmplitudeState
 from liquidtouch.fit.amplitude_solve import (
@@ -144,20 +145,13 @@ def validate_signal(
             "resample it (a 3 Hz low-passed slosh needs ~30 samples per second) or cut it "
             "to the free decay"
         )
-    for name, arr in (("t", t), ("u", u)):
-        bad = ~np.isfinite(arr)
-        if bad.any():
-            raise SignalError(
-                f"{name} holds {int(bad.sum())} NaN/inf value(s) (first at sample "
-                f"{int(np.argmax(bad))}); drop or interpolate them before fitting"
-            )
-    steps = np.diff(t)
-    if (steps <= 0).any():
-        i = int(np.argmax(steps <= 0))
+    bad = ~np.isfinite(u)
+    if bad.any():
         raise SignalError(
-            f"time stamps must increase strictly, but t[{i + 1}]={t[i + 1]:g} <= t[{i}]={t[i]:g}; "
-            "sort the samples and remove duplicates"
+            f"u holds {int(bad.sum())} NaN/inf value(s) (first at sample "
+            f"{int(np.argmax(bad))}); drop or interpolate them before fitting"
         )
+    check_times(t, "the time stamps t", SignalError)
     duration = t[-1] - t[0]
     if duration < min_duration_s:
         raise SignalError(

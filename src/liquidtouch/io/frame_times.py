@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from liquidtouch._core.checks import check_times
 from liquidtouch.errors import VideoError
 
 #: per-frame timestamps of an image folder: CSV with a ``t_s`` column, one row per image
@@ -109,13 +110,5 @@ def read_timestamps_csv(path: Path, n_rows: int, holder: str, items: str) -> np.
         stamps = np.array([float(row[column]) for row in rows[1:]])
     except (ValueError, IndexError):
         raise VideoError(f"{path}: every t_s value must be a number of seconds") from None
-    if not np.isfinite(stamps).all():
-        raise VideoError(f"{path}: t_s holds NaN or infinite values")
-    steps = np.diff(stamps)
-    if (steps <= 0).any():
-        i = int(np.argmax(steps <= 0))
-        raise VideoError(
-            f"{path}: t_s must increase strictly, but row {i + 2} ({stamps[i + 1]:g}) is not "
-            f"after row {i + 1} ({stamps[i]:g})"
-        )
-    return stamps
+    what = f"{path}: column t_s (by data row)"
+    return check_times(stamps, what, VideoError, min_count=1, first=1)

@@ -40,11 +40,13 @@ from liquidtouch.io.frame_times import (
     video_sidecar,
     video_sidecar_times,
 )
+from liquidtouch.io.image_size import check_frame_size, check_image_file
 
 __all__ = [
     "IMAGE_SUFFIXES",
     "VIDEO_SUFFIXES",
     "VideoInfo",
+    "count_frames",
     "image_files",
     "iter_camera",
     "iter_frames",
@@ -94,6 +96,7 @@ def video_info(path: str | Path) -> VideoInfo:
                 raise VideoError(f"{path} holds no video stream; give a GelSight video file")
             stream = container.streams.video[0]
             rate = stream.average_rate or stream.guessed_rate or 0
+            _check_stream_size(path, stream)
             return VideoInfo(
                 path=path,
                 width=int(stream.codec_context.width),
@@ -119,7 +122,7 @@ def iter_video(path: str | Path) -> Iterator[tuple[float, np.ndarray]]:
     path = _existing_file(path)
     sidecar = None
     if video_sidecar(path).is_file():
-        sidecar = video_sidecar_times(path, _count_frames(path))
+        sidecar = video_sidecar_times(path, count_frames(path))
     try:
         container = av.open(str(path))
     except av.FFmpegError as exc:
@@ -128,6 +131,7 @@ def iter_video(path: str | Path) -> Iterator[tuple[float, np.ndarray]]:
         if not container.streams.video:
             raise VideoError(f"{path} holds no video stream; give a GelSight video file")
         stream = container.streams.video[0]
+        _check_stream_size(path, stream)
         stream.thread_type = "AUTO"
         rate = float(stream.average_rate or stream.guessed_rate or 30.0)
         time_base = float(stream.time_base) if stream.time_base else 1.0 / rate
@@ -162,7 +166,14 @@ def iter_video(path: str | Path) -> Iterator[tuple[float, np.ndarray]]:
         _check_complete(path, count, previous, declared_frames, declared_s)
 
 
-def _count_frames(path: Path) -> int:
+def _check_stream_size(path: Path, stream) -> None:
+    """Refuse a video stream whose declared frame size is no sensor's, before decoding."""
+    width, height = int(stream.codec_context.width), int(stream.codec_context.height)
+    if width or height:  # 0 x 0: the container does not say; the decoder will
+        check_frame_size(width, height, f"video {path}", VideoError)
+
+
+def count_frames(path: str | Path) -> int:
     """How many frames the video stream of ``path`` holds (its packets; nothing decoded)."""
     import av
 
@@ -225,6 +236,7 @@ def iter_image_folder(
     times = folder_times(folder, len(files), fps)
     shape = None
     for file, t_s in zip(files, times, strict=True):
+        check_image_file(file, VideoError)  # before decoding: a header may claim gigapixels
         image = cv2.imread(str(file), cv2.IMREAD_GRAYSCALE)
         if image is None:
             raise VideoError(f"cannot read image {file}; is it a PNG/JPEG/BMP/TIFF image?")

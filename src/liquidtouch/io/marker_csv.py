@@ -26,7 +26,7 @@ from liquidtouch._core.checks import (
     MAX_ABS_POSITION_PX,
     MAX_RATE_HZ,
     check_magnitude,
-    check_time_steps,
+    check_times,
 )
 from liquidtouch.errors import TableError
 from liquidtouch.io.signal_csv import check_csv_bounds, shorten
@@ -245,14 +245,7 @@ def _frame_times(
                 f"{where}: the rows of frame {frames[k]} have different t_s ({low[k]:g} to "
                 f"{high[k]:g} s); every row of a frame needs the frame's time"
             )
-        steps = np.diff(low)
-        if (steps <= 0).any():
-            k = int(np.argmax(steps <= 0))
-            raise TableError(
-                f"{where}: t_s must increase with the frame number, but frame {frames[k + 1]} "
-                f"({low[k + 1]:g} s) is not after frame {frames[k]} ({low[k]:g} s)"
-            )
-        check_time_steps(low, f"{where}: column t_s")
+        check_times(low, f"{where}: column t_s (by frame number)", TableError, min_count=1)
         return low - low[0]
     if fps is None:
         raise TableError(

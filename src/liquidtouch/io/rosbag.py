@@ -21,8 +21,12 @@ from pathlib import Path
 import numpy as np
 
 from liquidtouch._core import atomic
+from liquidtouch._core.checks import check_times
 from liquidtouch.errors import DatasetError
 from liquidtouch.io.frame_times import TIMESTAMPS_NAME
+from liquidtouch.io.image_size import check_frame_size, check_image_bytes
+from liquidtouch.tracking.clock import fit_frame_period
+from liquidtouch.tracking.tracks import MAX_FRAMES, check_frame_count
 
 ROS_HINT = "pip install 'liquidtouch[ros]'"
 IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
@@ -190,11 +194,15 @@ class _TopicWriter:
 
     def add(self, msg: object, stamp_ns: int, cv2: object) -> None:
         index = self.count
-        if self.stamps and stamp_ns <= self.stamps[-1]:
-            raise DatasetError(
-                f"topic {self.topic}: message {index} has stamp {stamp_ns} ns, not after the "
-                f"previous {self.stamps[-1]} ns; the header stamps must increase (unset or "
-                "duplicated stamps: use `time_source` bag, the recording time)"
+        if index >= MAX_FRAMES:  # what extract tracks per sensor, before writing more
+            check_frame_count(index + 1, f"topic {self.topic}", DatasetError)
+        if self.stamps:  # from the first stamp: seconds since 1970 would keep only 0.2 µs
+            check_times(
+                (np.array([self.stamps[-1], stamp_ns], dtype=np.int64) - self.stamps[0]) / 1e9,
+                f"topic {self.topic}: the message stamps (unset or duplicated header stamps: use "
+                "`time_source` bag, the recording time)",
+                DatasetError,
+                first=index - 1,
             )
         if self.msgtype.endswith("/CompressedImage"):
             data, suffix, shape = _compressed(msg, self.topic, index, cv2)
@@ -217,10 +225,7 @@ class _TopicWriter:
 
     def finish(self, origin_ns: int, time_source: str) -> BagTopic:
 
-        if self.count < 2:
-            raise DatasetError(
-                f"topic {self.topic} holds {self.count} image(s); a recording needs many frames"
-            )
+        check_frame_count(self.count, f"topic {self.topic}", DatasetError)
         if time_source == "header" and self.stamps[0] == 0:
             raise DatasetError(
                 f"topic {self.topic}: the header stamps are unset (0); use `time_source` bag"
@@ -228,8 +233,8 @@ class _TopicWriter:
         lines = ["t_s,stamp_ns"]
         lines += [f"{(s - origin_ns) / 1e9:.9f},{s}" for s in self.stamps]
         atomic.write_text(self.folder / TIMESTAMPS_NAME, "\n".join(lines) + "\n")
-        step_s = float(np.median(np.diff(self.stamps))) / 1e9
-        return BagTopic(self.topic, self.folder.name, self.count, 1.0 / step_s, self.msgtype)
+        fps = fit_frame_period((np.asarray(self.stamps) - self.stamps[0]) / 1e9).fps
+        return BagTopic(self.topic, self.folder.name, self.count, fps, self.msgtype)
 
 
 _CHANNELS = {
@@ -257,7 +262,8 @@ def _raw_image(msg: object, topic: str, index: int, cv2: object) -> np.ndarray:
             f"{where} has encoding {msg.encoding!r}; liquidtouch reads 8-bit images "  # type: ignore[attr-defined]
             f"({', '.join([*_CHANNELS, *_YUV])}); convert the topic first"
         )
-    if height < 1 or width < 1 or step < width * channels or data.size < height * step:
+    check_frame_size(width, height, where, DatasetError)
+    if step < width * channels or data.size < height * step:
         raise DatasetError(
             f"{where}: {data.size} bytes do not hold a {width}x{height} {encoding} image "
             f"(step {step})"
@@ -288,6 +294,7 @@ def _compressed(
         raise DatasetError(
             f"topic {topic}: message {index} (format {msg.format!r}) is neither JPEG nor PNG"  # type: ignore[attr-defined]
         )
+    check_image_bytes(raw, f"topic {topic}: message {index}", DatasetError)  # before decoding
     image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)  # type: ignore[attr-defined]
     if image is None or image.dtype != np.uint8:
         raise DatasetError(

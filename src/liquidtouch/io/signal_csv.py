@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from liquidtouch._core import atomic
-from liquidtouch._core.checks import MAX_ABS_SIGNAL, check_magnitude, check_time_steps
+from liquidtouch._core.checks import MAX_ABS_SIGNAL, check_magnitude, check_times
 from liquidtouch.errors import TableError
 
 __all__ = [
@@ -157,7 +157,8 @@ def read_signal_csv(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarra
     t, u = columns
     check_magnitude(u, f"{where}: column 'u'", MAX_ABS_SIGNAL, "(any unit)")
     order = np.sort(t)
-    check_time_steps(order[np.r_[True, np.diff(order) != 0]], f"{where}: column 't'")
+    distinct = order[np.r_[True, np.diff(order) != 0]]  # order and duplicates: the fit says
+    check_times(distinct, f"{where}: column 't'", TableError, min_count=1)
     return t, u
 
 

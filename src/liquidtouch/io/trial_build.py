@@ -24,13 +24,14 @@ from liquidtouch._core.progress import progress_bar
 from liquidtouch.errors import DatasetError
 from liquidtouch.io.dataset import FEATURES_NAME, MANIFEST_NAME, META_NAME, trial_path
 from liquidtouch.io.frame_times import TIMESTAMPS_NAME, read_folder_timestamps
-from liquidtouch.io.frames import IMAGE_SUFFIXES, image_files, video_info
+from liquidtouch.io.frames import IMAGE_SUFFIXES, count_frames, image_files, video_info
+from liquidtouch.io.image_size import check_image_file
 from liquidtouch.io.labels import MAX_NAME
 from liquidtouch.io.marker_csv import read_marker_csv
 from liquidtouch.io.rosbag import import_bag
 from liquidtouch.io.trial_tracks import TRACKS_NAME
-from liquidtouch.tracking.clock import check_consistent
-from liquidtouch.tracking.tracks import MAX_FRAMES, save_tracks
+from liquidtouch.tracking.clock import check_consistent, fit_frame_period
+from liquidtouch.tracking.tracks import check_frame_count, save_tracks
 
 TRIAL_PREFIX = "trial-"
 RESERVED_NAMES = (MANIFEST_NAME, FEATURES_NAME, META_NAME)
@@ -113,7 +114,6 @@ class _Source:
 
 
 def _inspect_source(path: Path) -> _Source:
-    import numpy as np
 
     if not path.exists():
         raise DatasetError(f"{path} does not exist; give video files or image folders")
@@ -126,49 +126,29 @@ def _inspect_source(path: Path) -> _Source:
         check_image_frames(path, files)
         stamps = read_folder_timestamps(path, len(files))
         fps = None
-        if stamps is not None and len(stamps) > 1:
-            fps = 1.0 / float(np.median(np.diff(stamps)))
+        if stamps is not None and len(stamps) > 1:  # the rate extract fits (bursts too)
+            fps = fit_frame_period(stamps).fps
         return _Source(path, True, fps, files, (path / TIMESTAMPS_NAME).is_file())
     if path.suffix.lower() in IMAGE_SUFFIXES:
         raise DatasetError(
             f"{path} is one image; give the folder of a sensor's images (or its video)"
         )
     info = video_info(path)
-    declared = info.frames
-    if declared > MAX_FRAMES:
-        raise DatasetError(
-            f"{path} holds {declared} frames, more than the {MAX_FRAMES} tracked per sensor "
-            "(a trial is the push and ~15 s of ring-down); cut it to the trial first"
-        )
+    # the container's count, else its packets (nothing decoded): what extract will track
+    check_frame_count(info.frames or count_frames(path), f"video {path}", DatasetError)
     return _Source(path, False, info.fps if info.fps > 0 else None)
-
-
-PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
 def check_image_frames(folder: Path, files: Sequence[Path]) -> None:
     """The checks ``extract`` would make on reading a sensor's image folder, made cheaply
-    up front: at most :data:`MAX_FRAMES` images, none empty, and PNGs (read from their
-    header) of one size. :class:`DatasetError` names the first offender."""
-    if len(files) > MAX_FRAMES:
-        raise DatasetError(
-            f"{folder} holds {len(files)} images, more than the {MAX_FRAMES} frames tracked "
-            "per sensor (a trial is the push and ~15 s of ring-down); give the trial's frames"
-        )
+    up front: its count of images (:func:`~liquidtouch.tracking.tracks.check_frame_count`),
+    each declaring (in its header) a size
+    within :data:`~liquidtouch.io.image_size.MAX_FRAME_PIXELS`, all of one size.
+    :class:`DatasetError` names the first offender."""
+    check_frame_count(len(files), f"image folder {folder}", DatasetError)
     size = None
     for file in files:
-        try:
-            with open(file, "rb") as handle:
-                head = handle.read(24)
-        except OSError as exc:
-            raise DatasetError(f"cannot read image {file}: {exc.strerror or exc}") from None
-        if not head:
-            raise DatasetError(f"image {file} is empty (0 bytes); every frame must be an image")
-        if file.suffix.lower() != ".png":
-            continue
-        if len(head) < 24 or not head.startswith(PNG_SIGNATURE) or head[12:16] != b"IHDR":
-            raise DatasetError(f"image {file} is not a PNG image (no PNG header)")
-        dims = (int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big"))
+        dims = check_image_file(file, DatasetError)
         if size is None:
             size, first = dims, file
         elif dims != size:
@@ -311,14 +291,15 @@ def build_from_markers(
 ) -> BuiltTrial:
     """Read GelSight marker CSVs (one per sensor) and store them as ``tmp/tracks.npz``.
 
-    ``fps`` [Hz] times files without a ``t_s`` column; default: the tracks' median rate.
+    ``fps`` [Hz] times files without a ``t_s`` column; default: the rate fitted to the tracks.
     """
-    import numpy as np
 
     names = names or check_sensor_names([_stem(p) for p in paths])
     tracks = [read_marker_csv(p, fps=fps, sensor=n) for p, n in zip(paths, names, strict=True)]
+    for tr in tracks:
+        check_frame_count(len(tr.t), f"marker CSV of sensor {tr.sensor}", DatasetError)
     check_consistent(tracks)
-    rate = fps if fps is not None else 1.0 / float(np.median(np.diff(tracks[0].t)))
+    rate = fps if fps is not None else fit_frame_period(tracks[0].t).fps
     save_tracks(tmp / TRACKS_NAME, tracks)
     source = {"inputs": [p.name for p in paths]}
     return BuiltTrial([], names, rate, TRACKS_NAME, source)

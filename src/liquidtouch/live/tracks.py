@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from liquidtouch._core.checks import check_times
 from liquidtouch.errors import VideoError
 from liquidtouch.tracking.detect import as_grey
 from liquidtouch.tracking.track import MarkerTracker
@@ -52,11 +53,9 @@ class GrowingTracks:
         self.given_reference: np.ndarray | None = None  # positions given, not tracked
 
     def _check_time(self, t_s: float) -> None:
-        if not np.isfinite(t_s) or (self.n and t_s <= self.t[self.n - 1]):
-            raise VideoError(
-                f"{self.sensor}: frame {self.total} has timestamp {t_s:.6g} s; timestamps must "
-                "be finite and increase strictly"
-            )
+        pair = [self.t[self.n - 1], t_s] if self.n else [t_s]
+        first = self.total + 1 - len(pair)
+        check_times(pair, f"{self.sensor}: frame timestamps", VideoError, min_count=1, first=first)
 
     def add(self, t_s: float, image: np.ndarray) -> np.ndarray:
         """Track the markers into the frame at ``t_s`` [s]; return their positions (N, 2) [px].

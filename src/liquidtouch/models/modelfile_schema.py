@@ -32,6 +32,14 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from liquidtouch.io.tables import FEATURE_COLUMNS
+from liquidtouch.models.classifier import C_BOUNDS, GAMMA_BOUNDS
+from liquidtouch.models.regressors import (
+    CONSTANT_BOUNDS,
+    LENGTH_SCALE_BOUNDS,
+    MAX_NOISE_LEVEL,
+    MAX_RESTARTS,
+    MIN_NOISE_LEVEL,
+)
 
 FORMAT_NAME = "liquidtouch-model"
 #: Version 2 adds ``sha256``, ``provenance`` and ``domain``; version 3 ``calibration``
@@ -62,10 +70,24 @@ class _TrainingData(_Strict):
             )
 
 
+#: relative rounding of a bound that went through log and exp (a few ulp; 1e-12 is plenty)
+_LOG_ROUNDING = 1e-12
+
+
+def _within(bounds: tuple[float, float]) -> Any:
+    """A float within ``bounds`` as a fit that searches them in logarithms returns them
+    (``exp(log(100))`` is ``100.00000000000004``)."""
+    return Field(ge=bounds[0] * (1 - _LOG_ROUNDING), le=bounds[1] * (1 + _LOG_ROUNDING))
+
+
 class KernelState(_Strict):
-    constant: PositiveFloat
-    length_scale: list[PositiveFloat] = Field(min_length=2, max_length=3)
-    noise_level: PositiveFloat
+    """A GP's fitted kernel: within the bounds its fit searches (``models.regressors``)."""
+
+    constant: float = _within(CONSTANT_BOUNDS)
+    length_scale: list[Annotated[float, _within(LENGTH_SCALE_BOUNDS)]] = Field(
+        min_length=2, max_length=3
+    )
+    noise_level: float = _within((MIN_NOISE_LEVEL, MAX_NOISE_LEVEL))
 
 
 class PriorState(_Strict):
@@ -76,7 +98,7 @@ class PriorState(_Strict):
 
 class GPRState(_TrainingData):
     model: Literal["gpr", "physics-gpr"]
-    n_restarts: int = Field(ge=0)
+    n_restarts: int = Field(ge=0, le=MAX_RESTARTS)
     random_state: int
     kernel: KernelState
     prior: PriorState | None
@@ -138,8 +160,8 @@ class UnknownRuleState(_Strict):
 
 class SVMState(_TrainingData):
     model: Literal["svm"]
-    C: PositiveFloat
-    gamma: PositiveFloat
+    C: float = Field(ge=C_BOUNDS[0], le=C_BOUNDS[1])  # what the refit costs grows with both
+    gamma: float = Field(ge=GAMMA_BOUNDS[0], le=GAMMA_BOUNDS[1])
     labels_train: list[str]
     unknown: UnknownRuleState | None = None
 

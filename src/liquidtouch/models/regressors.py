@@ -71,6 +71,11 @@ LENGTH_SCALE_BOUNDS = (0.3, 100.0)
 GP_JITTER = 1e-10
 #: bounds of the white-noise level (standardised target variance)
 MIN_NOISE_LEVEL, MAX_NOISE_LEVEL = 1e-5, 1.0
+#: bounds of the kernel's constant (standardised target variance)
+CONSTANT_BOUNDS = (1e-2, 1e2)
+#: most optimiser restarts of a GP fit (each costs a fit; 5 by default): a model file's
+#: count is refused beyond it (a refit that may take minutes)
+MAX_RESTARTS = 50
 #: Rows predicted at once by a GP (bounds the (rows × training rows) cross-kernel matrix).
 PREDICT_CHUNK_ROWS = 2048
 
@@ -119,6 +124,8 @@ class GPRegressor(RegressorMixin, BaseEstimator):
     def _check_params(self) -> None:
         """Validate the hyperparameters (at fit time, as scikit-learn wants)."""
         check_int(self.n_restarts, "n_restarts", 0)
+        if self.n_restarts > MAX_RESTARTS:
+            raise TableError(f"n_restarts must be at most {MAX_RESTARTS}; got {self.n_restarts}")
         _check_random_state(self.random_state)
 
     def _check_input(self, X: np.ndarray) -> None:
@@ -151,7 +158,7 @@ class GPRegressor(RegressorMixin, BaseEstimator):
         from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
         bounds = "fixed" if fixed else None
-        return ConstantKernel(constant, bounds or (1e-2, 1e2)) * RBF(
+        return ConstantKernel(constant, bounds or CONSTANT_BOUNDS) * RBF(
             length_scale, bounds or LENGTH_SCALE_BOUNDS
         ) + WhiteKernel(noise_level, bounds or (min_noise, MAX_NOISE_LEVEL))
 

@@ -43,11 +43,12 @@ def content_type(boundary: str = BOUNDARY) -> str:
     return f"{MULTIPART_TYPE}; boundary={boundary}"
 
 
-def part_head(length: int, t_s: float, boundary: str = BOUNDARY) -> bytes:
-    """The boundary line and headers of a JPEG part of ``length`` bytes captured at ``t_s``."""
+def part_head(length: int, t_s: float | None, boundary: str = BOUNDARY) -> bytes:
+    """The boundary line and headers of a JPEG part of ``length`` bytes captured at ``t_s``
+    (``None``: no timestamp header, as a sender without a clock of its own)."""
+    stamp = "" if t_s is None else f"{TIMESTAMP_HEADER}: {t_s:.6f}\r\n"
     return (
-        f"--{boundary}\r\nContent-Type: {JPEG_TYPE}\r\n"
-        f"{LENGTH_HEADER}: {length}\r\n{TIMESTAMP_HEADER}: {t_s:.6f}\r\n\r\n"
+        f"--{boundary}\r\nContent-Type: {JPEG_TYPE}\r\n{LENGTH_HEADER}: {length}\r\n{stamp}\r\n"
     ).encode("ascii")
 
 

@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -52,7 +52,7 @@ from liquidtouch.signal.lowpass import (
     max_bridged_gap_s,
     observed_samples,
 )
-from liquidtouch.tracking.clock import uniform_clock
+from liquidtouch.tracking.clock import frame_period, frame_times
 from liquidtouch.tracking.tracks import MarkerTracks
 
 __all__ = [
@@ -128,6 +128,20 @@ def common_span(tracks: Sequence[MarkerTracks]) -> tuple[int, float, float]:
     return int(np.argmax(starts)), begin, end
 
 
+def _covered_clock(t: np.ndarray, step: float, n_clock: int, max_gap_s: float) -> np.ndarray:
+    """The samples ``j * step`` [s], ``0 <= j < n_clock``, of a uniform clock that frames at
+    ``t`` [s] (from 0, increasing) cover: all but those inside a stretch without frames
+    longer than ``max_gap_s`` [s]. Its size is bounded by the frames, not by the time
+    they span (an hour's stall costs nothing)."""
+    cut = np.flatnonzero(np.diff(t) > max_gap_s)
+    starts, ends = t[np.r_[0, cut + 1]], t[np.r_[cut, t.size - 1]]
+    low = np.clip(np.ceil(starts / step - 1e-6), 0, n_clock).astype(np.int64)
+    high = np.clip(np.floor(ends / step + 1e-6), -1, n_clock - 1).astype(np.int64)
+    counts = np.maximum(high - low + 1, 0)
+    offsets = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    return (np.repeat(low, counts) + offsets) * step
+
+
 def resample_displacement(
     tracks: MarkerTracks,
     t_clock: np.ndarray,
@@ -138,11 +152,13 @@ def resample_displacement(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Displacement (T, N, 2) [px] on the clock ``t_clock`` and which markers are usable (N,).
 
-    ``t_clock`` [s] is uniform at ``fps`` [Hz], on the sensor's own clock from its first
-    frame (``tracks.t - tracks.t[0]``). With a low-pass, it is the low-pass of the frames
-    that came, at their own times (:func:`~liquidtouch.signal.lowpass.lowpass_frames`:
-    nothing is interpolated first); without one, the motion is read linearly between
-    consecutive frames. Samples in a gap get values too: the caller leaves them out
+    ``t_clock`` [s] lies on a uniform lattice at ``fps`` [Hz] (it may skip samples: a
+    stall), on the sensor's own clock from its first frame (``tracks.t - tracks.t[0]``).
+    With a low-pass, it is the low-pass of the frames that came, at their own times
+    (:func:`~liquidtouch.signal.lowpass.lowpass_frames`: nothing is interpolated first);
+    without one, the motion is read linearly between consecutive frames. Samples in a
+    gap get values too, or NaN where the low-pass has no estimate (a stall that splits
+    the frames): the caller leaves them out
     (:func:`~liquidtouch.signal.lowpass.observed_samples`). A marker lost in some frames
     is read from the frames where it was found. Unusable markers (too often or too long
     lost, cut by the border) get zeros.
@@ -237,12 +253,15 @@ def tactile_signal(
     SignalError
         Bad timestamps, a knob out of range, too few frames, or no motion at all.
     """
-    tracks = _check_tracks(tracks)
+    tracks = [_on_the_lattice(tr) for tr in _check_tracks(tracks)]
     check_signal_options(lowpass_hz, n_markers, max_lost_fraction, max_gap_s)
     reference, begin_s, end_s = common_span(tracks)
-    t_ref = tracks[reference].t
-    t_uniform, fps = uniform_clock(t_ref, end_s=float(t_ref[0]) + (end_s - begin_s))
+    t_ref = tracks[reference].t - tracks[reference].t[0]
+    step = frame_period(t_ref)
+    fps = 1.0 / step
+    n_clock = int(np.floor((end_s - begin_s) / step + 1e-6)) + 1  # the uniform clock's samples
     bridged_s = max_bridged_gap_s(lowpass_hz, fps)
+    t_uniform = _covered_clock(t_ref, step, n_clock, bridged_s)
     locals_s = [t_uniform + (begin_s - float(tr.start_s)) for tr in tracks]  # own clocks
     observed = np.ones(t_uniform.size, bool)
     for tr, local in zip(tracks, locals_s, strict=True):
@@ -265,6 +284,12 @@ def tactile_signal(
             f"only {motion.shape[1]} markers were tracked well enough (lost in at most "
             f"{max_lost_fraction:.0%} of frames); at least {MIN_SELECTED} are needed"
         )
+    observed &= np.isfinite(motion).all(axis=(1, 2))  # the low-pass's pieces too short to filter
+    if observed.sum() < 2:
+        raise SignalError(
+            "almost no sample of the recording is observed: its stretches between long "
+            "gaps are too short to filter; record without stalls"
+        )
     motion = motion[observed]
     score = np.sqrt(motion.var(axis=0).sum(axis=1))
     chosen = np.argsort(-score, kind="stable")[:n_markers]
@@ -279,8 +304,17 @@ def tactile_signal(
         fps=fps,
         motion=chosen_motion,
         lowpass_hz=lowpass_hz,
-        gap_share=float(1.0 - observed.mean()),
+        gap_share=float(1.0 - observed.sum() / n_clock),
     )
+
+
+def _on_the_lattice(tracks: MarkerTracks) -> MarkerTracks:
+    """``tracks`` timed as the signal reads them (:func:`~liquidtouch.tracking.clock.frame_times`:
+    stamps taken on delivery moved onto the camera's lattice), on the same shared clock."""
+    t = frame_times(tracks.t)
+    if t is tracks.t:
+        return tracks
+    return replace(tracks, t=t, start_s=float(tracks.start_s) + float(t[0] - tracks.t[0]))
 
 
 def check_signal_options(

@@ -38,8 +38,9 @@ from typing import Any
 import numpy as np
 
 from liquidtouch._core import atomic
+from liquidtouch._core.checks import check_times
 from liquidtouch._core.numbers import percent
-from liquidtouch.errors import MarkerError, OutputError, VideoError
+from liquidtouch.errors import LiquidTouchError, MarkerError, OutputError, VideoError
 from liquidtouch.tracking.detect import (
     as_grey,
 )
@@ -56,10 +57,32 @@ MAX_ALL_LOST_FRACTION = 0.1
 #: Frames tracked per sensor at most: 20 min at 30 fps. A trial is a push and ~13 s of
 #: ring-down; the tracks of a longer recording (frames × markers × 16 bytes) only cost memory.
 MAX_FRAMES = 36_000
+#: fewest frames of a sensor: a time axis needs two (``_core.checks.check_times``)
+MIN_FRAMES = 2
+
+
+def check_frame_count(n: int, what: str, error: type[LiquidTouchError] = VideoError) -> None:
+    """Refuse (``error``) a sensor of fewer than :data:`MIN_FRAMES` or more than
+    :data:`MAX_FRAMES` frames: what tracking takes, checked by ``extract`` as it reads the
+    frames and by ``dataset add`` before it stores them."""
+    if n > MAX_FRAMES:
+        raise error(
+            f"{what} holds {n} frames, more than the {MAX_FRAMES} tracked per sensor (a "
+            "trial is the push and its ~15 s ring-down); trim the recording to that"
+        )
+    if n < MIN_FRAMES:
+        raise error(
+            f"{what} holds {n} frame(s); a sensor's recording needs at least {MIN_FRAMES} "
+            "(a push and its ring-down: ~15 s)"
+        )
+
 
 __all__ = [
     "MAX_ALL_LOST_FRACTION",
+    "MAX_FRAMES",
+    "MIN_FRAMES",
     "MarkerTracks",
+    "check_frame_count",
     "load_tracks",
     "save_tracks",
     "save_tracks_csv",
@@ -178,10 +201,7 @@ def track_markers(
     first = None
     for k, item in enumerate(frames):
         if k >= MAX_FRAMES:
-            raise VideoError(
-                f"{sensor}: more than {MAX_FRAMES} frames; a trial is the push and its "
-                "ring-down (~15 s): trim the recording to that"
-            )
+            check_frame_count(k + 1, sensor)
         t_s, image = _frame(item, k, sensor, times[-1] if times else None)
         if k == 0:
             first = as_grey(image)
@@ -196,8 +216,7 @@ def track_markers(
         times.append(t_s)
         if on_frame is not None:
             on_frame(k)
-    if not rows:
-        raise VideoError(f"{sensor}: no frames to track")
+    check_frame_count(len(rows), sensor)
     positions = np.stack(rows)
     valid = np.isfinite(positions).all(axis=2)
     none_valid = ~valid.any(axis=1)
@@ -228,12 +247,9 @@ def _frame(item: object, k: int, sensor: str, previous: float | None) -> tuple[f
             f"{sensor}: frame {k} is not a (timestamp [s], image) pair; "
             "iterate liquidtouch.io.frames.iter_frames(source)"
         ) from None
-    if not np.isfinite(t_s) or (previous is not None and t_s <= previous):
-        after = "" if previous is None else f" after {previous:.6g} s"
-        raise VideoError(
-            f"{sensor}: frame {k} has timestamp {t_s:.6g} s{after}; timestamps must be finite "
-            "and increase strictly (drop duplicate or out-of-order frames)"
-        )
+    pair = [t_s] if previous is None else [previous, t_s]
+    first = k + 1 - len(pair)
+    check_times(pair, f"{sensor}: frame timestamps", VideoError, min_count=1, first=first)
     return t_s, image
 
 

@@ -36,9 +36,10 @@ up to 25 fps; 1/7 of each border is cropped and the rest resized to 320 × 240, 
 the GelSight SDK does), ``r15`` (640 × 480 at 30 fps), ``digit`` (320 × 240 at
 60 fps) and ``raw`` (frames as the camera gives them).
 
-**Nothing is hidden.** :class:`FrameStats` counts dropped frames (a gap between
-consecutive timestamps of more than 1.5 measured frame periods; a gap of g periods
-counts round(g) − 1 drops) and duplicated frames (a frame identical to the one before,
+**Nothing is hidden.** :class:`FrameStats` counts dropped frames (slots of the camera's
+frame lattice without a frame, on the period fitted to every timestamp as ``extract``
+fits it, :func:`~liquidtouch.tracking.clock.fit_frame_period`: frames delivered in
+bursts are not drops) and duplicated frames (a frame identical to the one before,
 which a sensor with noise never produces; a driver repeating its buffer does).
 Duplicates are kept in the recording and counted.
 
@@ -77,7 +78,6 @@ from liquidtouch.acquire.cameras.capture import (
 )
 from liquidtouch.acquire.cameras.devices import (
     DEFAULT_WARMUP_FRAMES,
-    DROP_GAP_PERIODS,
     MAX_TIMEOUT_S,
     MIN_FRAME_STEP_S,
     Camera,
@@ -101,7 +101,6 @@ from liquidtouch.acquire.cameras.sources import (
 
 __all__ = [
     "DEFAULT_WARMUP_FRAMES",
-    "DROP_GAP_PERIODS",
     "END",
     "MAX_TIMEOUT_S",
     "MIN_FRAME_STEP_S",

@@ -16,18 +16,19 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from liquidtouch.acquire.cameras.devices import (
-    DROP_GAP_PERIODS,
     MIN_FRAME_STEP_S,
     Camera,
     StreamEnded,
 )
 from liquidtouch.acquire.deadlines import DEFAULT_READ_TIMEOUT_S, DEFAULT_WARMUP_TIMEOUT_S
 from liquidtouch.errors import DeviceError
+from liquidtouch.tracking.clock import PeriodFit, fit_frame_period
 
 logger = logging.getLogger(__name__)
 
-MIN_MEASURED_GAPS = 10
-"""Frame intervals needed before drops are counted against the measured period."""
+MIN_MEASURED_GAPS = 2
+"""Frame intervals needed before the period is fitted (a median of two: one may be a drop);
+the nominal rate stands in before."""
 
 # --- statistics -------------------------------------------------------------------------
 
@@ -36,10 +37,12 @@ MIN_MEASURED_GAPS = 10
 class FrameStats:
     """Frame count, timing, drops and duplicates of one camera's frames so far.
 
-    Drops are counted against the measured frame period, the median interval of
-    the frames so far (a GelSight Mini that gives 15 fps in a 25 fps mode drops
-    nothing); ``nominal_fps`` [Hz] stands in until :data:`MIN_MEASURED_GAPS`
-    intervals have been seen.
+    The frame rate and the drops are those of the frame period fitted to every
+    timestamp so far (:func:`~liquidtouch.tracking.clock.fit_frame_period`, what
+    ``extract`` fits: drops on the camera's lattice are counted, frames delivered in
+    bursts are not drops; a GelSight Mini that gives 15 fps in a 25 fps mode drops
+    nothing); ``nominal_fps`` [Hz] stands in until :data:`MIN_MEASURED_GAPS` intervals
+    have been seen.
     """
 
     nominal_fps: float | None = None
@@ -47,51 +50,48 @@ class FrameStats:
     duplicates: int = 0
     first_t_s: float | None = None
     last_t_s: float | None = None
-    _gaps: list[float] = field(default_factory=list, repr=False)
+    _times: list[float] = field(default_factory=list, repr=False)
     _previous: np.ndarray | None = field(default=None, repr=False)
 
     def add(self, t_s: float, frame: np.ndarray) -> bool:
         """Count a frame; return whether it duplicates the previous frame."""
         duplicate = self._previous is not None and np.array_equal(self._previous, frame)
         self.duplicates += int(duplicate)
-        if self.last_t_s is not None:
-            self._gaps.append(t_s - self.last_t_s)
         if self.first_t_s is None:
             self.first_t_s = t_s
         self.last_t_s = t_s
+        self._times.append(t_s)
         self.frames += 1
         self._previous = frame
         return duplicate
 
-    @property
-    def period_s(self) -> float | None:
-        """The frame period [s]: the median interval so far (1 / nominal fps before
-        :data:`MIN_MEASURED_GAPS` intervals, or the median of fewer without it)."""
-        if len(self._gaps) >= MIN_MEASURED_GAPS or (self._gaps and not self.nominal_fps):
-            median = float(np.median(self._gaps))
-            if median > 0:
-                return median
-        if self.nominal_fps:
-            return 1.0 / self.nominal_fps
+    def _fit(self) -> PeriodFit | None:
+        """The period fitted to the frames so far (``None`` before enough of them)."""
+        if len(self._times) > MIN_MEASURED_GAPS or (len(self._times) > 1 and not self.nominal_fps):
+            return fit_frame_period(np.asarray(self._times))
         return None
 
     @property
+    def period_s(self) -> float | None:
+        """The frame period [s] fitted so far (1 / nominal fps before
+        :data:`MIN_MEASURED_GAPS` intervals, or the fit of fewer without it)."""
+        fit = self._fit()
+        if fit is not None:
+            return fit.period_s
+        return 1.0 / self.nominal_fps if self.nominal_fps else None
+
+    @property
     def drops(self) -> int:
-        """Frames missing from gaps over 1.5 frame periods (a gap of g periods: round(g) − 1)."""
-        period = self.period_s
-        if not period or not self._gaps:
-            return 0
-        gaps = np.asarray(self._gaps) / period
-        long = gaps[gaps > DROP_GAP_PERIODS]
-        return int(np.sum(np.maximum(np.rint(long) - 1, 1)))
+        """Frames missing between the first and the last, on the fitted lattice."""
+        fit = self._fit()
+        return fit.dropped if fit is not None else 0
 
     @property
     def measured_fps(self) -> float | None:
-        """(frames − 1) / (last − first timestamp) [Hz]; ``None`` before two frames."""
-        if self.frames < 2 or self.last_t_s is None or self.first_t_s is None:
-            return None
-        span = self.last_t_s - self.first_t_s
-        return (self.frames - 1) / span if span > 0 else None
+        """The frame rate [Hz] fitted to the timestamps (what ``extract`` fits); ``None``
+        before two frames."""
+        fit = fit_frame_period(np.asarray(self._times)) if self.frames > 1 else None
+        return fit.fps if fit is not None else None
 
 
 # --- threads ----------------------------------------------------------------------------

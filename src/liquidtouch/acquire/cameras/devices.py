@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from liquidtouch._core.checks import MIN_TIME_STEP_S
 from liquidtouch.acquire.cameras.profiles import CameraProfile
 from liquidtouch.acquire.deadlines import (
     DEFAULT_OPEN_TIMEOUT_S,
@@ -23,18 +24,18 @@ from liquidtouch.acquire.deadlines import (
     DEFAULT_WARMUP_TIMEOUT_S,
 )
 from liquidtouch.errors import DeviceError
+from liquidtouch.io.image_size import check_frame_size
 
 logger = logging.getLogger(__name__)
 
 DEFAULT_WARMUP_FRAMES = 10
 """Frames read and thrown away after opening a live camera (auto-exposure, stale buffers)."""
-DROP_GAP_PERIODS = 1.5
-"""A timestamp gap of more than this many frame periods means dropped frames."""
 MAX_TIMEOUT_S = 600.0
 """Largest open, read or warm-up timeout accepted [s]."""
-MIN_FRAME_STEP_S = 1e-6
-"""Consecutive frames of one camera must be at least this far apart [s] (the timestamp
-files' resolution): a frame whose clock steps back or stands still is re-anchored."""
+MIN_FRAME_STEP_S = MIN_TIME_STEP_S
+"""Consecutive frames of one camera must be at least this far apart [s] (what every
+reader of frame times takes, ``_core.checks``): a frame whose clock steps back or stands
+still is re-anchored."""
 
 
 def check_timeout(value: float, what: str) -> float:
@@ -87,6 +88,10 @@ class Camera:
         """The next frame; :class:`DeviceError` when none comes within ``timeout_s`` seconds,
         :class:`StreamEnded` at the end of a finite source."""
         t_s, frame = self._read(timeout_s)
+        height, width = frame.shape[:2]  # decoded by now (MJPEG parts are checked before)
+        check_frame_size(
+            width, height, f"camera {self.source}: a frame", DeviceError, self.profile.max_pixels
+        )
         return t_s, self.profile.apply(frame)
 
     def _read(self, timeout_s: float) -> tuple[float, np.ndarray]:

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import base64
 import http.client
+import io
 import logging
 import math
 import socket
@@ -52,6 +53,7 @@ from liquidtouch.acquire.cameras.devices import Camera, StreamEnded
 from liquidtouch.acquire.cameras.profiles import CameraProfile
 from liquidtouch.acquire.deadlines import DEFAULT_OPEN_TIMEOUT_S, DEFAULT_READ_TIMEOUT_S
 from liquidtouch.errors import DeviceError
+from liquidtouch.io.image_size import check_frame_size, declared_size
 from liquidtouch.protocols import mjpeg
 
 __all__ = ["OFFSET_WINDOW_S", "MjpegCamera", "MjpegStream", "SenderClock"]
@@ -381,6 +383,10 @@ class MjpegCamera(Camera):
                         f"stream {self.source}: no decodable JPEG within {timeout_s:g} s"
                     )
                 arrival, headers, body = self._stream.read_part(remaining)
+                size = declared_size(io.BytesIO(body))  # before decoding: it may claim GBs
+                if size is not None:
+                    what = f"stream {self.source}: a frame"
+                    check_frame_size(*size, what, DeviceError, self.profile.max_pixels)
                 image = cv2.imdecode(np.frombuffer(body, np.uint8), cv2.IMREAD_UNCHANGED)
                 if image is not None:
                     break

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from liquidtouch.errors import DeviceError
+from liquidtouch.io.image_size import MAX_FRAME_PIXELS
 
 
 @dataclass(frozen=True)
@@ -31,6 +32,18 @@ class CameraProfile:
     capture: tuple[int, int, str] | None = None
     crop_fraction: float = 0.0
     description: str = ""
+
+    @property
+    def max_pixels(self) -> int:
+        """Largest camera frame [pixels] this sensor takes before decoding it: twice each
+        side of the mode it asks for (or of its output), so a camera in a larger mode is
+        still resized; at most :data:`~liquidtouch.io.image_size.MAX_FRAME_PIXELS`."""
+        sizes = []
+        if self.capture:
+            sizes.append(self.capture[0] * self.capture[1])
+        if self.width and self.height:
+            sizes.append(self.width * self.height)
+        return min(MAX_FRAME_PIXELS, 4 * max(sizes)) if sizes else MAX_FRAME_PIXELS
 
     def apply(self, frame: np.ndarray) -> np.ndarray:
         """The sensor image of one camera frame (crop the borders, resize; area averaging)."""

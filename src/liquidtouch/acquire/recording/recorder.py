@@ -37,6 +37,8 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
+
 from liquidtouch._core import atomic
 from liquidtouch.acquire.cameras import (
     Camera,
@@ -58,6 +60,7 @@ from liquidtouch.acquire.recording.summary import RecordingSummary, summarise
 from liquidtouch.acquire.recording.writer_pool import WriterPool
 from liquidtouch.errors import DeviceError, LiquidTouchError, OutputError
 from liquidtouch.io.dataset import META_NAME
+from liquidtouch.tracking.clock import check_consistent_times
 
 __all__ = ["FORMATS", "Recorder"]
 
@@ -277,7 +280,22 @@ class Recorder:
                 f"sensor(s) {', '.join(empty)} recorded fewer than 2 frames; is the camera "
                 "delivering (and the recording long enough)?"
             )
+        self._check_timing()
         return self.summary
+
+    def _check_timing(self) -> None:
+        """The sensors' frame times are one recording, as ``extract`` will check them
+        (:func:`~liquidtouch.tracking.clock.check_consistent_times`): a mismatch is a
+        :class:`DeviceError` now, not a trial that ``extract`` refuses later."""
+        times = [np.asarray(self._pool.writers[name].times) for name in self.names]
+        check_consistent_times(
+            self.names,
+            times,
+            [float(t[0]) for t in times],
+            error=DeviceError,
+            what="sensors",
+            hint="run the cameras in one mode (one --sensor profile) and record again",
+        )
 
     def finish(self, extra_meta: dict[str, object] | None = None) -> Path:
         """Write meta.json (last) and rename the trial into ``out_dir``; return its path.

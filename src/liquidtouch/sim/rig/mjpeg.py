@@ -101,7 +101,11 @@ class _Handler(BaseHTTPRequestHandler):
                 if part is None:
                     continue
                 _, t_s, jpeg = part
-                self.wfile.write(wire.part_head(len(jpeg), t_s) + jpeg + wire.PART_END)
+                if owner.burst_s:  # held until the end of its burst window
+                    window = math.ceil((t_s - owner.start_t_s) / owner.burst_s) * owner.burst_s
+                    owner._stopping.wait(max(0.0, owner.start_t_s + window - time.monotonic()))
+                stamp = t_s if owner.stamped else None
+                self.wfile.write(wire.part_head(len(jpeg), stamp) + jpeg + wire.PART_END)
                 self.wfile.flush()
         except (OSError, ValueError) as exc:  # the client went away (or the socket timed out)
             logger.info("MJPEG client %s left: %s", self.client_address[0], exc)
@@ -132,6 +136,11 @@ class MjpegServer:
         producer thread can be descheduled for tens of ms between the stamp and the call.
     sender_clock : maps a frame's capture time [s] to the ``X-Timestamp`` sent (default:
         the same): a camera whose clock steps back or freezes, for tests and rehearsals.
+    stamped : send each part's ``X-Timestamp`` (default); without it the client stamps
+        frames on arrival.
+    burst_s : hold the frames and send them together at the end of every ``burst_s``
+        seconds [s] (from the start), as a loaded machine delivers them (``None``: each
+        when it is captured).
 
     Use as a context manager, or call :meth:`start` and :meth:`stop`. An exception
     raised by ``frame_source`` stops the stream and is kept in :attr:`error`.
@@ -147,6 +156,8 @@ class MjpegServer:
         quality: int = 95,
         timed: bool = False,
         sender_clock: Callable[[float], float] | None = None,
+        stamped: bool = True,
+        burst_s: float | None = None,
     ) -> None:
         if not 0 < float(fps) <= 1000:
             raise DeviceError(f"the stream's frame rate must be in (0, 1000] Hz, got {fps!r}")
@@ -159,6 +170,12 @@ class MjpegServer:
         self.quality = int(quality)
         self.timed = bool(timed)
         self.sender_clock = sender_clock
+        self.stamped = bool(stamped)
+        if burst_s is not None and not 0 < float(burst_s) <= CLIENT_QUEUE_S:
+            raise DeviceError(f"burst_s must be in (0, {CLIENT_QUEUE_S:g}] s, got {burst_s!r}")
+        self.burst_s = None if burst_s is None else float(burst_s)
+        self.start_t_s = math.nan
+        """When the producer started [s, time.monotonic] (burst windows count from it)."""
         self.sent_timestamps: list[float] = []
         """Capture time [s, time.monotonic] of every frame, in frame_source call order."""
         self.error: BaseException | None = None
@@ -229,7 +246,7 @@ class MjpegServer:
         import cv2  # why: OpenCV is heavy; imported when the stream starts
 
         period = 1.0 / self.fps
-        due = time.monotonic()
+        due = self.start_t_s = time.monotonic()
         params = [int(cv2.IMWRITE_JPEG_QUALITY), self.quality]
         index = 0
         while not self._stopping.is_set():
