@@ -22,7 +22,7 @@ position to ~1e-4 px (before uint8 rounding and codec).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
@@ -81,14 +81,20 @@ def make_background(
 
 
 def make_imprint(
-    profile: SensorProfile | str, radius_px: float, *, grooves: bool = True
+    profile: SensorProfile | str,
+    radius_px: float,
+    *,
+    grooves: bool = True,
+    rng: np.random.Generator | None = None,
 ) -> np.ndarray:
     """Multiplicative gain (h, h, 3) of the container's contact imprint, centred in the patch.
 
     The patch is square, just large enough for the rim; outside the
     contact the gain is 1. The contact is a slightly wide ellipse, tinted and a
     little brighter, with a rim lit on one side and shaded on the other (the LEDs
-    shine at a grazing angle) and, with ``grooves``, faint parallel grooves.
+    shine at a grazing angle) and, with ``grooves``, faint parallel grooves. With
+    ``rng``, the face's fine texture (``profile.face_texture``: Gaussian-smoothed noise
+    of ``face_texture_mm``) is printed on the contact, as a plain gel shows it.
     """
     profile = get_sensor_profile(profile)
     edge_px = max(2.0, 0.06 * radius_px)
@@ -108,6 +114,17 @@ def make_imprint(
     if grooves:
         period_px = 0.9 / profile.mm_per_px
         gain += (0.012 * mask * np.sin(2 * np.pi * yy / period_px)).astype(np.float32)[..., None]
+    if rng is not None and profile.face_texture > 0:
+        import cv2
+
+        grain = cv2.GaussianBlur(
+            rng.standard_normal(xx.shape).astype(np.float32),
+            (0, 0),
+            profile.face_texture_mm / profile.mm_per_px,
+            borderType=cv2.BORDER_REFLECT,
+        )
+        grain *= np.float32(profile.face_texture) / max(float(grain.std()), 1e-12)
+        gain *= (1.0 + mask * grain).astype(np.float32)[..., None]
     return gain.astype(np.float32)
 
 
@@ -166,6 +183,7 @@ def iter_frames(
     marker_ink: np.ndarray | None = None,
     noise_rgb: tuple[float, float, float] | None = None,
     noise_corr_px: float = 0.0,
+    imprint_motion: Callable[[int, np.ndarray], np.ndarray] | None = None,
 ) -> Iterator[np.ndarray]:
     """Yield uint8 RGB frames (H, W, 3), one per row of ``positions_px`` (T, N, 2) [px].
 
@@ -183,6 +201,11 @@ def iter_frames(
     white noise by noise of that std per channel [grey levels], spatially
     correlated by a Gaussian blur of ``noise_corr_px`` [px] (the same random
     draws, blurred and rescaled).
+
+    A plain gel (no markers: give ``positions_px`` with no markers): ``imprint_motion``
+    ``(frame, points (N, 2) from the contact centre [px]) → (N, 2)`` [px] is the gel's
+    displacement, which moves the imprint, with the face's texture, pixel by pixel
+    (instead of as a whole by ``contact_offsets_px``).
     """
     import cv2
 
@@ -228,7 +251,14 @@ def iter_frames(
     )
     bounds = np.array([wp - half - 1, hp - half - 1])
 
-    imprint = _ImprintLayer.build(profile, contact_center_px, contact_radius_px, pad, (hp, wp))
+    if imprint_motion is None:
+        imprint = _ImprintLayer.build(profile, contact_center_px, contact_radius_px, pad, (hp, wp))
+    else:
+        imprint = _GelImprint.build(
+            profile, contact_center_px, contact_radius_px, pad, (hp, wp), rng
+        )
+        if imprint is not None:
+            imprint.motion = imprint_motion
     background_box = None if imprint is None else base[imprint.slices].copy()
     if contact_offsets_px is None:
         contact_offsets_px = np.zeros((n_frames, 2))
@@ -261,7 +291,7 @@ def iter_frames(
     spacing = _Spacing(size)
     for i in range(n_frames):
         if imprint is not None:
-            key = imprint.key(contact_offsets_px[i])
+            key = imprint.key(contact_offsets_px[i], i)
             if key != imprint_key:
                 cv2.multiply(background_box, imprint.shifted(key), dst=base[imprint.slices])
                 imprint_key = key
@@ -379,15 +409,25 @@ class _ImprintLayer:
 
     _STEPS_PER_PX = 8
 
-    def __init__(self, gain: np.ndarray, box: tuple[int, int, int, int], sub: np.ndarray):
-        self.gain, self.box, self.sub = gain, box, sub
+    def __init__(
+        self,
+        gain: np.ndarray,
+        box: tuple[int, int, int, int],
+        sub: np.ndarray,
+        centre: tuple[int, int] = (0, 0),
+    ):
+        self.gain, self.box, self.sub, self.centre = gain, box, sub, centre
         self._cache: dict[tuple[int, int], np.ndarray] = {}
 
     @classmethod
-    def build(cls, profile, center_px, radius_px, pad, padded_shape) -> _ImprintLayer | None:
+    def build(
+        cls, profile, center_px, radius_px, pad, padded_shape, rng=None
+    ) -> _ImprintLayer | None:
+        """The layer of an imprint of ``radius_px`` at ``center_px`` (None without one);
+        ``rng`` prints the face's texture on it (a plain gel)."""
         if center_px is None or radius_px is None:
             return None
-        gain = make_imprint(profile, float(radius_px))
+        gain = make_imprint(profile, float(radius_px), rng=rng)
         ih = gain.shape[0] // 2
         hp, wp = padded_shape
         cx, cy = (float(c) + pad for c in center_px)
@@ -399,7 +439,7 @@ class _ImprintLayer:
         gain = np.ascontiguousarray(
             gain[y0 - (cyi - ih) : y1 - (cyi - ih), x0 - (cxi - ih) : x1 - (cxi - ih)]
         )
-        return cls(gain, (y0, y1, x0, x1), np.array([cx - cxi, cy - cyi]))
+        return cls(gain, (y0, y1, x0, x1), np.array([cx - cxi, cy - cyi]), (cxi - x0, cyi - y0))
 
     @property
     def slices(self) -> tuple[slice, slice]:
@@ -407,7 +447,7 @@ class _ImprintLayer:
         y0, y1, x0, x1 = self.box
         return slice(y0, y1), slice(x0, x1)
 
-    def key(self, offset_px: np.ndarray) -> tuple[int, int]:
+    def key(self, offset_px: np.ndarray, frame: int) -> tuple[int, int]:
         """The shift of the imprint for a gel offset, in 1/8 px steps (x, y)."""
         steps = self._STEPS_PER_PX
         return (
@@ -434,6 +474,40 @@ class _ImprintLayer:
             if len(self._cache) < 256:
                 self._cache[key] = moved
         return moved
+
+
+class _GelImprint(_ImprintLayer):
+    """A plain gel's imprint, with the face's texture, moved pixel by pixel with the gel.
+
+    Each frame resamples the rest imprint where the gel's displacement field ``motion``
+    put it (Lanczos, 8 × 8 taps: sub-pixel motion is rendered with the same gain at every
+    fraction of a pixel, where bilinear sampling of a fine texture would not be). The
+    content at rest point ``p`` shows at ``p + d(p)``; pixel ``q`` reads the rest imprint
+    at ``p = q − d(q − d(q))`` (one fixed-point step: exact to second order in the
+    field's gradient).
+    """
+
+    def key(self, offset_px: np.ndarray, frame: int) -> int:
+        return frame
+
+    def shifted(self, frame: int) -> np.ndarray:
+        import cv2
+
+        h, w = self.gain.shape[:2]
+        yy, xx = np.mgrid[0:h, 0:w]
+        index = np.stack([xx.ravel(), yy.ravel()], axis=1).astype(np.float64)
+        rel = index - np.asarray(self.centre) - self.sub  # from the contact centre [px]
+        d = self.motion(frame, rel)
+        d = self.motion(frame, rel - d)
+        source = (index - d - self.sub).astype(np.float32)  # gain index g is rest g + sub
+        return cv2.remap(
+            self.gain,
+            source[:, 0].reshape(h, w),
+            source[:, 1].reshape(h, w),
+            cv2.INTER_LANCZOS4,
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=(1.0, 1.0, 1.0),
+        )
 
 
 def render_frames(

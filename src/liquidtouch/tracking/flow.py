@@ -66,23 +66,27 @@ BLUR_CELLS = 1 / 16
 #: the wide Gaussian of the band-pass, in narrow-Gaussian widths: a cell's worth of
 #: smooth lighting is removed, an edge a few px wide is kept
 BAND_RATIO = 4.0
-#: whole-pixel offsets tried per frame: the predicted one, and the nearest to the first
+#: whole-pixel offsets tried per frame: the last frame's, and the nearest to the first
 #: estimate when that rounds elsewhere (the rest then stays within ±0.5 px)
-PASSES = 1
+PASSES = 2
 #: a cell is used when its motion's noise std along its best direction is at most this
 #: [px]: half the smallest slosh motion the simulator's design gives (0.2 px, DESIGN.md)
-MAX_CELL_STD_PX = 0.1
+MAX_CELL_STD_PX = 0.03
 #: fewest usable cells a sensor must show (as MIN_MARKERS markers)
 MIN_CELLS = 4
-#: ridge on a cell's normal matrix, as a fraction of its trace: the direction along a
-#: straight edge (no information) stays at rest; a textured cell's gain changes by < 0.1 %
-RIDGE = 1e-3
+#: prior std of a cell's motion between whole-pixel reads [px] (the slosh moves the gel
+#: 0.2-2 px, DESIGN.md): a ridge σ²/PRIOR_PX² on the normal matrix keeps the direction
+#: along a straight edge (no information) at rest instead of letting noise walk it away,
+#: and lowers a usable cell's gain by at most 1 % (its normal matrix is ≥ σ²/0.1²)
+PRIOR_PX = 1.0
 #: the reference is renewed when the cells' median residual grows beyond this factor of
 #: its value at the first step (the image changed by more than the noise: √3× it)
 REREFERENCE_RESIDUAL = 2.0
 #: a cell's step is refused (the cell lost in that frame) when it moves more than this
-#: many cells between frames: the fit has lost its texture
+#: many cells between frames, or its residual grows beyond LOST_RESIDUAL × its value at
+#: the first step (3×: the image no longer matches where the cell says it is)
 MAX_STEP_CELLS = 0.5
+LOST_RESIDUAL = 3.0
 #: the noise is read on the quietest quarter of the image's cells (the gel outside the
 #: contact; the contact's texture inflates the estimate)
 NOISE_QUANTILE = 0.25
@@ -213,6 +217,7 @@ class FlowTracker:
         full = _Grid.of(grey.shape)
         self.sigma = BLUR_CELLS * full.cell
         self.noise = max(noise_std(grey), NOISE_FLOOR)
+        self.ridge = self.noise**2 / PRIOR_PX**2
         self.grid, self.crop = full, (slice(None), slice(None))
         self._reference(self._filtered(grey))
         eig_max = 0.5 * (self._sxx + self._syy) + np.sqrt(
@@ -248,7 +253,7 @@ class FlowTracker:
         self.motion = np.zeros((n, 2))  # against the current reference [px]
         self.previous = np.zeros((n, 2))
         self.offset = np.zeros((n, 2))  # motion up to the current reference [px]
-        self.residual0 = float("nan")
+        self.residual0: np.ndarray | None = None  # each cell's residual at the first step
         rows, cols = np.mgrid[self.grid.slices]
         self._base_x, self._base_y = cols.astype(np.float32), rows.astype(np.float32)
         return self.reference.copy()
@@ -271,6 +276,13 @@ class FlowTracker:
         self._sxx = self.grid.sums(self._gx * self._gx)
         self._syy = self.grid.sums(self._gy * self._gy)
         self._sxy = self.grid.sums(self._gx * self._gy)
+        # a cell that reads its motion well in one direction only (a straight edge): the
+        # other direction holds no information, so its motion is kept along the first
+        half_gap = np.sqrt(0.25 * (self._sxx - self._syy) ** 2 + self._sxy**2)
+        eig_min = 0.5 * (self._sxx + self._syy) - half_gap
+        angle = 0.5 * np.arctan2(2 * self._sxy, self._sxx - self._syy)
+        self._strong = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+        self._edge = eig_min * self.max_cell_std_px**2 < self.noise**2
 
     def _solve(self, shift: np.ndarray, frame: np.ndarray, grads: np.ndarray) -> tuple:
         """One symmetric gradient step from whole-pixel ``shift`` (cells, 2): (motion, residual).
@@ -291,11 +303,13 @@ class FlowTracker:
         sums = self.grid.sums
         sxx, sxy, syy = sums(gx * gx), sums(gx * gy), sums(gy * gy)
         bx, by = sums(gx * error), sums(gy * error)
-        ridge = RIDGE * (sxx + syy) + 1e-9
-        sxx, syy = sxx + ridge, syy + ridge
+        sxx, syy = sxx + self.ridge, syy + self.ridge
         det = sxx * syy - sxy * sxy
         rest = -np.stack([syy * bx - sxy * by, sxx * by - sxy * bx], axis=1) / det[:, None]
-        return shift + rest, sums(error * error)
+        motion = shift + rest
+        edge, strong = self._edge, self._strong[self._edge]
+        motion[edge] = strong * np.sum(strong * motion[edge], axis=1, keepdims=True)
+        return motion, sums(error * error)
 
     def step(self, image: np.ndarray) -> np.ndarray:
         """Measure the cells' motion in the next frame; return their positions (N, 2) [px]."""
@@ -303,28 +317,28 @@ class FlowTracker:
 
         frame = self._filtered(as_grey(image)[self.crop])
         grads = cv2.merge([frame, *self._gradients(frame)])
-        predicted = 2.0 * self.motion - self.previous  # constant velocity
-        shift = np.rint(predicted)
+        shift = np.rint(self.motion)  # motion between frames is a fraction of a pixel
         for _ in range(PASSES):
             motion, residuals = self._solve(shift, frame, grads)
             nearest = np.rint(motion)
             if np.array_equal(nearest, shift):
                 break
             shift = nearest
-        residual = float(np.median(residuals[self.cells]))
-        jumped = np.hypot(*(motion - self.motion).T) > MAX_STEP_CELLS * self.grid.cell
-        motion[jumped] = self.motion[jumped]
+        if self.residual0 is None:  # the first step against this reference: noise only
+            self.residual0 = np.maximum(residuals, 1e-12)
+        ratio = residuals / self.residual0
+        step = np.hypot(*(motion - self.motion).T)
+        lost = (step > MAX_STEP_CELLS * self.grid.cell) | (ratio > LOST_RESIDUAL**2)
+        motion[lost] = self.motion[lost]
         self.previous, self.motion = self.motion, motion
         positions = self.reference + (self.offset + motion)[self.cells]
-        positions[jumped[self.cells]] = np.nan
-        if not np.isfinite(self.residual0):
-            self.residual0 = residual
-        elif residual > REREFERENCE_RESIDUAL**2 * self.residual0:
+        positions[lost[self.cells]] = np.nan
+        if np.median(ratio[self.cells]) > REREFERENCE_RESIDUAL**2:
             self.offset += motion
             self.previous = self.previous - motion  # keep the velocity across the renewal
             self.motion = np.zeros_like(motion)
             self._reference(frame)
-            self.residual0 = float("nan")
+            self.residual0 = None
             self.rereferences += 1
         return positions
 
