@@ -71,7 +71,7 @@ BAND_RATIO = 4.0
 PASSES = 2
 #: a cell is used when its motion's noise std along its best direction is at most this
 #: [px]: half the smallest slosh motion the simulator's design gives (0.2 px, DESIGN.md)
-MAX_CELL_STD_PX = 0.03
+MAX_CELL_STD_PX = 0.05
 #: fewest usable cells a sensor must show (as MIN_MARKERS markers)
 MIN_CELLS = 4
 #: prior std of a cell's motion between whole-pixel reads [px] (the slosh moves the gel
@@ -79,6 +79,10 @@ MIN_CELLS = 4
 #: along a straight edge (no information) at rest instead of letting noise walk it away,
 #: and lowers a usable cell's gain by at most 1 % (its normal matrix is ≥ σ²/0.1²)
 PRIOR_PX = 1.0
+#: a cell whose weaker direction reads motion with a noise std above this [px] (a
+#: straight edge) is read across its stronger direction only: beyond it, noise alone
+#: crosses the whole-pixel rounding (±0.5 px) at two std and walks the cell away
+EDGE_STD_PX = 0.25
 #: the reference is renewed when the cells' median residual grows beyond this factor of
 #: its value at the first step (the image changed by more than the noise: √3× it)
 REREFERENCE_RESIDUAL = 2.0
@@ -282,7 +286,7 @@ class FlowTracker:
         eig_min = 0.5 * (self._sxx + self._syy) - half_gap
         angle = 0.5 * np.arctan2(2 * self._sxy, self._sxx - self._syy)
         self._strong = np.stack([np.cos(angle), np.sin(angle)], axis=1)
-        self._edge = eig_min * self.max_cell_std_px**2 < self.noise**2
+        self._edge = eig_min * EDGE_STD_PX**2 < self.noise**2
 
     def _solve(self, shift: np.ndarray, frame: np.ndarray, grads: np.ndarray) -> tuple:
         """One symmetric gradient step from whole-pixel ``shift`` (cells, 2): (motion, residual).
@@ -309,7 +313,10 @@ class FlowTracker:
         motion = shift + rest
         edge, strong = self._edge, self._strong[self._edge]
         motion[edge] = strong * np.sum(strong * motion[edge], axis=1, keepdims=True)
-        return motion, sums(error * error)
+        # what the step leaves unexplained: Σ (e + g·δ)² from the cell sums (δ = rest)
+        rx, ry = rest[:, 0], rest[:, 1]
+        explained = 2 * (rx * bx + ry * by) + rx * rx * sxx + 2 * rx * ry * sxy + ry * ry * syy
+        return motion, np.maximum(sums(error * error) + explained, 0.0)
 
     def step(self, image: np.ndarray) -> np.ndarray:
         """Measure the cells' motion in the next frame; return their positions (N, 2) [px]."""
