@@ -60,15 +60,19 @@ __all__ = [
 #: DIGIT), 32 px at 640 × 480, ~1 mm on either; 300 cells, of which the signal stage
 #: keeps the 16 that move most, as it keeps markers (1.8 mm pitch)
 GRID_COLUMNS = 20
+#: cell width [px] at the working scale: a larger image is averaged down to it (640 × 480
+#: by 2 × 2), which costs a quarter and reads the motion as well (a cell is ~1 mm either way)
+WORK_CELL_PX = 16
 #: std of the pre-filter's narrow Gaussian, in cells (1 px at 16-px cells): takes the
 #: pixel noise and the aliasing of bilinear sampling down, keeps a texture of a few px
 BLUR_CELLS = 1 / 16
 #: the wide Gaussian of the band-pass, in narrow-Gaussian widths: a cell's worth of
 #: smooth lighting is removed, an edge a few px wide is kept
 BAND_RATIO = 4.0
-#: whole-pixel offsets tried per frame: the last frame's, and the nearest to the first
-#: estimate when that rounds elsewhere (the rest then stays within ±0.5 px)
-PASSES = 2
+#: whole-pixel offsets tried per frame: the last frame's (the rest stays within ±0.5 px
+#: plus the motion of one frame; a second try at the nearest costs a whole step on most
+#: frames, since one of ~100 cells is near a half pixel)
+PASSES = 1
 #: a cell is used when its motion's noise std along its best direction is at most this
 #: [px]: half the smallest slosh motion the simulator's design gives (0.2 px, DESIGN.md)
 MAX_CELL_STD_PX = 0.05
@@ -193,21 +197,32 @@ class FlowTracker:
     @property
     def spacing_px(self) -> float:
         """The cell size [px] (what a marker tracker calls the marker spacing)."""
-        return float(self.grid.cell)
+        return float(self.grid.cell * self.scale)
 
     @property
     def diameter_px(self) -> float:
         """The cell size [px] (a cell is the tracked "marker")."""
-        return float(self.grid.cell)
+        return self.spacing_px
 
-    def _filtered(self, grey: np.ndarray) -> np.ndarray:
+    def _working(self, grey: np.ndarray) -> np.ndarray:
+        """``grey`` as float32 at the working scale (pixel means over scale × scale)."""
         import cv2
 
         image = grey.astype(np.float32)
+        if self.scale > 1:
+            height, width = image.shape
+            size = (width // self.scale, height // self.scale)
+            image = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+        return image
+
+    def _filtered(self, grey: np.ndarray) -> np.ndarray:
+        """The band-passed image at the working scale (module docstring, "Pre-filter")."""
+        import cv2
+
+        image = self._working(grey)
         narrow = cv2.GaussianBlur(image, (0, 0), self.sigma, borderType=cv2.BORDER_REFLECT)
-        wide = cv2.GaussianBlur(
-            image, (0, 0), BAND_RATIO * self.sigma, borderType=cv2.BORDER_REFLECT
-        )
+        # the wide part as a box mean of the same variance: its cost does not grow with it
+        wide = cv2.blur(image, (self.box, self.box), borderType=cv2.BORDER_REFLECT)
         return narrow - wide
 
     def start(self, image: np.ndarray) -> np.ndarray:
@@ -218,12 +233,19 @@ class FlowTracker:
         """
         grey = as_grey(image)
         self.shape = grey.shape
-        full = _Grid.of(grey.shape)
+        # work at a scale where a cell is WORK_CELL_PX wide (an image of 640 × 480 at half)
+        self.scale = max(1, _Grid.of(grey.shape).cell // WORK_CELL_PX)
+        height, width = (n // self.scale * self.scale for n in grey.shape)
+        self.crop = (slice(0, height), slice(0, width))  # of the full image
+        full = _Grid.of((height // self.scale, width // self.scale))
         self.sigma = BLUR_CELLS * full.cell
-        self.noise = max(noise_std(grey), NOISE_FLOOR)
+        # a box of the same variance as a Gaussian of BAND_RATIO × sigma (odd width)
+        self.box = 2 * int(round(np.sqrt(12) * BAND_RATIO * self.sigma) // 2) + 1
+        filtered = self._filtered(grey[self.crop])
+        self.noise = max(noise_std(self._working(grey[self.crop])), NOISE_FLOOR)
         self.ridge = self.noise**2 / PRIOR_PX**2
-        self.grid, self.crop = full, (slice(None), slice(None))
-        self._reference(self._filtered(grey))
+        self.grid = full
+        self._reference(filtered)
         eig_max = 0.5 * (self._sxx + self._syy) + np.sqrt(
             0.25 * (self._sxx - self._syy) ** 2 + self._sxy**2
         )
@@ -237,7 +259,8 @@ class FlowTracker:
                 f"{self.max_cell_std_px:g} px (noise {self.noise:.2g} grey levels); "
                 f"{TEXTURE_ADVICE}"
             )
-        self.reference = full.centres()[chosen]
+        # positions in the full image's pixels (a working pixel's centre is at scale·(k + ½) − ½)
+        self.reference = (full.centres()[chosen] + 0.5) * self.scale - 0.5
         # from here on only the chosen cells' bounding box is read, with a margin for the
         # band-pass's support and the motion (half a cell)
         iy, ix = np.divmod(chosen, full.nx)
@@ -245,11 +268,12 @@ class FlowTracker:
         box = _Grid(
             c, full.x0 + ix.min() * c, full.y0 + iy.min() * c, np.ptp(ix) + 1, np.ptp(iy) + 1
         )
-        margin = int(np.ceil(3 * BAND_RATIO * self.sigma)) + c // 2
+        margin = max(int(np.ceil(3 * self.sigma)), self.box // 2) + c // 2
         y0, x0 = max(box.y0 - margin, 0), max(box.x0 - margin, 0)
-        y1 = min(box.y0 + box.ny * c + margin, grey.shape[0])
-        x1 = min(box.x0 + box.nx * c + margin, grey.shape[1])
-        self.crop = (slice(y0, y1), slice(x0, x1))
+        y1 = min(box.y0 + box.ny * c + margin, height // self.scale)
+        x1 = min(box.x0 + box.nx * c + margin, width // self.scale)
+        k = self.scale
+        self.crop = (slice(y0 * k, y1 * k), slice(x0 * k, x1 * k))
         self.grid = _Grid(c, box.x0 - x0, box.y0 - y0, box.nx, box.ny)
         self.cells = (iy - iy.min()) * box.nx + (ix - ix.min())
         self._reference(self._filtered(grey[self.crop]))
@@ -288,7 +312,7 @@ class FlowTracker:
         self._strong = np.stack([np.cos(angle), np.sin(angle)], axis=1)
         self._edge = eig_min * EDGE_STD_PX**2 < self.noise**2
 
-    def _solve(self, shift: np.ndarray, frame: np.ndarray, grads: np.ndarray) -> tuple:
+    def _solve(self, shift: np.ndarray, planes: list[np.ndarray]) -> tuple:
         """One symmetric gradient step from whole-pixel ``shift`` (cells, 2): (motion, residual).
 
         The frame is read at whole-pixel offsets (no interpolation, so no sub-pixel bias);
@@ -298,12 +322,25 @@ class FlowTracker:
         """
         import cv2
 
-        map_x = self._base_x + self.grid.per_pixel(shift[:, 0])
-        map_y = self._base_y + self.grid.per_pixel(shift[:, 1])
-        moved = cv2.remap(grads, map_x, map_y, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
-        error = moved[..., 0] - self._ref
-        gx = 0.5 * (moved[..., 1] + self._gx)
-        gy = 0.5 * (moved[..., 2] + self._gy)
+        if shift.any():
+            map_x = self._base_x + self.grid.per_pixel(shift[:, 0])
+            map_y = self._base_y + self.grid.per_pixel(shift[:, 1])
+            moved = cv2.split(
+                cv2.remap(
+                    cv2.merge(planes),
+                    map_x,
+                    map_y,
+                    cv2.INTER_NEAREST,
+                    borderMode=cv2.BORDER_REPLICATE,
+                )
+            )
+        else:  # every cell at its whole-pixel rest (small motion): nothing to move
+            moved = [plane[self.grid.slices] for plane in planes]
+        error = moved[0] - self._ref
+        gx = moved[1] + self._gx
+        gx *= 0.5
+        gy = moved[2] + self._gy
+        gy *= 0.5
         sums = self.grid.sums
         sxx, sxy, syy = sums(gx * gx), sums(gx * gy), sums(gy * gy)
         bx, by = sums(gx * error), sums(gy * error)
@@ -320,13 +357,12 @@ class FlowTracker:
 
     def step(self, image: np.ndarray) -> np.ndarray:
         """Measure the cells' motion in the next frame; return their positions (N, 2) [px]."""
-        import cv2
 
         frame = self._filtered(as_grey(image)[self.crop])
-        grads = cv2.merge([frame, *self._gradients(frame)])
+        planes = [frame, *self._gradients(frame)]  # the frame and its x, y gradients
         shift = np.rint(self.motion)  # motion between frames is a fraction of a pixel
         for _ in range(PASSES):
-            motion, residuals = self._solve(shift, frame, grads)
+            motion, residuals = self._solve(shift, planes)
             nearest = np.rint(motion)
             if np.array_equal(nearest, shift):
                 break
@@ -338,7 +374,7 @@ class FlowTracker:
         lost = (step > MAX_STEP_CELLS * self.grid.cell) | (ratio > LOST_RESIDUAL**2)
         motion[lost] = self.motion[lost]
         self.previous, self.motion = self.motion, motion
-        positions = self.reference + (self.offset + motion)[self.cells]
+        positions = self.reference + self.scale * (self.offset + motion)[self.cells]
         positions[lost[self.cells]] = np.nan
         if np.median(ratio[self.cells]) > REREFERENCE_RESIDUAL**2:
             self.offset += motion
