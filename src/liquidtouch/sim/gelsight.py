@@ -51,6 +51,7 @@ __all__ = [
     "contact_geometry",
     "contact_offsets",
     "gel_displacement",
+    "gel_loads_px",
     "marker_positions",
     "marker_rest_positions",
     "sensor_scene",
@@ -222,6 +223,17 @@ def marker_positions(
     return out
 
 
+def gel_loads_px(
+    loads: FingerLoads, profile: SensorProfile | str, t_frames: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each gel's shear at its contact centre (2, T, 2) [px] and twist (2, T) [rad, clockwise
+    on screen] as the frames at ``t_frames`` [s] see them (the argument of
+    :func:`gel_displacement`)."""
+    profile = get_sensor_profile(profile)
+    shear, twist = _loads_at(loads, profile, np.asarray(t_frames, dtype=float))
+    return _shear_px(profile, shear), profile.twist_compliance_rad_per_nmm * twist.T
+
+
 def gel_displacement(
     rel_px: np.ndarray, sigma_px: float, shear_px: np.ndarray, angle_rad: np.ndarray
 ) -> np.ndarray:
@@ -322,7 +334,7 @@ def sensor_scene(
     positions = np.stack(
         [marker_positions(loads, profile, t_frames, rest_px=rests[s])[s] for s in range(2)]
     )
-    shear, twist = _loads_at(loads, profile, t_frames)
+    shear_px, twist_rad = gel_loads_px(loads, profile, t_frames)
     return SensorScene(
         timestamps,
         frame_index,
@@ -332,8 +344,8 @@ def sensor_scene(
         positions,
         exposure,
         drawn,
-        shear_px=_shear_px(profile, shear),
-        twist_rad=profile.twist_compliance_rad_per_nmm * twist.T,
+        shear_px=shear_px,
+        twist_rad=twist_rad,
     )
 
 

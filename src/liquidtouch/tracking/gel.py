@@ -62,16 +62,19 @@ def gel_tracking(image: np.ndarray, tracking: str = DEFAULT_TRACKING) -> str:
     return "markers" if printed else "flow"
 
 
-def gel_tracker(image: np.ndarray, tracking: str = DEFAULT_TRACKING) -> MarkerTracker | FlowTracker:
-    """A started tracker for the gel of ``image`` (the first frame): ``step`` the next frames.
+def gel_tracker(
+    image: np.ndarray, tracking: str = DEFAULT_TRACKING
+) -> tuple[MarkerTracker | FlowTracker, np.ndarray]:
+    """A tracker started on the first frame ``image``, and the first frame's points (N, 2) [px].
 
-    Its ``tracking`` attribute says which kind it is (``"markers"`` or ``"flow"``).
+    ``step`` it with the next frames; its ``tracking`` attribute says which kind it is
+    (``"markers"`` or ``"flow"``).
     """
     kind = gel_tracking(image, tracking)
     tracker = MarkerTracker() if kind == "markers" else FlowTracker()
-    tracker.start(image)
+    first = tracker.start(image).copy()
     tracker.tracking = kind
-    return tracker
+    return tracker, first
 
 
 def track_gel(
