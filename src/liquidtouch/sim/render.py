@@ -273,9 +273,10 @@ def iter_frames(
         # parts so that it can be added to the uint8 frame with saturation
         white = rng.standard_normal((h + npad, w + npad, 3), dtype=np.float32)
         if noise_rgb is None:
-            noise_tile = np.rint(profile.noise_std * white)
+            noise_float = profile.noise_std * white
         else:
-            noise_tile = np.rint(_coloured_noise(white, noise_rgb, noise_corr_px))
+            noise_float = _coloured_noise(white, noise_rgb, noise_corr_px)
+        noise_tile = np.rint(noise_float)
         noise_up = np.clip(noise_tile, 0, 255).astype(np.uint8)
         noise_down = np.clip(-noise_tile, 0, 255).astype(np.uint8)
         offsets = rng.integers(0, npad, (n_frames, 2))
@@ -289,6 +290,7 @@ def iter_frames(
 
     imprint_key = None
     spacing = _Spacing(size)
+    dithered = imprint_motion is not None and positions_px.shape[1] == 0
     for i in range(n_frames):
         if imprint is not None:
             key = imprint.key(contact_offsets_px[i], i)
@@ -297,6 +299,14 @@ def iter_frames(
                 imprint_key = key
         alpha = float(gains[i])
         # rounds to nearest and saturates to 0..255 (values are never negative here)
+        if dithered and use_noise:
+            # a plain gel's faint texture: the noise before the rounding, as a camera's ADC
+            # sees it (rounded first, motion of a tenth of a pixel would freeze)
+            oy, ox = offsets[i]
+            lit = cv2.scaleAdd(base_visible, alpha, noise_float[oy : oy + h, ox : ox + w])
+            np.copyto(out, np.clip(np.rint(lit), 0, 255), casting="unsafe")
+            yield out
+            continue
         cv2.convertScaleAbs(base_visible, dst=drawn_visible, alpha=alpha)
         pos = positions_px[i] + pad
         corner_all = np.floor(pos).astype(np.intp) - half  # (N, 2) top-left (x, y)
@@ -480,8 +490,9 @@ class _GelImprint(_ImprintLayer):
     """A plain gel's imprint, with the face's texture, moved pixel by pixel with the gel.
 
     Each frame resamples the rest imprint where the gel's displacement field ``motion``
-    put it (Lanczos, 8 × 8 taps: sub-pixel motion is rendered with the same gain at every
-    fraction of a pixel, where bilinear sampling of a fine texture would not be). The
+    put it, by cubic B-splines at the exact positions (SciPy): OpenCV's remap rounds them
+    to 1/32 px, which reads a motion of 0.05 px as 0.0625, and bilinear sampling of a fine
+    texture changes its gain with the fraction of a pixel. The
     content at rest point ``p`` shows at ``p + d(p)``; pixel ``q`` reads the rest imprint
     at ``p = q − d(q − d(q))`` (one fixed-point step: exact to second order in the
     field's gradient).
@@ -522,14 +533,22 @@ class _GelImprint(_ImprintLayer):
                 borderMode=cv2.BORDER_REPLICATE,
             )[:h, :w]
             maps.append(self._grid[axis] - fine - np.float32(self.sub[axis]))
-        return cv2.remap(
-            self.gain,
-            maps[0],
-            maps[1],
-            cv2.INTER_LANCZOS4,
-            borderMode=cv2.BORDER_CONSTANT,
-            borderValue=(1.0, 1.0, 1.0),
-        )
+        from scipy import ndimage  # why: SciPy is heavy; only a plain gel's frames need it
+
+        if not hasattr(self, "_coefficients"):  # cubic B-spline coefficients, once
+            self._coefficients = [
+                ndimage.spline_filter(self.gain[..., c], order=3, mode="nearest")
+                for c in range(self.gain.shape[2])
+            ]
+        return np.stack(
+            [
+                ndimage.map_coordinates(
+                    coefficients, (maps[1], maps[0]), order=3, mode="nearest", prefilter=False
+                )
+                for coefficients in self._coefficients
+            ],
+            axis=2,
+        ).astype(np.float32)
 
 
 def render_frames(

@@ -368,7 +368,10 @@ class FlowTracker:
                 break
             shift = nearest
         if self.residual0 is None:  # the first step against this reference: noise only
-            self.residual0 = np.maximum(residuals, 1e-12)
+            # at least what the pixel noise leaves after the band-pass (white noise through
+            # a Gaussian of sigma keeps 1/(4π sigma²) of its variance)
+            floor = self.grid.cell**2 * self.noise**2 / (4 * np.pi * self.sigma**2)
+            self.residual0 = np.maximum(residuals, floor)
         ratio = residuals / self.residual0
         step = np.hypot(*(motion - self.motion).T)
         lost = (step > MAX_STEP_CELLS * self.grid.cell) | (ratio > LOST_RESIDUAL**2)
