@@ -58,6 +58,7 @@ def serve_command(
     sensor: str = typer.Option(
         "default", "--sensor", help="GelSight profile: default (640x480, 30 fps) or mini."
     ),
+    gel: options.Gel = None,
     host: str = typer.Option(
         "127.0.0.1", "--host", help="Address to listen on (default: this machine only)."
     ),
@@ -86,6 +87,7 @@ def serve_command(
     from liquidtouch.errors import LiquidTouchError
     from liquidtouch.sim.rig.rig import RigServer
     from liquidtouch.sim.rig.state import Rig
+    from liquidtouch.sim.sensors import with_gel
 
     for name, port in (
         ("--gripper-port", gripper_port),
@@ -100,7 +102,7 @@ def serve_command(
         container=container,
         sugar_concentration=sugar_concentration,
         seed=seed,
-        sensor=sensor,
+        sensor=with_gel(sensor, gel and gel.value),
     )
     cameras = (camera_port, camera_port + 1 if camera_port else 0)
     stop = threading.Event()
