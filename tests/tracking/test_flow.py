@@ -94,7 +94,7 @@ def test_flow_tracks_say_so_and_keep_still_at_rest() -> None:
 
 def test_an_image_without_texture_gets_the_clear_error(tmp_path, capsys) -> None:
     frames = plain_frames(np.zeros((30, 2)), contact=False)  # the gel with nothing pressed
-    with pytest.raises(TextureError, match="no printed markers.*textured face"):
+    with pytest.raises(TextureError, match=r"no printed markers.*textured face"):
         track_flow((k / 25, f) for k, f in enumerate(frames))
     folder = tmp_path / "left"
     folder.mkdir()
