@@ -7,33 +7,40 @@ grid of square cells and hands the signal stage the same
 :class:`~liquidtouch.tracking.tracks.MarkerTracks` markers give: each textured cell is a
 point (its centre plus its motion [px]), with a valid mask.
 
-**Why a gradient least-squares step and not a dense flow's output.** OpenCV's DIS flow
-(medium preset) reads small sub-pixel motion with a different gain than large motion,
-which bends the ring-down's envelope (λ −20 % in issue 39's sketch) and costs ~13 ms a
-frame at 320 × 240 (decoding costs ~2.5). A cell's motion here is the translation ``d``
-that minimises ``Σ (J(x + d) − R(x))²`` over the cell's pixels (``R`` the reference,
-``J`` the frame; Lucas & Kanade 1981), solved by Gauss–Newton with the reference's
-gradients (so the 2 × 2 normal matrix of every cell is computed once per reference):
-``d ← d − A⁻¹ Σ ∇R (J(x + d) − R(x))``. Each step is linear in the image, so a small and
-a large motion are read with the same gain; XXX
+**Why not a dense flow's output.** OpenCV's DIS flow (medium preset) reads small
+sub-pixel motion with a different gain than large motion, which bends the ring-down's
+envelope (λ −20 % in issue 39's sketch; +50 % at 0.05 px in
+``benchmarks/tracking/markerless.py``), and costs ~13 ms a frame at 320 × 240 where
+decoding costs 1-3. Interpolating the frame at a sub-pixel offset (Lucas–Kanade's usual
+warp) has the same flaw: bilinear sampling reads 0.05 px as 0.057, OpenCV's remap rounds
+the offset to 1/32 px. So a cell's motion ``d = n + δ`` is read in two parts: the frame
+is read at a **whole-pixel** offset ``n`` (the last frame's motion, rounded: no
+interpolation at all), and the rest ``δ`` solves the least-squares step
+``Σ g (J(x + n) − R(x)) = −(Σ g gᵀ) δ`` over the cell's pixels (``R`` the reference,
+``J`` the frame, ``g`` the mean of both images' gradients: second-order accurate, a
+sinusoid of ``k`` rad/px reads ``(2/k) tan(kδ/2)``, 1 % high at kδ = 0.35). The step is
+linear in the image, so small and large motions are read with one gain (within 3 % from
+0.05 to 2 px on rendered shifts, ``tests/tracking/test_flow.py``). All cells at once:
+cell sums by area resizing, one nearest-pixel remap when some cell is off its rest.
 
-**Pre-filter.** Both images are band-passed (a difference of Gaussians): the narrow
-Gaussian takes the pixel noise and the aliasing of bilinear sampling down, the wide one
-removes what does not move with the gel (the LEDs' smooth lighting, slow brightness
-drift), so that a cell is trusted for the texture or edge it shows, not for a lighting
-gradient.
+**Pre-filter.** Both images are band-passed (a narrow Gaussian minus a wide box mean)
+at a working scale where a cell is :data:`WORK_CELL_PX` wide: the narrow Gaussian takes
+the pixel noise down, the box removes what does not move with the gel (the LEDs' smooth
+lighting, slow brightness drift), so that a cell is trusted for the texture or edge it
+shows, not for a lighting gradient.
 
 **Which cells.** A cell's motion has the noise std ``σ / sqrt(a)`` along its
 best-textured direction (``σ`` the pixel noise, estimated from the first frame
 (Immerkær 1996), ``a`` the larger eigenvalue of its normal matrix); a cell is used
-when that is at most :data:`MAX_CELL_STD_PX`. A cell on a straight edge measures
-the motion across the edge only: a small ridge on the normal matrix
-(:data:`RIDGE`) keeps the unmeasured direction at rest instead of amplifying noise.
-Fewer than :data:`MIN_CELLS` usable cells raise :class:`TextureError` with what helps.
-The signal stage then keeps the cells that move most, as it keeps markers.
+when that is at most :data:`MAX_CELL_STD_PX`. A cell on a straight edge (its other
+direction noisier than :data:`EDGE_STD_PX`) is read across the edge only, and a ridge
+(:data:`PRIOR_PX`) keeps a direction without information at rest. Fewer than
+:data:`MIN_CELLS` usable cells raise :class:`TextureError` with what helps. A cell whose
+residual grows beyond :data:`LOST_RESIDUAL` × its first one is lost in that frame. The
+signal stage then keeps the cells that move most, as it keeps markers.
 
 **Reference.** The stream's first frame; when the image drifts (the cells' median
-residual after the fit grows beyond :data:`REREFERENCE_RESIDUAL` × its value at the
+residual after the step grows beyond :data:`REREFERENCE_RESIDUAL` × its value at the
 first step: lighting drift, gel creep, a deformation the translation does not explain)
 the current frame becomes the reference and the motion so far its offset.
 """
@@ -66,22 +73,20 @@ WORK_CELL_PX = 16
 #: std of the pre-filter's narrow Gaussian, in cells (1 px at 16-px cells): takes the
 #: pixel noise and the aliasing of bilinear sampling down, keeps a texture of a few px
 BLUR_CELLS = 1 / 16
-#: the wide Gaussian of the band-pass, in narrow-Gaussian widths: a cell's worth of
-#: smooth lighting is removed, an edge a few px wide is kept
+#: the band-pass's wide part (a box mean of the variance of a Gaussian this many narrow
+#: widths wide): a cell's worth of smooth lighting is removed, an edge a few px wide kept
 BAND_RATIO = 4.0
-#: whole-pixel offsets tried per frame: the last frame's (the rest stays within ±0.5 px
-#: plus the motion of one frame; a second try at the nearest costs a whole step on most
-#: frames, since one of ~100 cells is near a half pixel)
-PASSES = 1
 #: a cell is used when its motion's noise std along its best direction is at most this
-#: [px]: half the smallest slosh motion the simulator's design gives (0.2 px, DESIGN.md)
+#: [px]: a quarter of the smallest slosh motion of the design (0.2 px, DESIGN.md), so
+#: that the cells the signal keeps are those that move, not those that are noisy (at
+#: half, the imprint's rim cells outranked the contact's 0.25 px motion on a Mini)
 MAX_CELL_STD_PX = 0.05
 #: fewest usable cells a sensor must show (as MIN_MARKERS markers)
 MIN_CELLS = 4
 #: prior std of a cell's motion between whole-pixel reads [px] (the slosh moves the gel
 #: 0.2-2 px, DESIGN.md): a ridge σ²/PRIOR_PX² on the normal matrix keeps the direction
 #: along a straight edge (no information) at rest instead of letting noise walk it away,
-#: and lowers a usable cell's gain by at most 1 % (its normal matrix is ≥ σ²/0.1²)
+#: and lowers a usable cell's gain by at most 0.3 % (its normal matrix is ≥ σ²/0.05²)
 PRIOR_PX = 1.0
 #: a cell whose weaker direction reads motion with a noise std above this [px] (a
 #: straight edge) is read across its stronger direction only: beyond it, noise alone
@@ -360,13 +365,11 @@ class FlowTracker:
 
         frame = self._filtered(as_grey(image)[self.crop])
         planes = [frame, *self._gradients(frame)]  # the frame and its x, y gradients
-        shift = np.rint(self.motion)  # motion between frames is a fraction of a pixel
-        for _ in range(PASSES):
-            motion, residuals = self._solve(shift, planes)
-            nearest = np.rint(motion)
-            if np.array_equal(nearest, shift):
-                break
-            shift = nearest
+        # the last frame's motion, rounded: the rest stays within ±0.5 px plus a frame's
+        # motion (a fraction of a pixel). A second step from the new rounding would cost a
+        # whole step on most frames (one of ~100 cells is near a half pixel) for < 1 %.
+        shift = np.rint(self.motion)
+        motion, residuals = self._solve(shift, planes)
         if self.residual0 is None:  # the first step against this reference: noise only
             # at least what the pixel noise leaves after the band-pass (white noise through
             # a Gaussian of sigma keeps 1/(4π sigma²) of its variance)
