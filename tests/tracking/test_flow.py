@@ -55,7 +55,7 @@ def test_flow_reads_rendered_sub_pixel_shifts(shift: float) -> None:
     moved, cells = held_motion(np.column_stack([ramp, -0.5 * ramp]))
     rest, _ = held_motion(np.zeros((21, 2)))
     motion = np.nanmean(moved - rest, axis=0)  # (cells, 2)
-    assert len(cells) >= 10
+    assert len(cells) >= 4
     # the mean over the contact's cells: within 3 % (linear from 0.05 to 2 px), or 0.002 px
     # (the mean's noise: 0.005 px a frame over 10 frames; the renderer's 1/64 px jitter)
     assert np.mean(motion[:, 0]) == pytest.approx(shift, rel=0.03, abs=0.002)
