@@ -9,7 +9,7 @@ point (its centre plus its motion [px]), with a valid mask.
 
 **Why not a dense flow's output.** OpenCV's DIS flow (medium preset) reads small
 sub-pixel motion with a different gain than large motion, which bends the ring-down's
-envelope (λ −20 % in issue 39's sketch; +50 % at 0.05 px in
+envelope (λ −20 % in issue 39's sketch; −7 % to +12 % between 0.05 and 0.5 px in
 ``benchmarks/tracking/markerless.py``), and costs ~13 ms a frame at 320 × 240 where
 decoding costs 1-3. Interpolating the frame at a sub-pixel offset (Lucas–Kanade's usual
 warp) has the same flaw: bilinear sampling reads 0.05 px as 0.057, OpenCV's remap rounds
@@ -66,8 +66,9 @@ __all__ = [
 #: the grid's columns over the image width: cells of 32 px on a GelSight Mini or DIGIT
 #: (320 × 240: ~1.9 mm, the marker pitch of a marker gel, so as many cells as markers on
 #: the contact); 150 cells, of which the signal stage keeps the 16 that move most, as it
-#: keeps markers. Smaller cells are noisier: at 16 px the simulated corn oil's u(t)
-#: explained 64 % of the cells' motion and λ read 13 % high (markers: 91 %)
+#: keeps markers. Smaller cells are noisier: at 16 px a simulated corn-oil trial's u(t)
+#: explained 64 % of the cells' motion (markers: 91 %, 32-px cells: 72 %); over five trials
+#: a liquid neither size reads λ within 3 % of the markers everywhere (RESULTS.md)
 GRID_COLUMNS = 10
 #: image width [px] worked at: a GelSight Mini's and a DIGIT's; a larger image is averaged
 #: down to about it (640 × 480 by 2 × 2), which costs a quarter and reads the motion as
