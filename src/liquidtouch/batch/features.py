@@ -39,6 +39,7 @@ from liquidtouch.io.dataset import (
 from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
 from liquidtouch.signal.tactile import check_signal_options
+from liquidtouch.tracking.gel import DEFAULT_TRACKING, check_tracking
 
 __all__ = [
     "CACHE_DIR",
@@ -94,8 +95,12 @@ def feature_settings(
     n_markers: int = 16,
     sensors: list[str] | tuple[str, ...] | None = None,
     fit_settings: FitSettings | None = None,
+    tracking: str = DEFAULT_TRACKING,
 ) -> dict[str, object]:
     """Every setting the features of ``source`` depend on, JSON-ready (validated).
+
+    ``tracking`` (gelsight; :mod:`liquidtouch.tracking.gel`) is kept only when forced, so
+    the default's settings, and the trials cached under them, stay what they were.
 
     ``gelsight``: ``lowpass_hz``, ``n_markers``, ``sensors`` (None: all) and ``fit``
     (:meth:`~liquidtouch.extraction.fit_settings.FitSettings.to_dict`); ``wrench``: ``lowpass_hz``
@@ -123,6 +128,7 @@ def feature_settings(
         "n_markers": int(n_markers),
         "sensors": None if sensors is None else sorted(set(sensors)),
         "fit": fit.to_dict(),
+        **({} if check_tracking(tracking) == DEFAULT_TRACKING else {"tracking": tracking}),
     }
 
 
@@ -156,6 +162,7 @@ def trial_features(
         n_markers=chosen["n_markers"],
         sensors=chosen["sensors"],
         fit_settings=fit,
+        tracking=chosen.get("tracking", DEFAULT_TRACKING),
     )
 
 
@@ -291,6 +298,7 @@ def extract_features(
     n_markers: int = 16,
     sensors: list[str] | tuple[str, ...] | None = None,
     fit_settings: FitSettings | None = None,
+    tracking: str = DEFAULT_TRACKING,
 ) -> pd.DataFrame:
     """Extract features of every trial of ``dataset``; write ``out`` (default ``features.csv``).
 
@@ -301,7 +309,7 @@ def extract_features(
     ``write=False`` no table is written (the per-trial cache is still read and
     filled). ``on_trial(trial, result)`` is called as each trial is computed (not
     for trials read from the cache; used by tests and progress reports).
-    ``lowpass_hz``, ``n_markers``, ``sensors`` and ``fit_settings``
+    ``lowpass_hz``, ``n_markers``, ``sensors``, ``tracking`` and ``fit_settings``
     (:class:`~liquidtouch.extraction.fit_settings.FitSettings`) are the extraction and fit
     settings (:func:`feature_settings`); they are checked before any work, and a
     trial cached under other settings is recomputed.
@@ -312,6 +320,7 @@ def extract_features(
         n_markers=n_markers,
         sensors=sensors,
         fit_settings=fit_settings,
+        tracking=tracking,
     )
     settings_json = json.dumps(settings, sort_keys=True, separators=(",", ":"))
     root = Path(dataset)

@@ -148,9 +148,14 @@ def register(app: typer.Typer) -> None:
             "320x240 at 25 fps; 'default': 640x480 at 30 fps, twice the time).",
             show_default=False,
         ),
+        gel: options.Gel = None,
         as_json: bool = typer.Option(False, "--json", help=_JSON_HELP),
     ) -> None:
         """Run every experiment of the paper on simulated trials; write report.md / report.html."""
+        from liquidtouch.experiments.reproduce import DEFAULT_SENSOR
+        from liquidtouch.sim.sensors import with_gel
+
+        sensor = sensor if gel is None else with_gel(sensor or DEFAULT_SENSOR, gel.value)
         _run_and_report(
             as_json,
             out_dir=out,

@@ -104,6 +104,7 @@ def extract(
     band_high_hz: options.BandHigh = options.DEFAULT_BAND_HIGH_HZ,
     noise: options.Noise = options.DEFAULT_NOISE,
     start: options.Start = None,
+    tracking: options.Tracking = options.DEFAULT_TRACKING,
 ) -> None:
     """Track the markers, build the tactile signal u(t) and fit the damped oscillation.
 
@@ -128,6 +129,7 @@ def extract(
         progress=True,
         fit_settings=settings,
         sensors=sensor or None,
+        tracking=str(tracking),
     )
     write_outputs(result, signal_out=signal_out, tracks_out=tracks_out, plot=plot)
     _warn_extraction(result)
@@ -165,6 +167,7 @@ def _print_extraction(result, written: list[Path]) -> None:
         f"markers tracked; {sig.n_markers} used, explained variance "
         f"{percent(sig.explained_variance)}, {len(sig.t)} samples at {number(sig.fps, 3)} fps"
     )
+    typer.echo(f"tracking: {result.tracking}")
     fit = result.fit
     Console().print(fit_table(fit, f"{fit.model} fit of the free decay (loss={fit.loss})"))
     typer.echo(f"model: {fit.model} ({fit.model_reason})")
@@ -195,6 +198,7 @@ def features(
     band_high_hz: options.BandHigh = options.DEFAULT_BAND_HIGH_HZ,
     noise: options.Noise = options.DEFAULT_NOISE,
     start: options.Start = None,
+    tracking: options.Tracking = options.DEFAULT_TRACKING,
 ) -> None:
     """Extract (λ, ω) and fit quality for every trial of a dataset → features.csv.
 
@@ -218,6 +222,7 @@ def features(
         n_markers=n_markers,
         sensors=sensor or None,
         fit_settings=settings,
+        tracking=str(tracking),
     )
     target = out or Path(dataset) / FEATURES_NAME
     failed = table[table["error"].astype(str) != ""]

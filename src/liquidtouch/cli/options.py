@@ -172,6 +172,45 @@ Sensor = Annotated[
     ),
 ]
 
+
+class TrackingChoice(StrEnum):
+    """``--tracking`` (``tracking.gel.TRACKING_CHOICES``)."""
+
+    auto = "auto"
+    markers = "markers"
+    flow = "flow"
+
+
+DEFAULT_TRACKING = TrackingChoice.auto
+Tracking = Annotated[
+    TrackingChoice,
+    typer.Option(
+        "--tracking",
+        help="How the gel's motion is read: auto (printed markers, or the gel's own image "
+        "on a markerless gel such as the GelSight Mini's standard gel or DIGIT, found from "
+        "the first frame); markers; flow (the markerless way).",
+    ),
+]
+
+
+class GelChoice(StrEnum):
+    """``--gel`` of the simulator (``sim.sensors.GELS``)."""
+
+    markers = "markers"
+    plain = "plain"
+
+
+Gel = Annotated[
+    GelChoice | None,
+    typer.Option(
+        "--gel",
+        help="The simulated gel: markers (printed dots), or plain (markerless: only the "
+        "contact's imprint, its edge and the face's texture, moves). Default: the sensor "
+        "profile's (markers; plain for digit).",
+        show_default=False,
+    ),
+]
+
 # -- oscillation fit ---------------------------------------------------------------------------
 
 DEFAULT_LOSS = LossChoice.paper

@@ -55,6 +55,7 @@ def serve_command(
     sensor: str = typer.Option(
         "default", "--sensor", help="GelSight profile: default (640x480, 30 fps) or mini."
     ),
+    gel: options.Gel = None,
     host: str = typer.Option("127.0.0.1", "--host", help="Address to listen on."),
     gripper_port: Annotated[int, typer.Option(help="The gripper's TCP port; 0: any free.")] = 0,
     arm_port: Annotated[int, typer.Option(help="The arm's TCP port; 0: any free port.")] = 0,
@@ -73,10 +74,12 @@ def serve_command(
     """
     from liquidtouch.sim.rig.rig import check_ports, serve_rig
     from liquidtouch.sim.rig.state import Rig
+    from liquidtouch.sim.sensors import with_gel
 
     check_ports(gripper_port, arm_port, camera_port)
     rig = Rig(
-        liquid, height_mm=height_mm, container=container, seed=seed, sensor=sensor,
+        liquid, height_mm=height_mm, container=container, seed=seed,
+        sensor=with_gel(sensor, gel and gel.value),
         sugar_concentration=sugar_concentration,
     )  # fmt: skip
 

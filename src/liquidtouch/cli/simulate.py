@@ -81,6 +81,7 @@ def trial_command(
     temperature_c: TemperatureC = None,
     video: TrialVideo = True,
     sensor: SimSensor = "default",
+    gel: options.Gel = None,
     plot: LoadsPlot = False,
     realism: options.Realism = options.RealismChoice.clean,
     push_axis: PushAxis = "x",
@@ -94,12 +95,12 @@ def trial_command(
     and renamed into place at the end: a failure or Ctrl-C leaves an existing
     trial there untouched.
     """
-    from liquidtouch.sim.sensors import get_sensor_profile
+    from liquidtouch.sim.sensors import with_gel
     from liquidtouch.sim.trial import check_seed, simulate_trial
     from liquidtouch.sim.trial_io import check_trial_dir, write_trial
 
     check_seed(seed)
-    get_sensor_profile(sensor)
+    sensor = with_gel(sensor, gel and gel.value)  # the profile with that gel (name checked)
     check_trial_dir(out)
     trial = simulate_trial(
         liquid,
@@ -146,6 +147,7 @@ def dataset_command(
     quick: bool = typer.Option(False, "--quick", help="A small deterministic subset."),
     video: bool = typer.Option(True, "--video/--no-video", help="Render GelSight videos."),
     sensor: str = typer.Option("default", "--sensor", help="GelSight sensor profile name."),
+    gel: options.Gel = None,
     realism: options.Realism = options.RealismChoice.clean,
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object on stdout."),
 ) -> None:
@@ -156,6 +158,7 @@ def dataset_command(
     finished trials are complete and nothing is half-written.
     """
     from liquidtouch.sim.presets import simulate_dataset
+    from liquidtouch.sim.sensors import with_gel
 
     progress = not as_json  # progress_bar itself draws only on a terminal
     result = simulate_dataset(
@@ -165,7 +168,7 @@ def dataset_command(
         video=video,
         quick=quick,
         progress=progress,
-        sensor=sensor,
+        sensor=with_gel(sensor, gel and gel.value),
         realism=realism.value,
     )
     summary = {

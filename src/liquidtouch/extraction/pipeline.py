@@ -28,7 +28,8 @@ from liquidtouch.io.trial_tracks import stored_tracks
 from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
 from liquidtouch.signal.tactile import TactileSignal, check_signal_options, tactile_signal
 from liquidtouch.tracking.clock import check_consistent
-from liquidtouch.tracking.tracks import MarkerTracks, track_markers
+from liquidtouch.tracking.gel import DEFAULT_TRACKING, check_tracking, track_gel
+from liquidtouch.tracking.tracks import MarkerTracks
 
 __all__ = [
     "Extraction",
@@ -70,12 +71,23 @@ class Extraction:
             f"{head}, decay_rate={decay} 1/s, angular_frequency={omega} rad/s, r2={fixed(fit.r2)})"
         )
 
+    @property
+    def tracking(self) -> str:
+        """How the sensors were tracked: ``markers`` or ``flow`` (markerless gels), or per
+        sensor (``left:markers,right:flow``) when they differ."""
+        kinds = {tr.tracking for tr in self.tracks}
+        if len(kinds) == 1:
+            return kinds.pop()
+        return ",".join(f"{tr.sensor}:{tr.tracking}" for tr in self.tracks)
+
     def to_dict(self) -> dict[str, object]:
-        """The fit's keys plus ``explained_variance``, ``n_markers``, ``fps``, ``frames``,
-        ``signal_gap_share`` (share of the recording's clock not observed: camera stalls)
-        and, with :attr:`diagnostics`, ``frozen_step_share`` and ``codec_lambda_bias``."""
+        """The fit's keys plus ``tracking`` (:attr:`tracking`), ``explained_variance``,
+        ``n_markers``, ``fps``, ``frames``, ``signal_gap_share`` (share of the recording's
+        clock not observed: camera stalls) and, with :attr:`diagnostics`,
+        ``frozen_step_share`` and ``codec_lambda_bias``."""
         out = dict(self.fit.to_dict())
         out.update(
+            tracking=self.tracking,
             explained_variance=float(self.signal.explained_variance),
             n_markers=int(self.signal.n_markers),
             fps=float(self.signal.fps),
@@ -95,8 +107,12 @@ def track_sources(
     *,
     progress: bool = False,
     starts: dict[str, float] | None = None,
+    tracking: str = DEFAULT_TRACKING,
 ) -> list[MarkerTracks]:
-    """Track the markers of every ``(sensor, source, fps)``; a progress bar (stderr) if asked.
+    """Track every ``(sensor, source, fps)``; a progress bar (stderr) if asked.
+
+    ``tracking``: ``auto`` (markers or the gel's own image, found from each video's first
+    frame: :mod:`liquidtouch.tracking.gel`), ``markers`` or ``flow``.
 
     ``starts``: each sensor's first-frame time on the trial's shared clock [s]
     (``meta.json`` ``sensor_start_s``), kept as ``MarkerTracks.start_s`` when every
@@ -108,7 +124,8 @@ def track_sources(
         if source.is_file():
             total = video_info(source).frames or None
         with progress_bar(f"tracking {sensor}", total, enabled=progress) as advance:
-            tracks.append(track_markers(iter_frames(source, fps=fps), sensor, on_frame=advance))
+            frames = iter_frames(source, fps=fps)
+            tracks.append(track_gel(frames, sensor, tracking=tracking, on_frame=advance))
     if starts and all(tr.sensor in starts for tr in tracks):
         for tr in tracks:
             tr.start_s = float(starts[tr.sensor])
@@ -126,6 +143,7 @@ def extract(
     fit: bool = True,
     fit_settings: FitSettings | None = None,
     sensors: Sequence[str] | None = None,
+    tracking: str = DEFAULT_TRACKING,
 ) -> Extraction:
     """Tracks, tactile signal and (when ``fit``) the oscillation fit of one trial's videos.
 
@@ -134,9 +152,12 @@ def extract(
     folder's ``timestamps.csv`` wins over both). ``fit_settings``: how the signal
     is fitted (default :class:`FitSettings`: the free decay, the paper's loss,
     two modes). ``sensors``: names of the sensors to use (video stems, e.g.
-    ``["left"]``; default all). The options are checked before any video is read.
+    ``["left"]``; default all). ``tracking``: how the gels are tracked (``auto``: printed
+    markers, or the gel's own image on a markerless gel; ``markers``; ``flow``). The
+    options are checked before any video is read.
     """
     check_signal_options(lowpass_hz, n_markers)
+    check_tracking(tracking)
     settings = FitSettings() if fit_settings is None else fit_settings
     if not isinstance(settings, FitSettings):
         raise TypeError(f"fit_settings must be a FitSettings, got {type(settings).__name__}")
@@ -144,7 +165,8 @@ def extract(
     sources: list[tuple[str, Path, float | None]] = []
     if tracks is None:
         sources = select_sensors(resolve_sources(paths, fps=fps), sensors)
-        tracks = track_sources(sources, progress=progress, starts=trial_sensor_starts(paths))
+        starts = trial_sensor_starts(paths)
+        tracks = track_sources(sources, progress=progress, starts=starts, tracking=tracking)
     signal = tactile_signal(tracks, lowpass_hz=lowpass_hz, n_markers=n_markers)
     result = settings.fit(signal.t, signal.u) if fit else None
     check = check_codec(tracks, [path for _, path, _ in sources], n_markers)
@@ -172,6 +194,7 @@ def extract_trial(
     n_markers: int = 16,
     fit_settings: FitSettings | None = None,
     sensors: Sequence[str] | None = None,
+    tracking: str = DEFAULT_TRACKING,
 ) -> dict[str, object]:
     """Feature row of a trial directory: the fit's keys plus signal facts (see ``Extraction``)."""
     return extract(
@@ -180,4 +203,5 @@ def extract_trial(
         n_markers=n_markers,
         fit_settings=fit_settings,
         sensors=sensors,
+        tracking=tracking,
     ).to_dict()

@@ -151,8 +151,8 @@ def live_updates(
                         for name, t_s in on_event():
                             estimator.add_event(name, t_s)
                     update = estimator.add_frame(frame.sensor, frame.t_s, frame.image, frame.due_s)
-                    if on_frame is not None:
-                        grown = estimator.tracks[frame.sensor]
+                    grown = estimator.tracks[frame.sensor]
+                    if on_frame is not None and grown.n:  # (a markerless gel may wait)
                         on_frame(frame, grown.positions[grown.n - 1], grown.reference)
                     if update is not None:
                         yield update

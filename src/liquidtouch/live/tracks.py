@@ -2,9 +2,10 @@
 
 Each sensor's markers are tracked incrementally with the offline tracker
 (:class:`~liquidtouch.tracking.track.MarkerTracker`: the same detection, the same
-steps), into preallocated arrays, so adding a frame costs the tracking step and a
-row copy. Only the last :data:`WINDOW_S` of frames are kept for the estimate (a
-ring-down of interest lasts at most ~30 s; the window also holds the push and
+steps; on a markerless gel, found from the first frame, the flow tracker of
+:mod:`liquidtouch.tracking.flow`), into preallocated arrays, so adding a frame costs
+the tracking step and a row copy. Only the last :data:`WINDOW_S` of frames are kept for
+the estimate (a ring-down of interest lasts at most ~30 s; the window also holds the push and
 what came before it): when the arrays are full, frames older than the window are
 dropped by moving the newer ones to the front (amortised O(1) per frame), else
 the arrays double. Memory and the work of a refresh are bounded however long the
@@ -24,7 +25,8 @@ import numpy as np
 from liquidtouch._core.checks import check_times
 from liquidtouch.errors import VideoError
 from liquidtouch.tracking.detect import as_grey
-from liquidtouch.tracking.track import MarkerTracker
+from liquidtouch.tracking.flow import TextureError
+from liquidtouch.tracking.gel import DEFAULT_TRACKING, check_tracking, gel_tracker
 from liquidtouch.tracking.tracks import MarkerTracks
 
 #: frames preallocated at the start (grows by doubling up to the window): 20 s at 30 fps
@@ -38,13 +40,17 @@ class GrowingTracks:
     """One sensor's tracks over the last ``window_s`` [s]; :meth:`add` a frame,
     :meth:`snapshot` the tracks."""
 
-    def __init__(self, sensor: str, window_s: float = WINDOW_S) -> None:
+    def __init__(
+        self, sensor: str, window_s: float = WINDOW_S, tracking: str = DEFAULT_TRACKING
+    ) -> None:
         if not 0 < float(window_s) <= math.inf:
             raise VideoError(f"window_s must be a time > 0 in seconds, got {window_s!r}")
         self.sensor = sensor
         self.window_s = float(window_s)
         self.start_s = float("nan")  # the first frame's time on the shared clock [s]
-        self.tracker = MarkerTracker()
+        self.tracking = check_tracking(tracking)  # "auto" until the first frame decides
+        self.tracker = None
+        self.waited = 0  # frames of a markerless gel without texture before the first
         self.n = 0  # frames in the arrays (the newest is at n - 1)
         self.total = 0  # frames added since the start
         self.t = np.zeros(INITIAL_FRAMES)
@@ -67,9 +73,16 @@ class GrowingTracks:
         t_s = float(t_s)
         self._check_time(t_s)
         if self.first is None:
+            try:
+                self.tracker, row = gel_tracker(as_grey(image), self.tracking)
+            except TextureError:
+                # a markerless gel before the grasp shows nothing to track: the stream's
+                # reference is the first frame with the contact's texture
+                self.waited += 1
+                return np.zeros((0, 2))
             self.start_s = t_s
             self.first = as_grey(image)
-            row = self.tracker.start(self.first).copy()
+            self.tracking = self.tracker.tracking
             self.positions = np.zeros((INITIAL_FRAMES, len(row), 2))
         else:
             if np.shape(image)[:2] != self.first.shape:
@@ -144,4 +157,5 @@ class GrowingTracks:
             diameter_px=float(self.tracker.diameter_px) if self.first is not None else math.nan,
             first_frame=self.first,
             start_s=float(self.t[first]) if self.n else self.start_s,
+            tracking="flow" if self.tracking == "flow" else "markers",
         )

@@ -23,6 +23,7 @@ from behind.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -49,6 +50,8 @@ __all__ = [
     "SensorScene",
     "contact_geometry",
     "contact_offsets",
+    "gel_displacement",
+    "gel_loads_px",
     "marker_positions",
     "marker_rest_positions",
     "sensor_scene",
@@ -215,14 +218,36 @@ def marker_positions(
     out = np.empty((2, len(t_frames), len(rest), 2))
     for s in range(2):
         rel = rest - geom.center_px[s]  # (N, 2)
-        weight = np.exp(-np.sum(rel**2, axis=1) / (2 * geom.field_sigma_px[s] ** 2))
         angle = profile.twist_compliance_rad_per_nmm * twist[:, s]  # (T,), clockwise on screen
-        cos_m1, sin = np.cos(angle) - 1.0, np.sin(angle)
-        twist_dx = cos_m1[:, None] * rel[None, :, 0] - sin[:, None] * rel[None, :, 1]
-        twist_dy = sin[:, None] * rel[None, :, 0] + cos_m1[:, None] * rel[None, :, 1]
-        disp = shear_px[s][:, None, :] + np.stack([twist_dx, twist_dy], axis=2)
-        out[s] = rest[None] + weight[None, :, None] * disp
+        out[s] = rest[None] + gel_displacement(rel, geom.field_sigma_px[s], shear_px[s], angle)
     return out
+
+
+def gel_loads_px(
+    loads: FingerLoads, profile: SensorProfile | str, t_frames: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each gel's shear at its contact centre (2, T, 2) [px] and twist (2, T) [rad, clockwise
+    on screen] as the frames at ``t_frames`` [s] see them (the argument of
+    :func:`gel_displacement`)."""
+    profile = get_sensor_profile(profile)
+    shear, twist = _loads_at(loads, profile, np.asarray(t_frames, dtype=float))
+    return _shear_px(profile, shear), profile.twist_compliance_rad_per_nmm * twist.T
+
+
+def gel_displacement(
+    rel_px: np.ndarray, sigma_px: float, shear_px: np.ndarray, angle_rad: np.ndarray
+) -> np.ndarray:
+    """The gel's displacement (T, N, 2) [px] at points ``rel_px`` (N, 2) from the contact centre.
+
+    ``shear_px`` (T, 2) is the shear at the centre [px], ``angle_rad`` (T,) the twist
+    (clockwise on screen), ``sigma_px`` the Gaussian width of the field (module docstring).
+    """
+    weight = np.exp(-np.sum(rel_px**2, axis=1) / (2 * sigma_px**2))
+    cos_m1, sin = np.cos(angle_rad) - 1.0, np.sin(angle_rad)
+    twist_dx = cos_m1[:, None] * rel_px[None, :, 0] - sin[:, None] * rel_px[None, :, 1]
+    twist_dy = sin[:, None] * rel_px[None, :, 0] + cos_m1[:, None] * rel_px[None, :, 1]
+    disp = shear_px[:, None, :] + np.stack([twist_dx, twist_dy], axis=2)
+    return weight[None, :, None] * disp
 
 
 def contact_offsets(
@@ -262,6 +287,19 @@ class SensorScene:
     positions_px: np.ndarray
     exposure_s: np.ndarray | None = None
     drawn: dict[str, Any] = field(default_factory=dict)
+    shear_px: np.ndarray | None = None
+    twist_rad: np.ndarray | None = None
+
+    def displacement(self, s: int) -> Callable[[int, np.ndarray], np.ndarray]:
+        """Sensor ``s``'s gel displacement ``(frame, rel_px (N, 2)) → (N, 2)`` [px] (points
+        relative to the contact centre): what moves a plain gel's imprint."""
+        sigma = float(self.geometry.field_sigma_px[s])
+
+        def at(frame: int, rel_px: np.ndarray) -> np.ndarray:
+            shear = self.shear_px[s, frame : frame + 1]
+            return gel_displacement(rel_px, sigma, shear, self.twist_rad[s, frame : frame + 1])[0]
+
+        return at
 
 
 def sensor_scene(
@@ -296,6 +334,7 @@ def sensor_scene(
     positions = np.stack(
         [marker_positions(loads, profile, t_frames, rest_px=rests[s])[s] for s in range(2)]
     )
+    shear_px, twist_rad = gel_loads_px(loads, profile, t_frames)
     return SensorScene(
         timestamps,
         frame_index,
@@ -305,6 +344,8 @@ def sensor_scene(
         positions,
         exposure,
         drawn,
+        shear_px=shear_px,
+        twist_rad=twist_rad,
     )
 
 
@@ -332,6 +373,9 @@ def write_sensor_videos(
     timestamps without drops; ``noise`` False renders clean frames.
     ``x264_params`` overrides the encoder options (default
     :data:`liquidtouch.sim.encode.X264_PARAMS`; ``""`` gives x264's lossy defaults).
+    A plain gel (the profile's ``gel``, :mod:`liquidtouch.sim.sensors`) shows no markers:
+    its imprint, with the face's texture, moves with the gel's displacement field; the
+    truth tracks are still those of the markers it would have.
     ``realism`` adds the bench's camera, gel and image nuisances
     (:mod:`liquidtouch.sim.realism`; default: none). With camera nuisances the
     videos' timestamps are the recorded (host) times and ``truth_tracks.npz``
@@ -367,8 +411,12 @@ def write_sensor_videos(
     def render_and_encode(s: int) -> None:
         sensor_rng = np.random.default_rng([seed, s + 1])
         background = make_background(profile, sensor_rng)
+        plain = {}
+        if profile.gel == "plain":  # no markers: the imprint moves with the gel's field
+            plain = {"imprint_motion": scene.displacement(s)}
+            image_kwargs[s].pop("marker_ink", None)
         frames = iter_frames(
-            positions[s],
+            positions[s][:, :0] if plain else positions[s],
             profile,
             sensor_rng,
             background=background,
@@ -376,6 +424,7 @@ def write_sensor_videos(
             contact_radius_px=float(geom.radius_px[s]),
             contact_offsets_px=offsets[s],
             noise=noise,
+            **plain,
             **image_kwargs[s],
         )
         encode_video(

@@ -23,7 +23,7 @@ position to ~1e-4 px (before uint8 rounding and codec).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
@@ -82,14 +82,20 @@ def make_background(
 
 
 def make_imprint(
-    profile: SensorProfile | str, radius_px: float, *, grooves: bool = True
+    profile: SensorProfile | str,
+    radius_px: float,
+    *,
+    grooves: bool = True,
+    rng: np.random.Generator | None = None,
 ) -> np.ndarray:
     """Multiplicative gain (h, h, 3) of the container's contact imprint, centred in the patch.
 
     The patch is square, just large enough for the rim; outside the
     contact the gain is 1. The contact is a slightly wide ellipse, tinted and a
     little brighter, with a rim lit on one side and shaded on the other (the LEDs
-    shine at a grazing angle) and, with ``grooves``, faint parallel grooves.
+    shine at a grazing angle) and, with ``grooves``, faint parallel grooves. With
+    ``rng``, the face's fine texture (``profile.face_texture``: Gaussian-smoothed noise
+    of ``face_texture_mm``) is printed on the contact, as a plain gel shows it.
     """
     profile = get_sensor_profile(profile)
     edge_px = max(2.0, 0.06 * radius_px)
@@ -109,6 +115,17 @@ def make_imprint(
     if grooves:
         period_px = 0.9 / profile.mm_per_px
         gain += (0.012 * mask * np.sin(2 * np.pi * yy / period_px)).astype(np.float32)[..., None]
+    if rng is not None and profile.face_texture > 0:
+        import cv2
+
+        grain = cv2.GaussianBlur(
+            rng.standard_normal(xx.shape).astype(np.float32),
+            (0, 0),
+            profile.face_texture_mm / profile.mm_per_px,
+            borderType=cv2.BORDER_REFLECT,
+        )
+        grain *= np.float32(profile.face_texture) / max(float(grain.std()), 1e-12)
+        gain *= (1.0 + mask * grain).astype(np.float32)[..., None]
     return gain.astype(np.float32)
 
 
@@ -167,6 +184,7 @@ def iter_frames(
     marker_ink: np.ndarray | None = None,
     noise_rgb: tuple[float, float, float] | None = None,
     noise_corr_px: float = 0.0,
+    imprint_motion: Callable[[int, np.ndarray], np.ndarray] | None = None,
 ) -> Iterator[np.ndarray]:
     """Yield uint8 RGB frames (H, W, 3), one per row of ``positions_px`` (T, N, 2) [px].
 
@@ -184,6 +202,11 @@ def iter_frames(
     white noise by noise of that std per channel [grey levels], spatially
     correlated by a Gaussian blur of ``noise_corr_px`` [px] (the same random
     draws, blurred and rescaled).
+
+    A plain gel (no markers: give ``positions_px`` with no markers): ``imprint_motion``
+    ``(frame, points (N, 2) from the contact centre [px]) → (N, 2)`` [px] is the gel's
+    displacement, which moves the imprint, with the face's texture, pixel by pixel
+    (instead of as a whole by ``contact_offsets_px``).
     """
     import cv2
 
@@ -229,7 +252,14 @@ def iter_frames(
     )
     bounds = np.array([wp - half - 1, hp - half - 1])
 
-    imprint = _ImprintLayer.build(profile, contact_center_px, contact_radius_px, pad, (hp, wp))
+    if imprint_motion is None:
+        imprint = _ImprintLayer.build(profile, contact_center_px, contact_radius_px, pad, (hp, wp))
+    else:
+        imprint = _GelImprint.build(
+            profile, contact_center_px, contact_radius_px, pad, (hp, wp), rng
+        )
+        if imprint is not None:
+            imprint.motion = imprint_motion
     background_box = None if imprint is None else base[imprint.slices].copy()
     if contact_offsets_px is None:
         contact_offsets_px = np.zeros((n_frames, 2))
@@ -244,9 +274,10 @@ def iter_frames(
         # parts so that it can be added to the uint8 frame with saturation
         white = rng.standard_normal((h + npad, w + npad, 3), dtype=np.float32)
         if noise_rgb is None:
-            noise_tile = np.rint(profile.noise_std * white)
+            noise_float = profile.noise_std * white
         else:
-            noise_tile = np.rint(_coloured_noise(white, noise_rgb, noise_corr_px))
+            noise_float = _coloured_noise(white, noise_rgb, noise_corr_px)
+        noise_tile = np.rint(noise_float)
         noise_up = np.clip(noise_tile, 0, 255).astype(np.uint8)
         noise_down = np.clip(-noise_tile, 0, 255).astype(np.uint8)
         offsets = rng.integers(0, npad, (n_frames, 2))
@@ -260,14 +291,23 @@ def iter_frames(
 
     imprint_key = None
     spacing = _Spacing(size)
+    dithered = imprint_motion is not None and positions_px.shape[1] == 0
     for i in range(n_frames):
         if imprint is not None:
-            key = imprint.key(contact_offsets_px[i])
+            key = imprint.key(contact_offsets_px[i], i)
             if key != imprint_key:
                 cv2.multiply(background_box, imprint.shifted(key), dst=base[imprint.slices])
                 imprint_key = key
         alpha = float(gains[i])
         # rounds to nearest and saturates to 0..255 (values are never negative here)
+        if dithered and use_noise:
+            # a plain gel's faint texture: the noise before the rounding, as a camera's ADC
+            # sees it (rounded first, motion of a tenth of a pixel would freeze)
+            oy, ox = offsets[i]
+            lit = cv2.scaleAdd(base_visible, alpha, noise_float[oy : oy + h, ox : ox + w])
+            np.copyto(out, np.clip(np.rint(lit), 0, 255), casting="unsafe")
+            yield out
+            continue
         cv2.convertScaleAbs(base_visible, dst=drawn_visible, alpha=alpha)
         pos = positions_px[i] + pad
         corner_all = np.floor(pos).astype(np.intp) - half  # (N, 2) top-left (x, y)
@@ -380,15 +420,25 @@ class _ImprintLayer:
 
     _STEPS_PER_PX = 8
 
-    def __init__(self, gain: np.ndarray, box: tuple[int, int, int, int], sub: np.ndarray):
-        self.gain, self.box, self.sub = gain, box, sub
+    def __init__(
+        self,
+        gain: np.ndarray,
+        box: tuple[int, int, int, int],
+        sub: np.ndarray,
+        centre: tuple[int, int] = (0, 0),
+    ):
+        self.gain, self.box, self.sub, self.centre = gain, box, sub, centre
         self._cache: dict[tuple[int, int], np.ndarray] = {}
 
     @classmethod
-    def build(cls, profile, center_px, radius_px, pad, padded_shape) -> _ImprintLayer | None:
+    def build(
+        cls, profile, center_px, radius_px, pad, padded_shape, rng=None
+    ) -> _ImprintLayer | None:
+        """The layer of an imprint of ``radius_px`` at ``center_px`` (None without one);
+        ``rng`` prints the face's texture on it (a plain gel)."""
         if center_px is None or radius_px is None:
             return None
-        gain = make_imprint(profile, float(radius_px))
+        gain = make_imprint(profile, float(radius_px), rng=rng)
         ih = gain.shape[0] // 2
         hp, wp = padded_shape
         cx, cy = (float(c) + pad for c in center_px)
@@ -400,7 +450,7 @@ class _ImprintLayer:
         gain = np.ascontiguousarray(
             gain[y0 - (cyi - ih) : y1 - (cyi - ih), x0 - (cxi - ih) : x1 - (cxi - ih)]
         )
-        return cls(gain, (y0, y1, x0, x1), np.array([cx - cxi, cy - cyi]))
+        return cls(gain, (y0, y1, x0, x1), np.array([cx - cxi, cy - cyi]), (cxi - x0, cyi - y0))
 
     @property
     def slices(self) -> tuple[slice, slice]:
@@ -408,7 +458,7 @@ class _ImprintLayer:
         y0, y1, x0, x1 = self.box
         return slice(y0, y1), slice(x0, x1)
 
-    def key(self, offset_px: np.ndarray) -> tuple[int, int]:
+    def key(self, offset_px: np.ndarray, frame: int) -> tuple[int, int]:
         """The shift of the imprint for a gel offset, in 1/8 px steps (x, y)."""
         steps = self._STEPS_PER_PX
         return (
@@ -435,6 +485,67 @@ class _ImprintLayer:
             if len(self._cache) < 256:
                 self._cache[key] = moved
         return moved
+
+
+class _GelImprint(_ImprintLayer):
+    """A plain gel's imprint, with the face's texture, moved pixel by pixel with the gel.
+
+    Each frame resamples the rest imprint where the gel's displacement field ``motion``
+    put it (Lanczos, 8 × 8 taps: bilinear sampling of a fine texture would change its gain
+    with the fraction of a pixel), at positions jittered by OpenCV's 1/32 px step (below). The
+    content at rest point ``p`` shows at ``p + d(p)``; pixel ``q`` reads the rest imprint
+    at ``p = q − d(q − d(q))`` (one fixed-point step: exact to second order in the
+    field's gradient).
+    """
+
+    _FIELD_STEP_PX = 4
+
+    def key(self, offset_px: np.ndarray, frame: int) -> int:
+        return frame
+
+    def shifted(self, frame: int) -> np.ndarray:
+        import cv2
+
+        h, w = self.gain.shape[:2]
+        step = self._FIELD_STEP_PX
+        if not hasattr(self, "_coarse"):
+            # the field is smooth (its width is the contact's size): evaluated every
+            # _FIELD_STEP_PX and read linearly between (error ~1e-3 px)
+            yy, xx = np.mgrid[0 : h + step : step, 0 : w + step : step]
+            self._coarse_shape = xx.shape
+            self._coarse = np.stack([xx.ravel(), yy.ravel()], axis=1).astype(np.float64)
+            self._coarse_rel = self._coarse - np.asarray(self.centre) - self.sub
+            self._grid = np.mgrid[0:h, 0:w][::-1].astype(np.float32)  # (x, y) of each pixel
+            self._jitter = np.random.default_rng(0)  # the same frames every run
+        d = self.motion(frame, self._coarse_rel)
+        d = self.motion(frame, self._coarse_rel - d)  # from the contact centre [px]
+        ch, cw = self._coarse_shape
+        size = (cw * step, ch * step)
+        maps = []
+        for axis in range(2):
+            fine = cv2.resize(d[:, axis].reshape(ch, cw).astype(np.float32), size)
+            # cv2.resize aligns pixel centres: coarse sample k sits at fine (k + 0.5)·step − 0.5
+            shift = (step - 1) / 2
+            fine = cv2.warpAffine(
+                fine,
+                np.float32([[1, 0, -shift], [0, 1, -shift]]),
+                size,
+                flags=cv2.INTER_LINEAR,
+                borderMode=cv2.BORDER_REPLICATE,
+            )[:h, :w]
+            maps.append(self._grid[axis] - fine - np.float32(self.sub[axis]))
+        # OpenCV rounds the positions to 1/32 px; a uniform jitter of one such step makes
+        # that rounding exact on average (0.05 px would otherwise read as 0.0625): the jitter
+        # moves a pixel by ≤ 1/64 px, a change of ~0.01 grey level, far below the noise
+        jitter = self._jitter.uniform(-1 / 64, 1 / 64, (2, h, w)).astype(np.float32)
+        return cv2.remap(
+            self.gain,
+            maps[0] + jitter[0],
+            maps[1] + jitter[1],
+            cv2.INTER_LANCZOS4,
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=(1.0, 1.0, 1.0),
+        )
 
 
 def render_frames(

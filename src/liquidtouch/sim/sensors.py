@@ -9,13 +9,23 @@ Two profiles ship:
   i.e. 0.06 mm/px; markers at 1.8 mm pitch (30 px), radius 5.9 px (area ≈ 110 px,
   as in the real Mini recording described in ``docs/real_data.md``).
 
+- ``"digit"``: a DIGIT (Lambeta et al. 2020), 320 × 240 px at 60 fps over its
+  19 × 14 mm field of view (0.06 mm/px), lit by red, green and blue LEDs from three
+  sides; its gel has no markers (``gel="plain"``).
+
 Compliances are chosen inside the realistic range 3–40 px/N, so that a 0.1 N
 slosh force moves the markers at the contact centre by ~0.5–1.2 px.
+
+**Gels** (:data:`GELS`): ``markers`` (printed dots) or ``plain`` (none: only the contact's
+imprint, its edge, shading and the face's fine texture, moves with the gel). Every
+profile also exists with the other gel, named ``<profile>-<gel>`` (``mini-plain``,
+``digit-markers``): :func:`with_gel` gives the name, so that a gel is chosen wherever
+a profile name is passed on.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from liquidtouch.errors import CatalogueError
 
@@ -83,6 +93,15 @@ class SensorProfile:
     """Exposure time / frame period. Each frame shows the marker motion averaged over
     its exposure (motion blur), so arm vibration near a multiple of the frame rate
     is attenuated before it aliases into the slosh band, as in a real camera."""
+    gel: str = "markers"
+    """``markers`` (printed dots) or ``plain`` (markerless: the imprint's texture moves)."""
+    face_texture: float = 0.04
+    """Relative std of the container face's fine texture in the imprint of a plain gel:
+    a printed or embossed label shows ~4 % (the independent validation set's label face:
+    grey-level std 7 on 170)."""
+    face_texture_mm: float = 0.1
+    """Correlation length of that texture [mm] (Gaussian-smoothed noise): a label's
+    print and embossing grain, 1.7 px on a Mini, so that the pixels sample it finely."""
 
 
 # LED lobes fitted (non-negative least squares, vignetting included) to the
@@ -136,6 +155,48 @@ SENSOR_PROFILES: dict[str, SensorProfile] = {
         noise_std=1.0,
     ),
 }
+
+
+# DIGIT's three LEDs (red, green, blue) shine from three sides of the gel (Lambeta et al.
+# 2020); their strengths put the image in the same grey range as the Mini's fitted light.
+_DIGIT_LEDS = (
+    LedLobe(center=(0.5, -0.15), rgb=(110.0, 10.0, 10.0), width=0.35),
+    LedLobe(center=(-0.15, 0.9), rgb=(10.0, 110.0, 10.0), width=0.35),
+    LedLobe(center=(1.15, 0.9), rgb=(10.0, 10.0, 110.0), width=0.35),
+)
+SENSOR_PROFILES["digit"] = SensorProfile(
+    name="digit",
+    width_px=320,
+    height_px=240,
+    fps=60.0,
+    mm_per_px=0.06,
+    marker_radius_px=5.9,
+    marker_edge_px=1.0,
+    shear_compliance_px_per_n=6.0,
+    twist_compliance_rad_per_nmm=0.004,
+    base_rgb=(40.0, 40.0, 40.0),
+    leds=_DIGIT_LEDS,
+    noise_std=1.0,
+    gel="plain",
+)
+
+#: the simulated gels: printed markers, or none (the imprint's own texture moves)
+GELS = ("markers", "plain")
+for _name, _profile in list(SENSOR_PROFILES.items()):
+    for _gel in GELS:
+        if _gel != _profile.gel:
+            SENSOR_PROFILES[f"{_name}-{_gel}"] = replace(_profile, name=f"{_name}-{_gel}", gel=_gel)
+
+
+def with_gel(sensor: str, gel: str | None) -> str:
+    """The name of profile ``sensor`` with ``gel`` (``None``: the profile's own gel)."""
+    profile = get_sensor_profile(sensor)
+    if gel is None or gel == profile.gel:
+        return profile.name
+    if gel not in GELS:
+        raise CatalogueError(f"unknown gel {gel!r}; choose one of: {', '.join(GELS)}")
+    base = profile.name.removesuffix(f"-{profile.gel}")
+    return base if get_sensor_profile(base).gel == gel else f"{base}-{gel}"
 
 
 def get_sensor_profile(sensor: str | SensorProfile) -> SensorProfile:

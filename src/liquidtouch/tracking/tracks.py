@@ -109,6 +109,9 @@ class MarkerTracks:
         trial (a recording's ``meta.json`` ``sensor_start_s``); 0 when unknown, and
         sensors are then aligned on their first frames. Frame ``k`` is at
         ``start_s + t[k] - t[0]`` on that clock.
+    tracking : how the points were tracked: ``"markers"`` (printed markers) or ``"flow"``
+        (a markerless gel's own image, :mod:`liquidtouch.tracking.flow`: the points are
+        cells of its grid).
 
     Its repr is one short line: sensor, frames × markers and the valid share.
     """
@@ -122,13 +125,15 @@ class MarkerTracks:
     diameter_px: float = float("nan")
     first_frame: np.ndarray | None = field(default=None, repr=False)
     start_s: float = 0.0
+    tracking: str = "markers"
 
     def __repr__(self) -> str:
         valid = np.asarray(self.valid)
         share = percent(valid.mean(), 0) if valid.size else percent(None)
+        points = "markers" if self.tracking == "markers" else f"{self.tracking} cells"
         return (
             f"MarkerTracks(sensor={self.sensor!r}, {len(self.t)} frames × "
-            f"{self.n_markers} markers, {share} valid)"
+            f"{self.n_markers} {points}, {share} valid)"
         )
 
     @property
@@ -202,7 +207,7 @@ def track_markers(
     for k, item in enumerate(frames):
         if k >= MAX_FRAMES:
             check_frame_count(k + 1, sensor)
-        t_s, image = _frame(item, k, sensor, times[-1] if times else None)
+        t_s, image = check_frame(item, k, sensor, times[-1] if times else None)
         if k == 0:
             first = as_grey(image)
             rows.append(tracker.start(first).copy())
@@ -237,7 +242,7 @@ def track_markers(
     )
 
 
-def _frame(item: object, k: int, sensor: str, previous: float | None) -> tuple[float, Any]:
+def check_frame(item: object, k: int, sensor: str, previous: float | None) -> tuple[float, Any]:
     """``(t_s, image)`` of frame ``k``, its timestamp checked against the previous one."""
     try:
         t_s, image = item  # type: ignore[misc]

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
+from liquidtouch.sim.gelsight import gel_displacement
 from liquidtouch.sim.loads import FingerLoads
 from liquidtouch.sim.render import iter_frames, make_background
 
@@ -35,6 +36,7 @@ class LiveSensor:
         self._lock = threading.Lock()
         self._positions = rest_px.astype(np.float64).copy()
         self._offset = np.zeros(2)
+        self._field = np.zeros(3)  # a plain gel's shear at the centre (x, y) [px], twist [rad]
         self._frames: dict[bool, tuple[Any, int]] = {}
 
     def _generator(self, contact: bool):
@@ -53,7 +55,17 @@ class LiveSensor:
                 contact_radius_px=float(self.geometry.radius_px[self.index]),
                 contact_offsets_px=offsets,
             )
+        if self.profile.gel == "plain":  # no markers; the imprint moves with the gel's field
+            positions = positions[:, :0]
+            if contact:
+                kwargs["imprint_motion"] = self._motion
         return iter_frames(positions, self.profile, rng, **kwargs)
+
+    def _motion(self, frame: int, rel_px: np.ndarray) -> np.ndarray:
+        """The plain gel's displacement at ``rel_px`` (N, 2) now (the field set by render)."""
+        sigma = float(self.geometry.field_sigma_px[self.index])
+        shear, angle = self._field[None, :2], self._field[2:]
+        return gel_displacement(rel_px, sigma, shear, angle)[0]
 
     def prepare(self) -> None:
         """Set up both renderers now (about a second) rather than at the first frame."""
@@ -62,8 +74,15 @@ class LiveSensor:
                 if contact not in self._frames:
                     self._frames[contact] = (self._generator(contact), 0)
 
-    def render(self, positions: np.ndarray, offset: np.ndarray, contact: bool) -> np.ndarray:
-        """The BGR frame (H, W, 3) with markers at ``positions`` and the imprint if ``contact``."""
+    def render(
+        self,
+        positions: np.ndarray,
+        offset: np.ndarray,
+        contact: bool,
+        field: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """The BGR frame (H, W, 3) with markers at ``positions`` and the imprint if ``contact``;
+        on a plain gel ``field`` (shear x, y [px], twist [rad]) moves the imprint."""
         import cv2  # why: OpenCV is heavy; imported when the first frame is rendered
 
         with self._lock:
@@ -72,6 +91,7 @@ class LiveSensor:
                 generator, used = self._generator(contact), 0
             self._positions[:] = positions
             self._offset[:] = offset
+            self._field[:] = 0.0 if field is None else field
             frame = cv2.cvtColor(next(generator), cv2.COLOR_RGB2BGR)  # a new array
             self._frames[contact] = (generator, used + 1)
         return frame

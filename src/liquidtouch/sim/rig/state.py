@@ -61,6 +61,7 @@ from liquidtouch.sim.gelsight import (
     SENSOR_NAMES,
     contact_geometry,
     contact_offsets,
+    gel_loads_px,
     marker_positions,
     marker_rest_positions,
 )
@@ -333,11 +334,21 @@ class Rig(FingerCommands):
         offset = contact_offsets(loads, self.profile, times)[index, 0]
         return rest + weight * (moved - rest), weight * offset, contact
 
+    def gel_field(self, index: int, now: float | None = None) -> np.ndarray:
+        """A plain gel's field now: shear at the contact centre (x, y) [px] and twist [rad]."""
+        trial, t, weight, contact = self.trial_time(now)
+        if not contact or weight <= 0.0:
+            return np.zeros(3)
+        shear, twist = gel_loads_px(loads_near(trial.loads, t), self.profile, np.array([t]))
+        return weight * np.array([*shear[index, 0], twist[index, 0]])
+
     def frame(self, index: int, now: float | None = None) -> np.ndarray:
         """Sensor ``index``'s image at ``now`` (default: now), BGR uint8 (H, W, 3) as a
         camera delivers it."""
+        now = time.monotonic() if now is None else now
         positions, offset, contact = self.marker_state(index, now)
-        return self.sensor(index).render(positions, offset, contact)
+        field = self.gel_field(index, now) if self.profile.gel == "plain" else None
+        return self.sensor(index).render(positions, offset, contact, field)
 
     def status(self) -> dict[str, Any]:
         """The rig's state: gripper, arm, bottle and trial clock."""
