@@ -21,7 +21,7 @@ as the simulated rig does), back and forth, holding ``--hold-s`` after each.
    ``--max-pushes`` (the ``run-trial --until-std T=S --max-pushes N`` rule).
 3. The upright bottle (``upright-bottle``, 90 mm across, held upright) with water at fills
    20-170 mm and a height GPR trained on it the same way (15-60 mm, where its fill can be
-   told: ``UPRIGHT_TRAIN_TOP_MM``): the physics' floor (``acquire.push_plan``: the best
+   told: ``UPRIGHT_TRAIN_TOP_MM``): the physics' floor (``planning.push``: the best
    height ± any number of pushes gives) says where ± 2 mm is out of reach; the table
    counts how often the trial said "cannot tell" there, and where it was reachable.
 
@@ -52,11 +52,11 @@ from pathlib import Path
 import numpy as np
 
 from liquidtouch import combine_ring_downs
-from liquidtouch.acquire.push_plan import plan_push
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.models import save_model
 from liquidtouch.models.training import train_regression
+from liquidtouch.planning.push import plan_push
 from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.gelsight import sensor_scene
 from liquidtouch.sim.protocol_scene import ProtocolTimings
@@ -77,7 +77,7 @@ TESTS = (
 TEST_FILLS_MM = (20.0, 30.0, 38.0)
 UPRIGHT_FILLS_MM = (20.0, 40.0, 80.0, 120.0, 170.0)
 #: the upright bottle's model is trained on 15 mm up to this fill: where its height still
-#: moves ω (acquire.push_plan: ±0.5 mm is reachable to ~45 mm, its floor ±4.9 mm at 80 mm);
+#: moves ω (planning.push: ±0.5 mm is reachable to ~45 mm, its floor ±4.9 mm at 80 mm);
 #: a model of the whole bottle (15-190 mm) has a ± of tens of mm everywhere
 UPRIGHT_TRAIN_TOP_MM = 60.0
 #: the upright bottle's asked height ± [mm]: the simulator draws each bottle's real fill

@@ -1,5 +1,5 @@
 """The upright bottle's slosh (Bessel first mode), pushes along either axis, fresh noise per
-push; and the push planner (acquire.push_plan) on them."""
+push; and the push planner (planning.push) on them."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import pytest
 
 from liquidtouch._core.containers import get_container
 from liquidtouch._core.liquids import get_liquid
-from liquidtouch.acquire.push_plan import plan_push, reference_steepness
 from liquidtouch.errors import CatalogueError
+from liquidtouch.planning.push import plan_push, reference_steepness
 from liquidtouch.sim.slosh import GRAVITY_M_S2, slosh_system
 from liquidtouch.sim.trial import simulate_trial
 

@@ -45,6 +45,7 @@ class FitModelChoice(StrEnum):
     two_mode = "two-mode"
     single_mode = "single-mode"
     amplitude = "amplitude"
+    drifting_line = "drifting-line"
     amplitude_two_mode = "amplitude-two-mode"
 
 
@@ -259,7 +260,10 @@ FitModel = Annotated[
         "output names it and says why); amplitude: one mode whose damping grows with its "
         "amplitude (λ is the small-amplitude rate λ0, the same whatever the push); two-mode: "
         "the paper's two damped cosines (one when the data do not support a second); "
-        "amplitude-two-mode: both together; single-mode: one damped cosine.",
+        "drifting-line: one mode whose damping and frequency both move with its amplitude "
+        "(λ0 and ω0 at small amplitude); amplitude-two-mode: amplitude and a second mode; "
+        "single-mode: one damped cosine. auto averages the models the data cannot tell apart "
+        "and widens the ± by their spread.",
     ),
 ]
 BandLow = Annotated[

@@ -185,10 +185,10 @@ def _live_trial(names: list[str], n_cameras: int, model_file, until_std, serve, 
 
 def _plan(params, labels: dict, model_file, until_std: list[str], as_json: bool) -> None:
     """``run-trial --plan``: the proposed push for the container, printed; nothing moves."""
-    from liquidtouch.acquire.push_plan import plan_push
     from liquidtouch.errors import LiquidTouchError
     from liquidtouch.live.stopping import parse_until_std
     from liquidtouch.models.modelfile import load_model
+    from liquidtouch.planning.push import plan_push
 
     container = labels.get("container") or params.container
     if container is None:
