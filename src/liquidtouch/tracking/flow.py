@@ -54,7 +54,7 @@ import numpy as np
 
 from liquidtouch.errors import MarkerError, VideoError
 from liquidtouch.tracking.detect import as_grey
-from liquidtouch.tracking.tracks import MAX_FRAMES, MarkerTracks, check_frame
+from liquidtouch.tracking.tracks import MAX_FRAMES, MarkerTracks, check_frame, check_frame_count
 
 __all__ = [
     "FlowTracker",
@@ -444,10 +444,7 @@ def track_flow(
     first = None
     for k, item in enumerate(frames):
         if k >= MAX_FRAMES:
-            raise VideoError(
-                f"{sensor}: more than {MAX_FRAMES} frames; a trial is the push and its "
-                "ring-down (~15 s): trim the recording to that"
-            )
+            check_frame_count(k + 1, sensor)
         t_s, image = check_frame(item, k, sensor, times[-1] if times else None)
         if k == 0:
             first = as_grey(image)
