@@ -8,8 +8,7 @@ wrist force-torque signal, and ``plot`` draws an extraction.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from liquidtouch._core.lazy import lazy_exports
 
 __all__ = [
     "Extraction",
@@ -30,9 +29,6 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    # lazy (PEP 562), so that importing one module of the stage (the command line reads
-    # its defaults) does not import the rest of it, nor SciPy, OpenCV or PyAV
-    if name in _LAZY:
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+# lazy (PEP 562), so that importing one module of the stage (the command line reads its
+# defaults) does not import the rest of it, nor SciPy, OpenCV or PyAV
+__getattr__ = lazy_exports(__name__, _LAZY)

@@ -13,9 +13,7 @@ damped test signals with known λ0, and ``plot`` the figure of a fit.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
+from liquidtouch._core.lazy import lazy_exports
 from liquidtouch.fit.choices import DEFAULT_MODEL
 
 __all__ = ["DEFAULT_MODEL", "OscillationFit", "example_signal", "fit_oscillation"]
@@ -29,8 +27,5 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    # lazy (PEP 562), so that the command line reads DEFAULT_MODEL without importing SciPy
-    if name in _LAZY:
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+# lazy (PEP 562), so that the command line reads DEFAULT_MODEL without importing SciPy
+__getattr__ = lazy_exports(__name__, _LAZY)

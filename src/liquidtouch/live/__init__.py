@@ -35,8 +35,7 @@ Example::
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from liquidtouch._core.lazy import lazy_exports
 
 __all__ = [
     "PHASES",
@@ -75,9 +74,6 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    # lazy (PEP 562), as the ring-down face: the command line checks --until-std (stopping)
-    # before SciPy, scikit-learn and the estimator are imported, so a typo is answered at once
-    if name in _LAZY:
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+# lazy (PEP 562), as the ring-down face: the command line checks --until-std (stopping)
+# before SciPy, scikit-learn and the estimator are imported, so a typo is answered at once
+__getattr__ = lazy_exports(__name__, _LAZY)

@@ -8,8 +8,7 @@ that move most and takes the first principal component: :class:`TactileSignal`
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from liquidtouch._core.lazy import lazy_exports
 
 __all__ = [
     "DEFAULT_LOWPASS_HZ",
@@ -32,9 +31,6 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    # lazy (PEP 562), so that importing one module of the stage (the command line reads
-    # its defaults) does not import the rest of it, nor SciPy, OpenCV or PyAV
-    if name in _LAZY:
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+# lazy (PEP 562), so that importing one module of the stage (the command line reads its
+# defaults) does not import the rest of it, nor SciPy, OpenCV or PyAV
+__getattr__ = lazy_exports(__name__, _LAZY)
