@@ -54,7 +54,7 @@ import numpy as np
 
 from liquidtouch.errors import MarkerError, VideoError
 from liquidtouch.tracking.detect import as_grey
-from liquidtouch.tracking.tracks import MAX_FRAMES, MarkerTracks, check_frame, check_frame_count
+from liquidtouch.tracking.tracks import MarkerTracks, run_tracker
 
 __all__ = [
     "FlowTracker",
@@ -439,34 +439,12 @@ def track_flow(
     if not isinstance(sensor, str) or not sensor:
         raise MarkerError(f"sensor must be a non-empty name such as 'left', got {sensor!r}")
     tracker = FlowTracker(max_cell_std_px)
-    times: list[float] = []
-    rows: list[np.ndarray] = []
-    first = None
-    for k, item in enumerate(frames):
-        if k >= MAX_FRAMES:
-            check_frame_count(k + 1, sensor)
-        t_s, image = check_frame(item, k, sensor, times[-1] if times else None)
-        if k == 0:
-            first = as_grey(image)
-            try:
-                rows.append(tracker.start(first))
-            except TextureError as exc:
-                raise TextureError(f"{sensor}: {exc}") from None
-        else:
-            if np.shape(image)[:2] != first.shape:
-                raise VideoError(
-                    f"{sensor}: frame {k} is {np.shape(image)[:2]} but the first frame is "
-                    f"{first.shape} (height, width); give the frames of one video"
-                )
-            rows.append(tracker.step(image))
-        times.append(t_s)
-        if on_frame is not None:
-            on_frame(k)
-    if not rows:
-        raise VideoError(f"{sensor}: no frames to track")
-    positions = np.stack(rows)
+    try:
+        times, positions, first = run_tracker(frames, tracker, sensor, on_frame)
+    except TextureError as exc:
+        raise TextureError(f"{sensor}: {exc}") from None
     return MarkerTracks(
-        t=np.asarray(times),
+        t=times,
         positions=positions,
         valid=np.isfinite(positions).all(axis=2),
         reference=tracker.reference,

@@ -82,8 +82,10 @@ __all__ = [
     "MAX_FRAMES",
     "MIN_FRAMES",
     "MarkerTracks",
+    "check_frame",
     "check_frame_count",
     "load_tracks",
+    "run_tracker",
     "save_tracks",
     "save_tracks_csv",
     "track_markers",
@@ -201,6 +203,40 @@ def track_markers(
         area_change=area_change,
         detect_kwargs=detect_kwargs,
     )
+    times, positions, first = run_tracker(frames, tracker, sensor, on_frame)
+    valid = np.isfinite(positions).all(axis=2)
+    none_valid = ~valid.any(axis=1)
+    if none_valid.mean() > MAX_ALL_LOST_FRACTION:
+        raise MarkerError(
+            f"{sensor}: all markers lost in {int(none_valid.sum())} of {len(positions)} frames; "
+            "the gel may be out of view or the video too blurred"
+        )
+    return MarkerTracks(
+        t=times,
+        positions=positions,
+        valid=valid,
+        reference=tracker.reference,
+        sensor=sensor,
+        spacing_px=tracker.spacing_px,
+        diameter_px=float(tracker.diameter_px),
+        first_frame=first,
+    )
+
+
+def run_tracker(
+    frames: Iterable,
+    tracker: Any,
+    sensor: str,
+    on_frame: Callable[[int], None] | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Frames through a tracker: the frame times [s], the positions (T × N × 2) [px] and
+    the first frame in grey.
+
+    ``frames`` as :func:`track_markers` takes them; ``tracker.start(grey)`` gives the
+    first frame's points and ``tracker.step(image)`` each next frame's (markers or the
+    cells of a markerless gel). Every frame is checked (:func:`check_frame`, one size,
+    at most ``MAX_FRAMES``, at least two); ``on_frame(k)`` is called after frame ``k``.
+    """
     times: list[float] = []
     rows: list[np.ndarray] = []
     first = None
@@ -210,7 +246,7 @@ def track_markers(
         t_s, image = check_frame(item, k, sensor, times[-1] if times else None)
         if k == 0:
             first = as_grey(image)
-            rows.append(tracker.start(first).copy())
+            rows.append(np.array(tracker.start(first), copy=True))
         else:
             if np.shape(image)[:2] != first.shape:
                 raise VideoError(
@@ -222,24 +258,7 @@ def track_markers(
         if on_frame is not None:
             on_frame(k)
     check_frame_count(len(rows), sensor)
-    positions = np.stack(rows)
-    valid = np.isfinite(positions).all(axis=2)
-    none_valid = ~valid.any(axis=1)
-    if none_valid.mean() > MAX_ALL_LOST_FRACTION:
-        raise MarkerError(
-            f"{sensor}: all markers lost in {int(none_valid.sum())} of {len(rows)} frames; "
-            "the gel may be out of view or the video too blurred"
-        )
-    return MarkerTracks(
-        t=np.asarray(times),
-        positions=positions,
-        valid=valid,
-        reference=tracker.reference,
-        sensor=sensor,
-        spacing_px=tracker.spacing_px,
-        diameter_px=float(tracker.diameter_px),
-        first_frame=first,
-    )
+    return np.asarray(times), np.stack(rows), first
 
 
 def check_frame(item: object, k: int, sensor: str, previous: float | None) -> tuple[float, Any]:
