@@ -6,7 +6,7 @@ the help text live here only, so ``fit``, ``extract``, ``features`` and
 same short flag. Choices are enums, so ``--help`` lists them and typer refuses
 anything else. Nothing heavy is imported (``--help`` stays fast; ``liquidtouch.signal.tactile``,
 for its one default cut-off, brings only numpy); the choice
-lists and defaults equal the library's (``tests/test_cli_consistency.py`` checks).
+lists and defaults equal the library's (``tests/cli/test_cli_consistency.py`` checks).
 
 Units in help texts are written in words or upper-case brackets ("[Hz]"): rich reads
 a lower-case bracket such as "[rad/s]" as markup and drops it.

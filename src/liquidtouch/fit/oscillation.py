@@ -38,7 +38,7 @@ model is right; ``noise="jackknife"`` (the default, :data:`~liquidtouch.fit.choi
 reports for λ and ω the larger of that and the blocked jackknife of the window
 (:mod:`liquidtouch.fit.jackknife`: how much they move when a fifth of the window is
 left out), the one of the three whose coverage of the truth was measured right
-(``benchmarks/fit_std.py``).
+(``benchmarks/fit/fit_std.py``).
 
 Model selection
 ---------------

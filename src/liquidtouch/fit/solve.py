@@ -24,9 +24,10 @@ DELTA_MIN = 1e-6  # 1/s; keeps λ' > λ strictly
 MIN_OSCILLATION_OMEGA_OVER_LAMBDA = 1.0
 #: a slow mode with less energy than this share of the fast mode's is a sliver (drift or
 #: noise locked onto beside a short, heavily damped ring-down), not the slosh: slivers
-#: on simulated trials 0.001-0.15 (detergent, ``tests/data/detergent_short_ringdown.csv``
+#: on simulated trials 0.001-0.15 (detergent, ``tests/fit/data/detergent_short_ringdown.csv``
 #: 0.10); the slow mode of exact two-mode signals whose optimum shares the energy
-#: differently from the truth 0.69-0.72 (``benchmarks/fit_accuracy.py``)
+#: differently from the truth 0.69-0.72 (``benchmarks/fit/fit_accuracy.py``): any share
+#: between the two clusters separates them, and 0.3 sits between them, not at either edge
 SLIVER_ENERGY_SHARE = 0.3
 #: half-width [Hz] of the band around a mode's frequency whose residual periodogram is its
 #: local noise level (:meth:`FitState.mode_snr`, :func:`local_noise_ratio`): a slosh line

@@ -20,7 +20,7 @@ the smoother's values in it are not observed (:func:`observed_samples`) and are 
 The whole recording is smoothed at once: cutting it into stretches at its gaps, each
 smoothed on its own, lost the short stretches between gaps and bent the ends of the
 others (15-18 fps streams: 65 % of runs within 5 % of the gap-free λ, against 80 % at
-once; ``benchmarks/gaps.py``). Only a stall longer than :data:`SPLIT_SAMPLES` samples of
+once; ``benchmarks/signal/gaps.py``). Only a stall longer than :data:`SPLIT_SAMPLES` samples of
 the smoother's clock (2 s at 30 fps) splits the frames into pieces smoothed on their own.
 
 **Numerics.** Across a stretch without frames only the penalty holds the smoother's
@@ -63,7 +63,8 @@ __all__ = [
 #: (noise-free) and the default fit's 5-15 % low (0.02 px marker noise); at 4 Hz both are
 #: within 2 % up to λ 4.5/s. Higher is not better: 5 Hz let in more noise, and the push
 #: spread through video grew (1.7 % at 4 Hz, 4.8 % at 5 Hz, 3.1 % at 3 Hz). Measured by
-#: ``benchmarks/lowpass_bias.py`` and ``push_invariance.py``; RESULTS.md "# low-pass bias".
+#: ``benchmarks/signal/lowpass_bias.py`` and ``benchmarks/extraction/push_invariance.py``
+#: (benchmarks/RESULTS.md, "lowpass_bias").
 DEFAULT_LOWPASS_HZ = 4.0
 #: the fastest slosh the signal is for [Hz]: the catalogue's containers slosh at 1.9-2.6 Hz
 #: (``_core.containers``); the stretches bridged across dropped frames keep it (Nyquist)
@@ -76,7 +77,7 @@ GAP_PERIODS = 2.0
 #: 93.3, 1.4 %), so a recording without gaps gives much the same signal, and it reads three
 #: dropped frames of a ring-down 0.3 % of its amplitude off. Order 4 passed 89.6 % at
 #: 3 Hz and was 1.4 % off there; order 6 (0.02 %) is sharper than the Butterworth and
-#: moved detergent-like fits at the release more (``benchmarks/lowpass_bias.py``). lam grows
+#: moved detergent-like fits at the release more (``benchmarks/signal/lowpass_bias.py``). lam grows
 #: as (fps / f_c)^10: at 4 Hz and 200 fps the smoother still matches the Butterworth's
 #: error on a noisy ring-down.
 SMOOTHER_ORDER = 5
@@ -95,7 +96,7 @@ MAX_SMOOTHER_RATIO = 25.0
 #: to the 10th power: at 60 samples the values on either side were within 1e-6 (15 samples
 #: per cut-off period) to 2e-5 (31) of a QR solve, of a unit signal; at 120 within 4e-5 (15)
 #: to 1e-3 (31), and at 300 (10 s at 30 fps) the Cholesky failed. 64 samples: 2.1 s at
-#: 30 fps, longer than the stalls of ``benchmarks/gaps.py`` (up to 1 s), which stay
+#: 30 fps, longer than the stalls of ``benchmarks/signal/gaps.py`` (up to 1 s), which stay
 #: smoothed at once.
 SPLIT_SAMPLES = 64
 

@@ -97,8 +97,8 @@ class SensorProfile:
     """``markers`` (printed dots) or ``plain`` (markerless: the imprint's texture moves)."""
     face_texture: float = 0.04
     """Relative std of the container face's fine texture in the imprint of a plain gel:
-    a printed or embossed label shows ~4 % (the independent validation set's label face:
-    grey-level std 7 on 170)."""
+    a printed or embossed label pressed on a gel shows ~4 % (a grey-level std of ~7 on a
+    background of ~170)."""
     face_texture_mm: float = 0.1
     """Correlation length of that texture [mm] (Gaussian-smoothed noise): a label's
     print and embossing grain, 1.7 px on a Mini, so that the pixels sample it finely."""

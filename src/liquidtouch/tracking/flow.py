@@ -9,8 +9,8 @@ point (its centre plus its motion [px]), with a valid mask.
 
 **Why not a dense flow's output.** OpenCV's DIS flow (medium preset) reads small
 sub-pixel motion with a different gain than large motion, which bends the ring-down's
-envelope (λ −20 % in issue 39's sketch; −7 % to +12 % between 0.05 and 0.5 px in
-``benchmarks/tracking/markerless.py``), and costs ~13 ms a frame at 320 × 240 where
+envelope (−7 % to +12 % between 0.05 and 0.5 px in ``benchmarks/tracking/markerless.py``;
+docs/recording.md, "Markerless gels"), and costs ~13 ms a frame at 320 × 240 where
 decoding costs 1-3. Interpolating the frame at a sub-pixel offset (Lucas–Kanade's usual
 warp) has the same flaw: bilinear sampling reads 0.05 px as 0.057, OpenCV's remap rounds
 the offset to 1/32 px. So a cell's motion ``d = n + δ`` is read in two parts: the frame
@@ -68,7 +68,8 @@ __all__ = [
 #: the contact); 150 cells, of which the signal stage keeps the 16 that move most, as it
 #: keeps markers. Smaller cells are noisier: at 16 px a simulated corn-oil trial's u(t)
 #: explained 64 % of the cells' motion (markers: 91 %, 32-px cells: 72 %); over five trials
-#: a liquid neither size reads λ within 3 % of the markers everywhere (RESULTS.md)
+#: a liquid neither size reads λ within 3 % of the markers everywhere
+#: (benchmarks/RESULTS.md, "markerless")
 GRID_COLUMNS = 10
 #: image width [px] worked at: a GelSight Mini's and a DIGIT's; a larger image is averaged
 #: down to about it (640 × 480 by 2 × 2), which costs a quarter and reads the motion as
@@ -81,15 +82,16 @@ BLUR_CELLS = 1 / 32
 #: widths wide): a cell's worth of smooth lighting is removed, an edge a few px wide kept
 BAND_RATIO = 4.0
 #: a cell is used when its motion's noise std along its best direction is at most this
-#: [px]: a quarter of the smallest slosh motion of the design (0.2 px, DESIGN.md), so
+#: [px]: a quarter of the smallest slosh motion on the gel (0.2 px for a 0.1 N slosh force,
+#: :mod:`liquidtouch.sim.gelsight`), so
 #: that the cells the signal keeps are those that move, not those that are noisy (at
 #: half, the imprint's rim cells outranked the contact's 0.25 px motion on a Mini)
 MAX_CELL_STD_PX = 0.05
 #: fewest usable cells a sensor must show (as MIN_MARKERS markers)
 MIN_CELLS = 4
 #: prior std of a cell's motion between whole-pixel reads [px] (the slosh moves the gel
-#: 0.2-2 px, DESIGN.md): a ridge σ²/PRIOR_PX² on the normal matrix keeps the direction
-#: along a straight edge (no information) at rest instead of letting noise walk it away,
+#: 0.2-2 px, :mod:`liquidtouch.sim.gelsight`): a ridge σ²/PRIOR_PX² on the normal matrix
+#: keeps the direction along a straight edge (no information) at rest instead of letting noise walk it away,
 #: and lowers a usable cell's gain by at most 0.3 % (its normal matrix is ≥ σ²/0.05²)
 PRIOR_PX = 1.0
 #: a cell whose weaker direction reads motion with a noise std above this [px] (a

@@ -2,7 +2,7 @@
 
 A marker gel's printed dots are dark: the ink lets through ~a fifth of the light, so a
 marker's peak darkness ``1 − I / background`` is ~0.6 on the real GelSight Mini recording
-(``docs/real_data.md``) and ~0.7 on the simulator's and the validation set's marker gels.
+(``docs/real_data.md``) and ~0.7 on the simulator's marker gels.
 A markerless gel has no such blobs; the detector still finds the grains of a fine texture
 (an embossed label), but their darkness is ~0.1. A first frame with at least
 :data:`~liquidtouch.tracking.track.MIN_MARKERS` detections whose median darkness reaches

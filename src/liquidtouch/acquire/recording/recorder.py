@@ -20,7 +20,7 @@ Ctrl-C inside ``with Recorder(...)``) removes everything and leaves no trial.
 **Grey by default.** liquidtouch reads the luma of every frame (markers are dark
 on every LED colour), so the recorder stores ``grey=True`` frames (BT.601 luma,
 ``cv2.cvtColor``): a third of the data, and FFV1 keeps up with two 640 × 480
-sensors at 30 fps on one core (``benchmarks/record_formats.py``). ``grey=False``
+sensors at 30 fps on one core (``benchmarks/acquire/record_formats.py``). ``grey=False``
 keeps the BGR colour (FFV1 ``bgr0``, lossless too) for photometric uses.
 
 **Nothing is hidden.** The summary counts dropped frames (timestamp gaps),
