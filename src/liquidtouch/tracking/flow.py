@@ -92,7 +92,8 @@ MIN_CELLS = 4
 #: prior std of a cell's motion between whole-pixel reads [px] (the slosh moves the gel
 #: 0.2-2 px, :mod:`liquidtouch.sim.gelsight`): a ridge σ²/PRIOR_PX² on the normal matrix
 #: keeps the direction along a straight edge (no information) at rest instead of letting
-#: noise walk it away, and lowers a usable cell's gain by at most 0.3 % (its normal matrix is ≥ σ²/0.05²)
+#: noise walk it away, and lowers a usable cell's gain by at most 0.3 % (its normal matrix
+#: is ≥ σ²/0.05²)
 PRIOR_PX = 1.0
 #: a cell whose weaker direction reads motion with a noise std above this [px] (a
 #: straight edge) is read across its stronger direction only: beyond it, noise alone
