@@ -52,6 +52,9 @@ class FrameStats:
     last_t_s: float | None = None
     _times: list[float] = field(default_factory=list, repr=False)
     _previous: np.ndarray | None = field(default=None, repr=False)
+    # (frames, fit): the fit of the timestamps so far, kept until the next frame, so that
+    # reading the period, the drops and the rate fits the stamps once
+    _fitted: tuple[int, PeriodFit] | None = field(default=None, repr=False)
 
     def add(self, t_s: float, frame: np.ndarray) -> bool:
         """Count a frame; return whether it duplicates the previous frame."""
@@ -65,10 +68,16 @@ class FrameStats:
         self._previous = frame
         return duplicate
 
+    def _fit_all(self) -> PeriodFit:
+        """The period fitted to every timestamp so far (at least two)."""
+        if self._fitted is None or self._fitted[0] != len(self._times):
+            self._fitted = (len(self._times), fit_frame_period(np.asarray(self._times)))
+        return self._fitted[1]
+
     def _fit(self) -> PeriodFit | None:
         """The period fitted to the frames so far (``None`` before enough of them)."""
         if len(self._times) > MIN_MEASURED_GAPS or (len(self._times) > 1 and not self.nominal_fps):
-            return fit_frame_period(np.asarray(self._times))
+            return self._fit_all()
         return None
 
     @property
@@ -90,8 +99,7 @@ class FrameStats:
     def measured_fps(self) -> float | None:
         """The frame rate [Hz] fitted to the timestamps (what ``extract`` fits); ``None``
         before two frames."""
-        fit = fit_frame_period(np.asarray(self._times)) if self.frames > 1 else None
-        return fit.fps if fit is not None else None
+        return self._fit_all().fps if self.frames > 1 else None
 
 
 # --- threads ----------------------------------------------------------------------------
