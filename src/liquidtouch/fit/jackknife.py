@@ -9,22 +9,28 @@ correlated-noise errors covered the true λ at ±1σ in about half of them (RMS 
 Leaving out each of :data:`N_BLOCKS` contiguous blocks of the window in turn and
 re-solving from the optimum (no start search) measures that movement (the blocked,
 delete-a-group jackknife; Künsch 1989), each block weighted by its share of the
-information (:func:`jackknife_std`). With ``noise="jackknife"`` the fit reports the larger
-of its correlated-noise std and this one (``benchmarks/RESULTS.md``, "# fit_std").
+information. With ``noise="jackknife"`` the fit reports the larger of its correlated-noise
+std and the jackknife of the model average (:func:`averaged_jackknife_std`), which
+re-weighs the candidate models on each block: a choice between models that one part of
+the window alone carries (on a 3-cycle, low-passed ring-down, the filter's response at
+its start taken for a second mode: λ −25 % with a ± of 4 %) then shows in the ±
+(``benchmarks/RESULTS.md``, "fit_std", "validation").
 """
 
 from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Mapping
 from dataclasses import replace
 
 import numpy as np
 from scipy.optimize import least_squares
 
+from liquidtouch.fit.selection import select_model
 from liquidtouch.fit.solve import FitState
 
-__all__ = ["N_BLOCKS", "jackknife_std", "refit"]
+__all__ = ["N_BLOCKS", "averaged_jackknife_std", "refit"]
 
 #: contiguous blocks of the window left out in turn (each 1/5 of the samples)
 N_BLOCKS = 5
@@ -61,39 +67,66 @@ def refit(state: FitState, keep: np.ndarray) -> FitState | None:
     return replace(at(res.x), cost=float(2.0 * res.cost))
 
 
-def jackknife_std(state: FitState) -> tuple[float, float]:
-    """Blocked-jackknife std of the reported mode's (λ [1/s], ω [rad/s]) (module docstring).
-
-    The window is cut into contiguous blocks of equal information (each ``1/K`` of the
-    leverage ``Σ_i J_i B⁻¹ J_iᵀ``, ``B = Jᵀ W J``), and ``Σ_k (1 − h_k) (θ_k − θ̂)²`` is summed
-    over the block fits ``θ_k``, ``h_k = tr(B⁻¹ B_k) / p`` block ``k``'s share (Hinkley 1977's
-    weighting; ``(K − 1)/K Σ`` when the shares are equal). NaN when fewer than
-    :data:`MIN_BLOCK_FITS` converge.
-    """
+def _blocks(state: FitState) -> list[tuple[np.ndarray, float]] | None:
+    """The samples kept when each of :data:`N_BLOCKS` contiguous blocks of equal information
+    of ``state``'s model is left out (each ``1/K`` of the leverage ``Σ_i J_i B⁻¹ J_iᵀ``,
+    ``B = Jᵀ W J``), with the block's weight ``1 − h_k``, ``h_k = tr(B⁻¹ B_k) / p`` its share
+    (Hinkley 1977's weighting; ``(K − 1)/K Σ`` when the shares are equal). ``None`` when
+    ``state``'s information matrix is singular."""
     free = state.free_parameters()
     jac = state.theta_jacobian()[:, free] * state.sqrt_w[:, None]
     try:
         inverse = np.linalg.inv(jac.T @ jac)
     except np.linalg.LinAlgError:
-        return math.nan, math.nan
-    mode = state.reported_mode()
-    centre = np.array([state.rates[mode], state.freqs[mode]])
+        return None
     # blocks of equal information, not of equal length: a ring-down that dies early carries
     # nearly all of it in its first samples, and a block holding it all estimates nothing
     leverage = np.einsum("ij,jk,ik->i", jac, inverse, jac) / len(free)  # per sample, Σ = 1
     edges = np.searchsorted(np.cumsum(leverage), np.arange(1, N_BLOCKS) / N_BLOCKS) + 1
     edges = np.unique(np.concatenate([[0], np.clip(edges, 1, state.n - 1), [state.n]]))
-    total, fits = np.zeros(2), 0
+    out = []
     for lo, hi in itertools.pairwise(edges):
         keep = np.ones(state.n, bool)
         keep[lo:hi] = False
-        sub = refit(state, keep)
-        if sub is None:
-            continue
-        k = sub.reported_mode()
-        deviation = np.array([sub.rates[k], sub.freqs[k]]) - centre
-        total += (1.0 - float(leverage[lo:hi].sum())) * deviation**2
-        fits += 1
-    if fits < MIN_BLOCK_FITS:
+        out.append((keep, 1.0 - float(leverage[lo:hi].sum())))
+    return out
+
+
+def _std(deviations: list[tuple[np.ndarray, float]]) -> tuple[float, float]:
+    """``√Σ_k (1 − h_k) (θ_k − θ̂)²`` of (λ, ω); NaN from fewer than :data:`MIN_BLOCK_FITS`."""
+    if len(deviations) < MIN_BLOCK_FITS:
         return math.nan, math.nan
+    total = sum(weight * deviation**2 for deviation, weight in deviations)
     return float(np.sqrt(total[0])), float(np.sqrt(total[1]))
+
+
+def averaged_jackknife_std(
+    candidates: Mapping[str, FitState], lead: str, centre: np.ndarray
+) -> tuple[float, float]:
+    """Blocked-jackknife std of the model-averaged (λ [1/s], ω [rad/s]) ``centre``: the
+    choice between the models included.
+
+    Each block (:func:`_blocks`, of the ``lead`` model) is left out in turn; every candidate
+    is re-solved on the samples kept, the criterion weighs them there
+    (:func:`~liquidtouch.fit.selection.select_model`), and the block's average is their
+    weighted mean. Where the data carry the choice between two models in
+    one part of the window (a start the models explain differently), leaving it out moves
+    the average by the distance between them, and the std says so. A candidate that does not
+    converge on a block is not weighed there. NaN when fewer than :data:`MIN_BLOCK_FITS`
+    blocks have a candidate. The std is ``√Σ_k (1 − h_k) (θ̄_k − θ̄)²`` over the blocks.
+    """
+    blocks = _blocks(candidates[lead])
+    if blocks is None:
+        return math.nan, math.nan
+    deviations = []
+    for keep, weight in blocks:
+        subs = {n: s for n, s in ((n, refit(s, keep)) for n, s in candidates.items()) if s}
+        if not subs:
+            continue
+        weights = select_model(subs).weights()
+        features = np.array(
+            [[s.rates[s.reported_mode()], s.freqs[s.reported_mode()]] for s in subs.values()]
+        )
+        average = np.array([weights[n] for n in subs]) @ features
+        deviations.append((average - centre, weight))
+    return _std(deviations)

@@ -35,9 +35,10 @@ for least squares) (``noise="white"``). With ``noise="correlated"`` the middle t
 Newey–West (Bartlett-kernel) estimate from the residuals, for signals whose
 noise was low-pass filtered; white-noise errors are then too small. Both assume the
 model is right; ``noise="jackknife"`` (the default, :data:`~liquidtouch.fit.choices.DEFAULT_NOISE`)
-reports for λ and ω the larger of that and the blocked jackknife of the window
-(:mod:`liquidtouch.fit.jackknife`: how much they move when a fifth of the window is
-left out), the one of the three whose coverage of the truth was measured right
+reports for λ and ω the larger of that (averaged over the models, below) and the blocked
+jackknife of the model average (:func:`~liquidtouch.fit.jackknife.averaged_jackknife_std`:
+how much the average moves when a fifth of the window is left out, every model re-solved
+and re-weighed there), the one of the three whose coverage of the truth was measured right
 (``benchmarks/fit/fit_std.py``).
 
 Model selection
@@ -53,7 +54,8 @@ weighs them (:mod:`liquidtouch.fit.selection`: BIC under the noise the fit estim
 the slosh); no rule leaves a candidate out. ``decay_rate``, ``angular_frequency`` and their
 std are the average over the candidates by their criterion weights, with the law of total
 variance: where the data cannot tell two models apart (two modes inside one line, or one
-line whose frequency drifts), the ± holds the spread between them. ``model`` of the result
+line whose frequency drifts), the ± holds the spread between them; where one part of the
+window alone carries the choice, the jackknife of the average does. ``model`` of the result
 names the candidate of most weight, ``model_weight`` its weight, ``model_reason`` why (the
 criteria and the weights), and ``delta_bic_*`` the criterion of each candidate over it.
 Asking for ``"two-mode"`` weighs one and two modes the same way (fast-mode fields NaN when
@@ -95,7 +97,7 @@ from liquidtouch.fit.choices import (
 )
 from liquidtouch.fit.drifting_line import EXPONENT as DRIFT_EXPONENT
 from liquidtouch.fit.drifting_line import DriftingLineState, optimise_drifting_line
-from liquidtouch.fit.jackknife import jackknife_std
+from liquidtouch.fit.jackknife import averaged_jackknife_std
 from liquidtouch.fit.result import OscillationFit
 from liquidtouch.fit.selection import Selection, select_model
 from liquidtouch.fit.solve import FitState, optimise_single_mode, optimise_two_mode
@@ -311,12 +313,18 @@ def fit_oscillation(
     fit = _build_result(chosen, weights, noise, loss, delta_n * scale**2, t, mean, scale)
     why = "auto" if model == AUTO else f"{model} asked for"
     fit = replace(fit, **_selection_fields(selection, why), gap_share=gap_share(t))
+    states = {n: chosen if n == selection.chosen else candidates[n] for n in selection.bic}
     kept = {n: w for n, w in selection.weights().items() if w >= MIN_MODEL_WEIGHT}
-    features = {
-        n: _features(chosen if n == selection.chosen else candidates[n], weights, noise)
-        for n in kept
-    }
-    fit = replace(fit, **_model_average(features, kept))
+    correlated = noise != "white"
+    features = {n: _features(states[n], weights, correlated) for n in kept}
+    average = _model_average(features, kept)
+    if noise == "jackknife":  # the larger: conservative when the models are right
+        centre = np.array([average["decay_rate"], average["angular_frequency"]])
+        jack = averaged_jackknife_std(states, selection.chosen, centre)
+        if math.isfinite(jack[0]):
+            average["decay_rate_std"] = max(average["decay_rate_std"], jack[0])
+            average["angular_frequency_std"] = max(average["angular_frequency_std"], jack[1])
+    fit = replace(fit, **average)
     if isinstance(chosen, AmplitudeState):
         gain_std = chosen.damping_gain_std(weights, correlated=noise != "white", scale=scale)
         fit = replace(
@@ -343,15 +351,11 @@ def fit_oscillation(
     return fit
 
 
-def _features(state: FitState, weights: np.ndarray, noise: str) -> np.ndarray:
+def _features(state: FitState, weights: np.ndarray, correlated: bool) -> np.ndarray:
     """``[λ, ω, σ_λ, σ_ω]`` of ``state``'s reported mode [1/s, rad/s]: the standard errors
-    of the ``noise`` assumption (module docstring, Uncertainty)."""
+    under correlated or white noise (module docstring, Uncertainty)."""
     mode = state.reported_mode()
-    std = state.standard_errors(weights, correlated=noise != "white")[2 * mode : 2 * mode + 2]
-    if noise == "jackknife":  # the larger: conservative when the model is right
-        jack = jackknife_std(state)
-        if math.isfinite(jack[0]):
-            std = [max(std[0], jack[0]), max(std[1], jack[1])]
+    std = state.standard_errors(weights, correlated=correlated)[2 * mode : 2 * mode + 2]
     return np.array([state.rates[mode], state.freqs[mode], *std])
 
 
