@@ -3,8 +3,9 @@
 ``fit_oscillation(t, u)`` with no option on each signal of ``../shared/validation/signals``
 (180 signals, six families, truth in ``truth.json``; its README describes them). Per family
 and overall: the median |error| of λ and ω, the share with λ within 5 % and ω within 1 %,
-the share whose reported ±1σ / ±2σ covers the truth (λ and ω each), the models chosen and
-the time per fit. Skips (exit 0) when the signals are absent.
+the share whose reported ±1σ / ±2σ covers the truth (λ and ω each), the RMS of error / std
+(1 when the ± is as wide as the scatter), the models chosen and the time per fit. Skips
+(exit 0) when the signals are absent.
 
 Run: ``.venv/bin/python benchmarks/fit/validation.py [--per-family N] [--jobs J]``.
 """
@@ -71,6 +72,9 @@ def summary(rows: list[dict], truths: list[dict]) -> dict[str, float | str]:
         "lam_2": float((lam_err <= 2 * lam_std).mean()),
         "omega_1": float((omega_err <= omega_std).mean()),
         "omega_2": float((omega_err <= 2 * omega_std).mean()),
+        # RMS of error / std: 1 when the ± is as wide as the scatter, below 1 when wider
+        "lam_z": float(np.sqrt(np.nanmean((lam_err / lam_std) ** 2))),
+        "omega_z": float(np.sqrt(np.nanmean((omega_err / omega_std) ** 2))),
         "models": ", ".join(f"{m} {c}" for m, c in models.most_common()),
         "ms": 1000 * float(np.median([r["seconds"] for r in rows])),
     }
@@ -100,16 +104,17 @@ def main() -> int:
     print(f"# validation — the default fit on {len(names)} independent signals\n")
     print(
         "| family | n | median λ err | median ω err | λ ≤ 5 % & ω ≤ 1 % | λ ±1σ | λ ±2σ "
-        "| ω ±1σ | ω ±2σ | ms / fit | models |"
+        "| ω ±1σ | ω ±2σ | RMS z λ / ω | ms / fit | models |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     groups = {**by_family, "**all**": names}
     for family, members in groups.items():
         s = summary([result[n] for n in members], [truth[n] for n in members])
         print(
             f"| {family} | {s['n']} | {100 * s['lam_err']:.1f} % | {100 * s['omega_err']:.2f} % "
             f"| {100 * s['within']:.0f} % | {100 * s['lam_1']:.0f} % | {100 * s['lam_2']:.0f} % "
-            f"| {100 * s['omega_1']:.0f} % | {100 * s['omega_2']:.0f} % | {s['ms']:.0f} "
+            f"| {100 * s['omega_1']:.0f} % | {100 * s['omega_2']:.0f} % "
+            f"| {s['lam_z']:.2f} / {s['omega_z']:.2f} | {s['ms']:.0f} "
             f"| {s['models']} |"
         )
     print(f"\ncommand: `{' '.join([sys.executable.split('/')[-1], *sys.argv])}`")

@@ -101,7 +101,7 @@ def _std(deviations: list[tuple[np.ndarray, float]]) -> tuple[float, float]:
 
 
 def averaged_jackknife_std(
-    candidates: Mapping[str, FitState], lead: str, centre: np.ndarray
+    candidates: Mapping[str, FitState], lead: str, centre: np.ndarray, noise_ratio: float
 ) -> tuple[float, float]:
     """Blocked-jackknife std of the model-averaged (λ [1/s], ω [rad/s]) ``centre``: the
     choice between the models included.
@@ -112,8 +112,13 @@ def averaged_jackknife_std(
     weighted mean. Where the data carry the choice between two models in
     one part of the window (a start the models explain differently), leaving it out moves
     the average by the distance between them, and the std says so. A candidate that does not
-    converge on a block is not weighed there. NaN when fewer than :data:`MIN_BLOCK_FITS`
-    blocks have a candidate. The std is ``√Σ_k (1 − h_k) (θ̄_k − θ̄)²`` over the blocks.
+    converge on a block is not weighed there. The criterion takes the noise's ``noise_ratio``
+    (``S(ω) / γ0``, :func:`~liquidtouch.fit.selection.select_model`) of the whole window: the
+    noise is the same without a block, and its estimate from a residual with a hole in it
+    is not (a hole bridged by a straight line adds low frequencies; AR(1) noise: the weights
+    flipped between one and two modes from block to block). NaN when fewer than
+    :data:`MIN_BLOCK_FITS` blocks have a candidate. The std is ``√Σ_k (1 − h_k) (θ̄_k − θ̄)²``
+    over the blocks.
     """
     blocks = _blocks(candidates[lead])
     if blocks is None:
@@ -123,7 +128,7 @@ def averaged_jackknife_std(
         subs = {n: s for n, s in ((n, refit(s, keep)) for n, s in candidates.items()) if s}
         if not subs:
             continue
-        weights = select_model(subs).weights()
+        weights = select_model(subs, noise_ratio).weights()
         features = np.array(
             [[s.rates[s.reported_mode()], s.freqs[s.reported_mode()]] for s in subs.values()]
         )

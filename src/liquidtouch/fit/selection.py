@@ -82,11 +82,13 @@ class Selection:
         )
 
 
-def select_model(candidates: Mapping[str, FitState]) -> Selection:
+def select_model(candidates: Mapping[str, FitState], noise_ratio: float | None = None) -> Selection:
     """The candidate (name → fitted state, simplest first) with the lowest BIC (module docstring).
 
     Every state must be fitted to the same samples. A state whose cost is not
-    finite (a failed solve) is not a candidate.
+    finite (a failed solve) is not a candidate. ``noise_ratio``: ``S(ω) / γ0`` of the noise
+    when it is known (the same noise on part of the samples), else estimated from the
+    residual of the best-fitting candidate.
     """
     fitted = {name: s for name, s in candidates.items() if math.isfinite(s.cost)}
     if not fitted:
@@ -96,7 +98,9 @@ def select_model(candidates: Mapping[str, FitState]) -> Selection:
     n = next(iter(fitted.values())).n
     k_max = max(s.n_params for s in fitted.values())
     lead = fitted[best]
-    ratio = local_noise_ratio(lead.tau, lead.residual(), float(lead.freqs[lead.reported_mode()]))
+    ratio = noise_ratio or local_noise_ratio(
+        lead.tau, lead.residual(), float(lead.freqs[lead.reported_mode()])
+    )
     n_eff = float(np.clip(n / ratio, k_max + 2, n))
     tiny = 1e-300  # a noise-free signal fitted exactly
     bic = {
