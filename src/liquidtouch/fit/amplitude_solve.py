@@ -27,7 +27,7 @@ from liquidtouch.fit.amplitude import (
     jacobian,
     n_nonlinear,
 )
-from liquidtouch.fit.solve import RATE_MAX, FitState
+from liquidtouch.fit.solve import MAX_EVALUATIONS, RATE_MAX, FitState
 from liquidtouch.fit.start import amplitude_starts, spectral_peaks
 
 __all__ = [
@@ -65,7 +65,7 @@ def _solve(
         return sqrt_w[:, None] * jacobian(theta, tau, x, exponent, second)
 
     res = least_squares(
-        fun, theta0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=200
+        fun, theta0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=MAX_EVALUATIONS
     )
     cost = float(2 * res.cost)
     return AmplitudeState(
@@ -109,7 +109,7 @@ def _free_exponent(start: AmplitudeState, band: tuple[float, float]) -> Amplitud
         return sqrt_w[:, None] * np.column_stack([full_jac[:, :k], d_exp, full_jac[:, k:]])
 
     res = least_squares(
-        fun, full, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=200
+        fun, full, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=MAX_EVALUATIONS
     )
     theta, exponent = split(res.x)
     return AmplitudeState(

@@ -41,7 +41,7 @@ from scipy.optimize import least_squares
 
 from liquidtouch.fit import model as om
 from liquidtouch.fit.amplitude import GAIN_MAX, AmplitudeState, envelope
-from liquidtouch.fit.solve import RATE_MAX, FitState, std_from_variance
+from liquidtouch.fit.solve import MAX_EVALUATIONS, RATE_MAX, FitState, std_from_variance
 
 __all__ = ["DriftingLineState", "drifting_cosine", "optimise_drifting_line"]
 
@@ -256,7 +256,7 @@ def _solve(
             bounds=(lo, hi),
             method="trf",
             x_scale="jac",
-            max_nfev=200,
+            max_nfev=MAX_EVALUATIONS,
         )
     cost = float(2 * res.cost) if np.all(np.isfinite(res.x)) else math.inf
     return DriftingLineState(1, res.x, tau, x, u, sqrt_w, cost)

@@ -28,7 +28,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from liquidtouch.fit.selection import select_model
-from liquidtouch.fit.solve import FitState
+from liquidtouch.fit.solve import MAX_EVALUATIONS, FitState
 
 __all__ = ["N_BLOCKS", "averaged_jackknife_std", "refit"]
 
@@ -41,8 +41,9 @@ MIN_BLOCK_FITS = 3
 def refit(state: FitState, keep: np.ndarray) -> FitState | None:
     """``state``'s model re-solved on the samples ``keep`` (bool), from ``state``'s optimum.
 
-    A local solve (Levenberg–Marquardt, no start search); the parameters the state holds
-    fixed stay fixed. ``None`` when it does not converge to finite parameters.
+    A local solve (Levenberg–Marquardt, no start search, at most
+    :data:`~liquidtouch.fit.solve.MAX_EVALUATIONS` evaluations, as the full solves); the
+    parameters the state holds fixed stay fixed. ``None`` when its parameters are not finite.
     """
     sub = replace(
         state, tau=state.tau[keep], x=state.x[keep], u=state.u[keep], sqrt_w=state.sqrt_w[keep]
@@ -61,8 +62,8 @@ def refit(state: FitState, keep: np.ndarray) -> FitState | None:
         return sub.sqrt_w[:, None] * at(values).theta_jacobian()[:, free]
 
     with np.errstate(all="ignore"):
-        res = least_squares(fun, state.theta[free], jac=jac, method="lm")
-    if not (res.success and np.all(np.isfinite(res.x))):
+        res = least_squares(fun, state.theta[free], jac=jac, method="lm", max_nfev=MAX_EVALUATIONS)
+    if not np.all(np.isfinite(res.x)):
         return None
     return replace(at(res.x), cost=float(2.0 * res.cost))
 
