@@ -28,17 +28,23 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from liquidtouch.fit.selection import select_model
-from liquidtouch.fit.solve import MAX_EVALUATIONS, FitState
+from liquidtouch.fit.solve import MAX_EVALUATIONS, FitState, correlation_length
 
-__all__ = ["N_BLOCKS", "averaged_jackknife_std", "refit"]
+__all__ = ["MIN_BLOCKS", "N_BLOCKS", "averaged_jackknife_std", "refit"]
 
-#: contiguous blocks of the window left out in turn (each a tenth of its information). The
-#: jackknife's variance from K blocks has K − 1 degrees of freedom, and the fit reports the
-#: larger of it and the models' own: with 5 blocks (4 degrees) that maximum made the ± 1.3-2×
-#: the scatter (RMS z 0.72 over the validation signals, 0.44 under AR(1) noise; 0.76 on
-#: signals drawn from the model, ±1σ 85 %); with 10, RMS z 0.78 / 1.03 (λ / ω) there and
-#: 0.86 / 0.92 on the model-drawn signals (``benchmarks/RESULTS.md``, "validation", "fit_std")
+#: most contiguous blocks of the window left out in turn (each a tenth of its information).
+#: The jackknife's variance from K blocks has K − 1 degrees of freedom, and the fit reports
+#: the larger of it and the models' own: with 5 blocks (4 degrees) that maximum made the ±
+#: 1.2-1.4× the scatter on the validation signals (RMS z 0.72 / 0.86, λ / ω) and on signals
+#: drawn from the model (0.76 / 0.83, ±1σ 85 / 80 %); with up to 10, 0.77 / 0.91 and
+#: 0.87 / 0.95 (±1σ 72 / 70 %) (``benchmarks/RESULTS.md``, "validation", "fit_std")
 N_BLOCKS = 10
+#: fewest blocks, the count the jackknife had before it had more. Fewer than
+#: :data:`N_BLOCKS` while the shortest block would be shorter than the noise's correlation
+#: length or than ``n^(1/3)`` samples (the order of the blocked jackknife's and bootstrap's
+#: best block length, Hall, Horowitz & Jing 1995): a block of 2 samples in a 28-sample
+#: streaming window of a detergent ring-down left the ± at half its ω error
+MIN_BLOCKS = 5
 #: fewest converged block fits a jackknife std is computed from
 MIN_BLOCK_FITS = 3
 
@@ -74,11 +80,13 @@ def refit(state: FitState, keep: np.ndarray) -> FitState | None:
 
 
 def _blocks(state: FitState) -> list[tuple[np.ndarray, float]] | None:
-    """The samples kept when each of :data:`N_BLOCKS` contiguous blocks of equal information
-    of ``state``'s model is left out (each ``1/K`` of the leverage ``Σ_i J_i B⁻¹ J_iᵀ``,
-    ``B = Jᵀ W J``), with the block's weight ``1 − h_k``, ``h_k = tr(B⁻¹ B_k) / p`` its share
-    (Hinkley 1977's weighting; ``(K − 1)/K Σ`` when the shares are equal). ``None`` when
-    ``state``'s information matrix is singular."""
+    """The samples kept when each of :data:`N_BLOCKS` (at least :data:`MIN_BLOCKS`; fewer
+    while the shortest would be shorter than the residual's correlation length or
+    ``n^(1/3)``) contiguous
+    blocks of equal information of ``state``'s model is left out (each ``1/K`` of the
+    leverage ``Σ_i J_i B⁻¹ J_iᵀ``, ``B = Jᵀ W J``), with the block's weight ``1 − h_k``,
+    ``h_k = tr(B⁻¹ B_k) / p`` its share (Hinkley 1977's weighting; ``(K − 1)/K Σ`` when the
+    shares are equal). ``None`` when ``state``'s information matrix is singular."""
     free = state.free_parameters()
     jac = state.theta_jacobian()[:, free] * state.sqrt_w[:, None]
     try:
@@ -88,8 +96,15 @@ def _blocks(state: FitState) -> list[tuple[np.ndarray, float]] | None:
     # blocks of equal information, not of equal length: a ring-down that dies early carries
     # nearly all of it in its first samples, and a block holding it all estimates nothing
     leverage = np.einsum("ij,jk,ik->i", jac, inverse, jac) / len(free)  # per sample, Σ = 1
-    edges = np.searchsorted(np.cumsum(leverage), np.arange(1, N_BLOCKS) / N_BLOCKS) + 1
-    edges = np.unique(np.concatenate([[0], np.clip(edges, 1, state.n - 1), [state.n]]))
+    # a block shorter than the noise's correlation leaves out samples whose noise the kept
+    # ones next to it still carry: the jackknife then sees too little of it (low-passed noise
+    # in a ring-down's first samples). Fewer, longer blocks then, down to MIN_BLOCKS
+    shortest = max(correlation_length(state.residual()), state.n ** (1 / 3))
+    for count in range(N_BLOCKS, MIN_BLOCKS - 1, -1):
+        edges = np.searchsorted(np.cumsum(leverage), np.arange(1, count) / count) + 1
+        edges = np.unique(np.concatenate([[0], np.clip(edges, 1, state.n - 1), [state.n]]))
+        if np.diff(edges).min() >= shortest:
+            break
     out = []
     for lo, hi in itertools.pairwise(edges):
         keep = np.ones(state.n, bool)

@@ -37,7 +37,7 @@ noise was low-pass filtered; white-noise errors are then too small. Both assume 
 model is right; ``noise="jackknife"`` (the default, :data:`~liquidtouch.fit.choices.DEFAULT_NOISE`)
 reports for λ and ω the larger of that (averaged over the models, below) and the blocked
 jackknife of the model average (:func:`~liquidtouch.fit.jackknife.averaged_jackknife_std`:
-how much the average moves when a tenth of the window is left out, every model re-solved
+how much the average moves when a tenth (at most) of the window is left out, every model re-solved
 and re-weighed there), the one of the three whose coverage of the truth was measured right
 (``benchmarks/fit/fit_std.py``).
 

@@ -243,18 +243,22 @@ def _autocorrelation(r: np.ndarray) -> np.ndarray:
     return np.fft.irfft(spectrum * np.conj(spectrum), 2 * n)[:n] / float(r @ r)
 
 
+def correlation_length(resid: np.ndarray) -> int:
+    """The lag [samples] where the residual's autocorrelation first falls below 0.1 (a
+    quarter of the samples when it never does): 1 for white noise, a few samples for
+    low-passed noise."""
+    r = resid - resid.mean()
+    below = np.nonzero(_autocorrelation(r)[1:] < 0.1)[0]
+    return int(below[0]) + 1 if below.size else r.size // 4
+
+
 def _bartlett_lags(resid: np.ndarray) -> int:
     """Newey–West truncation lag: 4× the lag where the residual autocorrelation dies, ≥ 10.
 
     The Bartlett kernel down-weights long lags, so a generous lag is needed for
     low-passed noise (checked by Monte-Carlo in the tests).
     """
-    r = resid - resid.mean()
-    n = r.size
-    acf = _autocorrelation(r)
-    below = np.nonzero(acf[1:] < 0.1)[0]
-    first = int(below[0]) + 1 if below.size else n // 4
-    return int(min(max(4 * first, 10), n // 4))
+    return int(min(max(4 * correlation_length(resid), 10), resid.size // 4))
 
 
 def _newey_west_meat(g: np.ndarray, lags: int) -> np.ndarray:
