@@ -104,12 +104,6 @@ EDGE_STD_PX = 0.25
 #: the reference is renewed when the cells' median residual grows beyond this factor of
 #: its value at the first step (the image changed by more than the noise: √3× it)
 REREFERENCE_RESIDUAL = 2.0
-#: each cell's residual level is the largest of its first this many steps against a
-#: reference: a lossy recording's first frames copy its key frame (H.264: the cells' median
-#: residual 112 at the first step, 200-270 by the fourth, then steady at ~280 on a
-#: simulated plain gel), so one step would take the level too low and lose the cells
-#: whose first residual was smallest for good; lossless, the first step is already typical
-BASELINE_STEPS = 5
 #: a cell's step is refused (the cell lost in that frame) when it moves more than this
 #: many cells between frames, or its residual grows beyond LOST_RESIDUAL × its value at
 #: the first step (3×: the image no longer matches where the cell says it is)
@@ -309,8 +303,7 @@ class FlowTracker:
         self.motion = np.zeros((n, 2))  # against the current reference [px]
         self.previous = np.zeros((n, 2))
         self.offset = np.zeros((n, 2))  # motion up to the current reference [px]
-        self.residual0: np.ndarray | None = None  # each cell's residual level
-        self.baseline_steps = 0  # steps taken against this reference (up to BASELINE_STEPS)
+        self.residual0: np.ndarray | None = None  # each cell's residual at the first step
         return self.reference.copy()
 
     def _gradients(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -408,9 +401,6 @@ class FlowTracker:
             # a Gaussian of sigma keeps 1/(4π sigma²) of its variance)
             floor = self.grid.cell**2 * self.noise**2 / (4 * np.pi * self.sigma**2)
             self.residual0 = np.maximum(residuals, floor)
-        elif self.baseline_steps < BASELINE_STEPS:  # the level: the first steps' largest
-            self.residual0 = np.maximum(self.residual0, residuals)
-        self.baseline_steps += 1
         ratio = residuals / self.residual0
         step = np.hypot(*(motion - self.motion).T)
         lost = (step > MAX_STEP_CELLS * self.grid.cell) | (ratio > LOST_RESIDUAL**2)
@@ -424,7 +414,6 @@ class FlowTracker:
             self.motion = np.zeros_like(motion)
             self._reference(frame)
             self.residual0 = None
-            self.baseline_steps = 0
             self.rereferences += 1
         return positions
 
