@@ -17,6 +17,7 @@
    generator): λ and ω against their truth, or the error.
 
     nice -n 10 .venv/bin/python benchmarks/tracking/markerless.py [--trials 5] [--duration 10]
+        [--lossless]
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ import numpy as np
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.extraction.pipeline import extract
 from liquidtouch.io.frames import iter_frames
+from liquidtouch.sim.encode import X264_PARAMS
 from liquidtouch.sim.render import iter_frames as render_frames
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
@@ -53,10 +55,13 @@ SHIFTS_PX = (0.05, 0.1, 0.25, 0.5, 1.0, 2.0)
 REPEATS = 3
 VALIDATION = Path(__file__).resolve().parents[2].parent / "shared" / "validation" / "videos"
 OUT = Path("benchmarks/results/markerless.md")
+#: x264 options of a lossless video (``--lossless``): quantiser 0
+LOSSLESS = "qp=0"
 
 
-def both_ways(trials: int, duration_s: float, root: Path) -> list[str]:
-    """Table 1: markerless against marker λ, ω per liquid (median over the trials)."""
+def both_ways(trials: int, duration_s: float, root: Path, x264_params: str) -> list[str]:
+    """Table 1: markerless against marker λ, ω per liquid (median over the trials), the
+    videos encoded with ``x264_params`` (the simulator's default, or lossless)."""
     lines = [
         "| liquid | trials | λ plain/markers − 1 (median) | ω plain/markers − 1 (median) "
         "| λ markers/truth − 1 | λ plain/truth − 1 | refused |",
@@ -71,7 +76,8 @@ def both_ways(trials: int, duration_s: float, root: Path) -> list[str]:
             )
             fits = {}
             for sensor in ("mini", "mini-plain"):
-                out = write_trial(trial, root / f"{liquid}-{seed}-{sensor}", sensor=sensor)
+                where = root / f"{liquid}-{seed}-{sensor}"
+                out = write_trial(trial, where, sensor=sensor, x264_params=x264_params)
                 try:
                     fits[sensor] = extract(out).fit
                 except LiquidTouchError:
@@ -221,6 +227,11 @@ def main() -> None:
     parser.add_argument("--trials", type=int, default=5, help="trials per liquid")
     parser.add_argument("--duration", type=float, default=10.0, help="trial length [s]")
     parser.add_argument("--skip-both-ways", action="store_true", help="only tables 2-4")
+    parser.add_argument(
+        "--lossless",
+        action="store_true",
+        help="table 1 with lossless videos (H.264 at qp 0) instead of the simulator's default",
+    )
     args = parser.parse_args()
     sections = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -229,12 +240,18 @@ def main() -> None:
         sections.append(("Time per frame against decoding", timing(root)))
         sections.append(("Validation videos (independent generator)", validation()))
         if not args.skip_both_ways:
-            title = f"Rendered both ways ({args.trials} trials per liquid, {args.duration:g} s)"
-            sections.insert(0, (title, both_ways(args.trials, args.duration, root)))
+            codec = f"H.264 {LOSSLESS}" if args.lossless else "H.264 as simulated"
+            title = (
+                f"Rendered both ways ({args.trials} trials per liquid, {args.duration:g} s, "
+                f"{codec})"
+            )
+            params = LOSSLESS if args.lossless else X264_PARAMS
+            sections.insert(0, (title, both_ways(args.trials, args.duration, root, params)))
     text = "\n\n".join(f"### {title}\n\n" + "\n".join(lines) for title, lines in sections)
     print(text)
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    OUT.write_text(text + "\n")
+    out = OUT.with_name("markerless-lossless.md") if args.lossless else OUT
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text + "\n")
 
 
 if __name__ == "__main__":

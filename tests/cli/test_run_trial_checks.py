@@ -65,6 +65,8 @@ def _bad_options(tmp_path, models):
         "out not empty": (["--out", full], "not empty"),
         "camera typo": (["--camera", tmp_path / "nocam.mp4"], "camera source"),
         "one camera twice": (["--camera", "0", "--camera", "0"], "same camera"),
+        "tracking without a live estimate": (["--tracking", "flow"], "--live"),
+        "tracking typo": (["--live", "--tracking", "dots"], "dots"),
     }
 
 

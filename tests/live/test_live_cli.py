@@ -189,3 +189,34 @@ def test_linger_keeps_the_final_page_served(capsys, trial, monkeypatch) -> None:
     assert seen["seconds"] == 30.0 and seen["page"] == 200
     events = str(seen["stream"])
     assert "event: end" in events and '"final":true' in events  # the whole history, then the end
+
+
+@pytest.fixture(scope="module")
+def plain_trial(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
+    """The same mirin slosh on a markerless gel (``mini-plain``: no printed markers)."""
+    from liquidtouch.sim.trial import simulate_trial
+    from liquidtouch.sim.trial_io import write_trial
+
+    simulated = simulate_trial("mirin", height_mm=25.0, seed=4, duration_s=6.0)
+    out = tmp_path_factory.mktemp("live-plain") / "trial"
+    return write_trial(simulated, out, sensor="mini-plain"), simulated
+
+
+def test_tracking_found_or_forced(capsys, trial, plain_trial) -> None:
+    directory, simulated = plain_trial
+    status, out, err = _run(capsys, "live", directory, "--json")  # auto: flow on a plain gel
+    assert status == 0, err
+    final = json.loads(out.splitlines()[-1])
+    assert final["angular_frequency"] == pytest.approx(simulated.true_angular_frequency, rel=0.01)
+    forced = _run(capsys, "live", directory, "--json", "--tracking", "flow")
+    assert forced[0] == 0
+    again = json.loads(forced[1].splitlines()[-1])
+    assert (again["decay_rate"], again["angular_frequency"]) == (
+        final["decay_rate"],
+        final["angular_frequency"],
+    )
+    # markers forced on a gel without any: the marker tracker's refusal, not a number
+    status, out, err = _run(capsys, "live", directory, "--tracking", "markers")
+    assert status == 2 and out == "" and err.startswith("error:") and "marker" in err
+    status, _, err = _run(capsys, "live", trial[0], "--tracking", "dots")
+    assert status == 2 and "dots" in err

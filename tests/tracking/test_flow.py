@@ -9,6 +9,8 @@ import cv2
 import numpy as np
 import pytest
 from helpers import SHARED
+from scipy.ndimage import gaussian_filter, map_coordinates
+from scipy.optimize import least_squares
 
 from liquidtouch.cli import main
 from liquidtouch.errors import LiquidTouchError
@@ -116,6 +118,54 @@ def test_live_tracks_wait_for_the_contact_on_a_plain_gel() -> None:
     assert grown.snapshot().tracking == "flow"
 
 
+def _ring_down_decay(warp) -> float:
+    """λ [1/s] read by flow tracking from a texture whose motion rings down (λ 0.45 1/s,
+    ω 9.6 rad/s, 1.8 px at the contact's centre falling off as a Gaussian of 75 px: the
+    shape of the validation set's markerless videos), each frame drawn by ``warp(texture,
+    x_source, y_source)``; fitted on the most moving cell's x motion."""
+    rng = np.random.default_rng(5)
+    grains = gaussian_filter(rng.normal(0, 1, (240, 320)), 2.0)  # grains of ~5 px
+    texture = 170.0 + 9.0 * grains / grains.std()
+    t = np.arange(225) / 25.0
+    u = 1.8 * np.exp(-0.45 * t) * np.cos(9.6 * t + 0.2)
+    yy, xx = np.mgrid[0:240, 0:320].astype(np.float32)
+    falloff = np.exp(-((xx - 160) ** 2 + (yy - 120) ** 2) / (2 * 75.0**2))
+    frames = []
+    for uk in u:
+        image = warp(texture, xx - uk * falloff, yy)
+        frames.append(np.clip(np.rint(image + rng.normal(0, 1.0, image.shape)), 0, 255))
+    tracker = FlowTracker()
+    reference = tracker.start(frames[0].astype(np.uint8))
+    x = np.stack([tracker.step(f.astype(np.uint8))[:, 0] for f in frames[1:]]) - reference[:, 0]
+    x = x[:, np.argmax(np.nanstd(x, axis=0))]
+
+    def residual(p: np.ndarray) -> np.ndarray:
+        return p[0] * np.exp(-p[1] * t[1:]) * np.cos(9.6 * t[1:] + p[2]) + p[3] - x
+
+    return float(least_squares(residual, [1.8, 0.4, 0.2, -1.7]).x[1])
+
+
+@pytest.mark.slow(seconds=10)
+def test_a_ring_down_is_read_with_one_gain() -> None:
+    # drawn exactly (a cubic spline reproduces a shifted smooth texture): the envelope, so
+    # λ, is read within 3 %, small and large motions with one gain
+    def spline(texture, x, y):
+        return map_coordinates(texture, [y, x], order=3, mode="nearest")
+
+    assert _ring_down_decay(spline) == pytest.approx(0.45, rel=0.03)
+
+    # drawn by OpenCV's bicubic remap (Keys' kernel with a = -0.75, which does not reproduce
+    # a linear ramp: near a whole pixel it moves the image by 1.5x the asked shift, at half
+    # a pixel by 1x), the images themselves ring down slower, small motions moving further:
+    # the tracker reads what the images show, 7 % low here (0.418; 13 % on the textured
+    # validation video below, whose motion is drawn so)
+    def bicubic(texture, x, y):
+        source = texture.astype(np.float32)
+        return cv2.remap(source, x.astype(np.float32), y, cv2.INTER_CUBIC, borderMode=1)
+
+    assert 0.37 < _ring_down_decay(bicubic) < 0.435
+
+
 @pytest.mark.skipif(not VIDEOS.exists(), reason="../shared/validation not available")
 @pytest.mark.slow(seconds=20)
 def test_validation_videos(capsys) -> None:
@@ -125,9 +175,10 @@ def test_validation_videos(capsys) -> None:
     out = json.loads(capsys.readouterr().out)
     assert out["tracking"] == "flow"
     assert out["angular_frequency"] == pytest.approx(truth["omega"], rel=0.01)
-    # λ reads 14 % low on this generator's texture (benchmarks/RESULTS.md, issue 39): held
-    # to what it gives, so that a change is seen; the issue asks for 5 %
-    assert out["decay_rate"] == pytest.approx(truth["lam"], rel=0.2)
+    # λ reads 13 % low: the images' own motion rings down at ~0.39 1/s, not the truth's 0.45
+    # (test_a_ring_down_is_read_with_one_gain: a bicubic-remapped texture moves 1.5x as far
+    # as asked near whole pixels); held to what the images show, so that a change is seen
+    assert out["decay_rate"] == pytest.approx(0.393, rel=0.05)
     smooth = VIDEOS / "markerless_smooth_mini"
     assert main(["extract", str(smooth / "left.mp4"), str(smooth / "right.mp4"), "--json"]) == 2
     assert "too little texture or edge" in capsys.readouterr().err  # a refusal, not a number

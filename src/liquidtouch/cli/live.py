@@ -104,6 +104,7 @@ def live(
     open_timeout_s: options.OpenTimeout = DEFAULT_OPEN_TIMEOUT_S,
     read_timeout_s: options.ReadTimeout = DEFAULT_READ_TIMEOUT_S,
     warmup_timeout_s: options.WarmupTimeout = DEFAULT_WARMUP_TIMEOUT_S,
+    tracking: options.Tracking = options.DEFAULT_TRACKING,
 ) -> None:
     """Estimate λ, ω (and, with --model, properties) while the frames come in.
 
@@ -124,7 +125,7 @@ def live(
     try:
         updates = _updates(
             sources, model, limits, replay, max_duration_s, fps, lowpass_hz, n_markers,
-            on_frame, sensor, (open_timeout_s, read_timeout_s, warmup_timeout_s),
+            on_frame, sensor, (open_timeout_s, read_timeout_s, warmup_timeout_s), str(tracking),
         )  # fmt: skip
         _show_all(updates, hub, as_json, said_at_start=unreachable)
         if server is not None and linger_s > 0:
@@ -169,7 +170,7 @@ def _check_inputs(sources: list[str], linger_s: float) -> None:
 
 
 def _updates(sources, model, limits, replay, max_duration_s, fps, lowpass_hz, n_markers,
-             on_frame, sensor, timeouts):  # fmt: skip
+             on_frame, sensor, timeouts, tracking):  # fmt: skip
     """:func:`liquidtouch.live.live_updates` of the command's options."""
     from liquidtouch.live import live_updates
 
@@ -187,6 +188,7 @@ def _updates(sources, model, limits, replay, max_duration_s, fps, lowpass_hz, n_
         camera_options=dict(
             zip(("open_timeout_s", "read_timeout_s", "warmup_timeout_s"), timeouts, strict=True)
         ),
+        tracking=tracking,
     )
 
 

@@ -34,10 +34,14 @@ _END = object()
 class LiveTrial:
     """The live estimate beside a ``run-trial`` (module docstring)."""
 
-    def __init__(self, names, *, model_file=None, until_std=(), serve=None, max_pushes=1):
-        """Check everything (model file, targets, serve address, --max-pushes) before a
-        robot moves."""
+    def __init__(self, names, *, model_file=None, until_std=(), serve=None, max_pushes=1,
+                 tracking=None):  # fmt: skip
+        """Check everything (model file, targets, serve address, --max-pushes, --tracking)
+        before a robot moves."""
         from liquidtouch.live.stopping import parse_until_std
+        from liquidtouch.tracking.gel import DEFAULT_TRACKING, check_tracking
+
+        self.tracking = check_tracking(DEFAULT_TRACKING if tracking is None else tracking)
 
         self.names = list(names)
         self.limits = parse_until_std(list(until_std))
@@ -134,6 +138,7 @@ class LiveTrial:
                 on_event=self._new_events,
                 on_frame=on_frame,
                 stop_on_until_std=self.max_pushes <= 1,  # else the pushes' answer decides
+                tracking=self.tracking,
             ):
                 if update.segment_final and update.combined:
                     self.finals_seen = max(self.finals_seen, update.segment)

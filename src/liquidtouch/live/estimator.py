@@ -61,6 +61,7 @@ from liquidtouch.ring_down import (
 )
 from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
 from liquidtouch.signal.tactile import check_signal_options
+from liquidtouch.tracking.gel import DEFAULT_TRACKING, check_tracking
 
 logger = logging.getLogger(__name__)
 
@@ -106,6 +107,9 @@ class LiveEstimator:
     threaded : refresh on a worker thread (real-time streams) instead of in ``add_frame``.
     protocol : the protocol's events will be given (:meth:`add_event`): the push and the
         end of the hold are taken from them, not guessed (``run-trial``).
+    tracking : how the gels are tracked (as ``extract``): ``auto`` (printed markers, or
+        the gel's own image on a markerless gel, found from each sensor's first frame),
+        ``markers`` or ``flow``.
     """
 
     def __init__(
@@ -120,8 +124,10 @@ class LiveEstimator:
         refresh_s: float = REFRESH_S,
         threaded: bool = False,
         protocol: bool = False,
+        tracking: str = DEFAULT_TRACKING,
     ) -> None:
         check_signal_options(lowpass_hz, n_markers)
+        check_tracking(tracking)
         if not sensors or len(set(sensors)) != len(sensors):
             raise VideoError(f"give one or more distinct sensor names, got {sensors!r}")
         self.model_kind = check_live_model(model) if model is not None else ""
@@ -137,7 +143,7 @@ class LiveEstimator:
         self.fit_settings = FitSettings() if fit_settings is None else fit_settings
         self.refresh_s = float(refresh_s)
         self.threaded = bool(threaded)
-        self.tracks = {name: GrowingTracks(name) for name in sensors}
+        self.tracks = {name: GrowingTracks(name, tracking=tracking) for name in sensors}
         self.frames = 0
         self.first_t_s = math.nan
         self.newest_due_s = math.nan

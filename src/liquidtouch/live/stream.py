@@ -30,6 +30,7 @@ from liquidtouch.live.updates import LiveUpdate
 from liquidtouch.models.kernel_limits import single_threaded_blas
 from liquidtouch.models.modelfile import load_model
 from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
+from liquidtouch.tracking.gel import DEFAULT_TRACKING, check_tracking
 
 PathLike = str | os.PathLike[str]
 #: ``on_frame(frame, positions (N, 2) [px], reference (N, 2) [px])`` after each tracked frame
@@ -64,6 +65,7 @@ def live_updates(
     profile: str = "raw",
     camera_options: Mapping[str, float] | None = None,
     stop_on_until_std: bool = True,
+    tracking: str = DEFAULT_TRACKING,
 ) -> Iterator[LiveUpdate]:
     """Updates of the streaming estimate of ``sources``; the last has ``final=True``.
 
@@ -95,12 +97,15 @@ def live_updates(
     profile, camera_options : cameras only: the sensor profile (``mini``, ...) and
         ``open_camera``'s deadlines (``open_timeout_s``, ``read_timeout_s``,
         ``warmup_timeout_s`` [s]).
+    tracking : ``auto`` (printed markers, or the gel's own image on a markerless gel),
+        ``markers`` or ``flow``, as ``extract``. Checked before any frame.
 
     Ctrl-C (a ``KeyboardInterrupt`` in the loop, or thrown into this generator by the
     caller with ``.throw``) ends the stream with its final update
     (``stopped_because="interrupted"``).
     """
     limits = _until_std(until_std)
+    check_tracking(tracking)
     if isinstance(model, str | os.PathLike):
         model = load_model(Path(model))
     if isinstance(sources, str | os.PathLike):
@@ -127,6 +132,7 @@ def live_updates(
         refresh_s=refresh_s,
         threaded=paced if threaded is None else threaded,
         protocol=protocol,
+        tracking=tracking,
     )
     lags: deque[float] = deque(maxlen=MAX_TIMED_FRAMES)
     stopped = "end_of_stream"
