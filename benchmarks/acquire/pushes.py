@@ -46,6 +46,8 @@ small-amplitude (λ, ω) of the same bottles (no fit error at all): what no numb
 pushes can beat.
 
 Usage: nice -n 10 python benchmarks/acquire/pushes.py [--seeds 5] [--train-heights 7]
+(the size of benchmarks/RESULTS.md: ``--seeds 10 --train-heights 13 --train-seeds 2
+--train-pushes 3 --rig-runs 4``, ~15 min; ``--model physics-gpr`` the physics-informed GP)
 """
 
 from __future__ import annotations
