@@ -8,7 +8,8 @@ simulator restarted with the same conditions and fresh contact noise (``noise_se
 as the simulated rig does), back and forth, holding ``--hold-s`` after each.
 
 1. A training set — the catalogue's liquids (water, olive oil, corn oil, mirin,
-   detergent, sugar water 40/100/160) × ``--train-heights`` fills 16-40 mm in the
+   detergent, sugar water at the ``sugar`` preset's training concentrations 20-160 g per
+   100 g, which cover the test's 20-140) × ``--train-heights`` fills 16-40 mm in the
    grooved cuboid × ``--train-seeds`` bottles, one push each — and GPRs for ``height_mm`` and
    ``log10_viscosity_cst`` as ``liquidtouch train`` makes them (10-fold cross-conformal
    calibration, the fill as the group, the rows' own feature std); ``--train-pushes`` n:
@@ -29,12 +30,24 @@ as the simulated rig does), back and forth, holding ``--hold-s`` after each.
    tracked live), n trials per liquid of ``run-trial --model (the model of 1.) --until-std
    T=S --max-pushes N`` (fill drawn from 20/30/38 mm), their answer against the truth.
 
+Every bottle — training or test, any liquid, fill or seed — has a seed of its own
+(:func:`bottle_seed`), so its conditions (wall wetting, temperature, fill error, …) are an
+independent draw: bottles that shared a seed across liquids and fills shared those draws,
+which made a test cell of 5 seeds 5 draws for every liquid and fill, and a training set
+whose wall factor moved with the fill.
+
 Tables: per liquid and fill, with k = 1, 2, 3 pushes (all of them, no stopping): median
 |error|, the share within tolerance (height 1 mm, log10 ν 0.1), ±2σ coverage, median std;
 and the stopping rule's pushes used, time to the answer (pushes × (push + hold +
-decision wait)), error, coverage, and how often it ended with "cannot tell".
+decision wait)), error, coverage, and how often it ended with "cannot tell"; per liquid,
+pooled over the fills, the shares with their 95 % Clopper-Pearson interval; and the
+ceiling: a model of the same kind trained and tested on the simulator's exact
+small-amplitude (λ, ω) of the same bottles (no fit error at all): what no number of
+pushes can beat.
 
 Usage: nice -n 10 python benchmarks/acquire/pushes.py [--seeds 5] [--train-heights 7]
+(the size of benchmarks/RESULTS.md: ``--seeds 10 --train-heights 13 --train-seeds 2
+--train-pushes 3 --rig-runs 4``, ~15 min; ``--model physics-gpr`` the physics-informed GP)
 """
 
 from __future__ import annotations
@@ -50,6 +63,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from scipy.stats import beta
 
 from liquidtouch import combine_ring_downs
 from liquidtouch.errors import LiquidTouchError
@@ -59,14 +73,18 @@ from liquidtouch.models.training import train_regression
 from liquidtouch.planning.push import plan_push
 from liquidtouch.signal.tactile import tactile_signal
 from liquidtouch.sim.gelsight import sensor_scene
+from liquidtouch.sim.presets import TRAIN_CONCENTRATIONS
 from liquidtouch.sim.protocol_scene import ProtocolTimings
 from liquidtouch.sim.sensors import get_sensor_profile
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.testing.rig_runs import CLI, rig_serving
 from liquidtouch.testing.scene_tracks import noisy_true_tracks
 
+#: the catalogue's liquids; sugar water at the ``sugar`` preset's training concentrations
+#: (0: water, already in), which cover the test bottles' draws (a model trained at 40, 100
+#: and 160 only interpolated between them: sugar water test bottles' rms z 1.12, 1.01 with these)
 TRAIN_LIQUIDS = ("water", "olive-oil", "corn-oil", "mirin", "detergent",
-                 "sugar-water 40", "sugar-water 100", "sugar-water 160")  # fmt: skip
+                 *(f"sugar-water {c:g}" for c in TRAIN_CONCENTRATIONS if c > 0))  # fmt: skip
 #: (liquid, target, asked std, tolerance of the error): the issue's "done when"
 TESTS = (
     ("detergent", "height_mm", 0.5, 1.0),
@@ -85,9 +103,22 @@ UPRIGHT_TRAIN_TOP_MM = 60.0
 #: (its GP: 1.2-1.5 mm at 20-40 mm); 2 mm is what a good push can reach
 UPRIGHT_ASKED_MM = 2.0
 NOISE_PX = 0.02
+FEATURES = ("decay_rate", "angular_frequency")
 PROFILE = get_sensor_profile("mini")
 #: the decision wait between a hold's end and the next push [s] (the scene's default)
 BETWEEN_S = ProtocolTimings().between_s
+#: the sets of bottles, each with seeds of its own (:func:`bottle_seed`)
+SEED_SETS = ("train", "test", "upright-train", "upright-test")
+
+
+def bottle_seed(kind: str, *index: int) -> int:
+    """A seed of its own for every bottle: set ``kind`` (:data:`SEED_SETS`) and its indices
+    (liquid, fill, repeat; each below 1000), so that no two bottles share their drawn
+    conditions (module docstring)."""
+    seed = SEED_SETS.index(kind) + 1
+    for i in index:
+        seed = seed * 1000 + int(i)
+    return seed
 
 
 def ring_down(liquid: str, height: float, seed: int, push: int, hold_s: float,
@@ -109,6 +140,8 @@ def ring_down(liquid: str, height: float, seed: int, push: int, hold_s: float,
         "height_mm": float(trial.height_mm),
         "log10_viscosity_cst": float(trial.log10_viscosity_cst),
         "push_s": float(trial.params.push_duration_s),
+        "true_decay_rate": float(trial.true_decay_rate),
+        "true_angular_frequency": float(trial.true_angular_frequency),
     }
     try:
         sig = tactile_signal(tracks)
@@ -141,14 +174,18 @@ def training_row(liquid: str, height: float, seed: int, args, container: str = "
     return row
 
 
-def train(rows: list[dict], targets: list[str]):
-    X = np.array([[r["decay_rate"], r["angular_frequency"]] for r in rows])
+def train(rows: list[dict], targets: list[str], model: str = "gpr", exact: bool = False):
+    """GPRs of ``targets`` as ``liquidtouch train`` makes them; ``exact``: on the simulator's
+    exact (λ, ω) instead of the fits' (no feature std)."""
+    keys = ("true_decay_rate", "true_angular_frequency") if exact else FEATURES
+    X = np.array([[r[k] for k in keys] for r in rows])
     std = np.array([[r["decay_rate_std"], r["angular_frequency_std"]] for r in rows])
     keep = np.all(np.isfinite(X), axis=1)
     y = {t: np.array([r[t] for r in rows])[keep] for t in targets}
     groups = np.array([r["height_mm"] for r in rows])[keep]
-    return train_regression(X[keep], y, calibration_folds=10, calibration_groups=groups,
-                            calibration_std=std[keep])  # fmt: skip
+    return train_regression(X[keep], y, model=model, calibration_folds=10,
+                            calibration_groups=groups,
+                            calibration_std=None if exact else std[keep])  # fmt: skip
 
 
 def answer(model, pushes: list[dict], target: str, asked: float) -> dict:
@@ -166,6 +203,17 @@ def answer(model, pushes: list[dict], target: str, asked: float) -> dict:
 def _pct(x) -> str:
     x = [v for v in x if v is not None]
     return f"{100 * np.mean(x):.0f} %" if x else "—"
+
+
+def _share(flags) -> str:
+    """``k/n (p %, lo-hi %)``: the share of true flags and its 95 % Clopper-Pearson interval."""
+    flags = [bool(v) for v in flags if v is not None]
+    n, k = len(flags), sum(flags)
+    if not n:
+        return "—"
+    lo = beta.ppf(0.025, k, n - k + 1) if k else 0.0
+    hi = beta.ppf(0.975, k + 1, n - k) if k < n else 1.0
+    return f"{k}/{n} ({100 * k / n:.0f} %, {100 * lo:.0f}-{100 * hi:.0f})"
 
 
 def _med(x, digits=2) -> str:
@@ -186,6 +234,8 @@ def main() -> int:
     parser.add_argument("--skip-upright", action="store_true")
     parser.add_argument("--only-upright", action="store_true")
     parser.add_argument("--rig-runs", type=int, default=0, help="simulated-rig trials per liquid")
+    parser.add_argument("--model", default="gpr", choices=("gpr", "physics-gpr"),
+                        help="the property models' kind (liquidtouch train --model)")  # fmt: skip
     args = parser.parse_args()
     began = time.perf_counter()
     if args.only_upright:
@@ -193,37 +243,46 @@ def main() -> int:
         return 0
     heights = np.linspace(16, 40, args.train_heights)
     rows = []
-    for spec in TRAIN_LIQUIDS:
+    for li, spec in enumerate(TRAIN_LIQUIDS):
         name, _, conc = spec.partition(" ")
         for i, h in enumerate(heights):
             for j in range(args.train_seeds):
-                rows.append(training_row(name, float(h), 1000 + 100 * j + i, args,
+                rows.append(training_row(name, float(h), bottle_seed("train", li, i, j), args,
                                          conc=float(conc) if conc else None))  # fmt: skip
-    model = train(rows, ["height_mm", "log10_viscosity_cst"])
+    targets = ["height_mm", "log10_viscosity_cst"]
+    model = train(rows, targets, args.model)
+    ceiling = train(rows, targets, args.model, exact=True)
     if args.save_model:
         save_model(model, args.save_model)
     print(f"# pushes — {len(rows)} training bottles × {args.train_pushes} push(es), "
           f"{args.seeds} seeds × fills "
           f"{TEST_FILLS_MM} mm, hold {args.hold_s:g} s per push, at most {args.max_pushes} "
-          f"pushes ({time.perf_counter() - began:.0f} s to train)\n")  # fmt: skip
-    k_rows, stop_rows = [], []
+          f"pushes, model {args.model} "
+          f"({time.perf_counter() - began:.0f} s to train)\n")  # fmt: skip
+    k_rows, stop_rows, pooled = [], [], []
     rng = np.random.default_rng(0)
-    for liquid, target, asked, tol in TESTS:
-        for fill in TEST_FILLS_MM:
+    for li, (liquid, target, asked, tol) in enumerate(TESTS):
+        by_k = {k: [] for k in range(1, args.max_pushes + 1)}
+        all_stops, exact_err = [], []
+        for fi, fill in enumerate(TEST_FILLS_MM):
             cells = {k: [] for k in range(1, args.max_pushes + 1)}
             stops = []
-            for seed in range(args.seeds):
+            for s in range(args.seeds):
                 conc = float(rng.uniform(20, 140)) if liquid == "sugar-water" else None
+                seed = bottle_seed("test", li, fi, s)
                 pushes = [ring_down(liquid, fill, seed, p, args.hold_s, conc=conc)
                           for p in range(args.max_pushes)]  # fmt: skip
                 truth = pushes[0][target]
+                exact = [[pushes[0]["true_decay_rate"], pushes[0]["true_angular_frequency"]]]
+                exact_err.append(abs(float(ceiling.predict(exact)[target][0][0]) - truth))
                 per_push_s = pushes[0]["push_s"] + args.hold_s
                 stop = None
                 for k in range(1, args.max_pushes + 1):
                     a = answer(model, pushes[:k], target, asked)
                     err = abs(a["mean"] - truth)
-                    cells[k].append((err, err <= tol, err <= 2 * a["std"], a["std"]))
                     r = a["reach"]
+                    cells[k].append((err, err <= tol, err <= 2 * a["std"], a["std"],
+                                     r is not None and r.met))  # fmt: skip
                     done = r is not None and (r.met or r.cannot_tell)
                     if stop is None and (done or k == args.max_pushes):
                         stop = (k, k * per_push_s + (k - 1) * BETWEEN_S, err, err <= tol,
@@ -231,11 +290,23 @@ def main() -> int:
                                 r is not None and r.met)  # fmt: skip
                 stops.append(stop)
             for k, c in cells.items():
-                err, within, covers, std = zip(*c, strict=True)
+                by_k[k] += c
+                err, within, covers, std, _ = zip(*c, strict=True)
                 k_rows.append((liquid, fill, k, _med(err), _pct(within), _pct(covers), _med(std)))
+            all_stops += stops
             n, secs, err, within, covers, told, met = zip(*stops, strict=True)
             stop_rows.append((liquid, fill, _med(n, 1), _med(secs, 1), _med(err),
                               _pct(within), _pct(covers), _pct(met), _pct(told)))  # fmt: skip
+        for k, c in by_k.items():
+            err, within, covers, std, met = zip(*c, strict=True)
+            pooled.append((liquid, f"{k}", _med(err), _share(within), _share(covers),
+                           _share(met), _med(std)))  # fmt: skip
+        n, secs, err, within, covers, told, met = zip(*all_stops, strict=True)
+        pooled.append((liquid, "rule", _med(err), _share(within), _share(covers), _share(met),
+                       f"cannot tell {_share(told)}"))  # fmt: skip
+        pooled.append((liquid, "exact (λ, ω)", _med(exact_err),
+                       _share([e <= tol for e in exact_err]), "—", "—",
+                       f"rms error {math.sqrt(np.mean(np.square(exact_err))):.3g}"))  # fmt: skip
     print("## With k pushes (all trials, no stopping): median |error|, within tolerance "
           "(height 1 mm, log10 ν 0.1), truth within ±2σ, median σ\n")  # fmt: skip
     print("| liquid | fill mm | k | median abs error | within tol | ±2σ covers | median σ |")
@@ -247,6 +318,14 @@ def main() -> int:
           "| ±2σ covers | target met | cannot tell |")  # fmt: skip
     print("|---|---|---|---|---|---|---|---|---|")
     for r in stop_rows:
+        print("| " + " | ".join(str(v) for v in r) + " |")
+    print("\n## Per liquid, pooled over the fills: shares with their 95 % Clopper-Pearson "
+          "interval; k pushes, the stopping rule, and the ceiling (the same model kind on the "
+          "simulator's exact (λ, ω): no fit error)\n")  # fmt: skip
+    print("| liquid | pushes | median abs error | within tol | ±2σ covers | std ≤ asked "
+          "| median σ / note |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|")
+    for r in pooled:
         print("| " + " | ".join(str(v) for v in r) + " |")
     if args.rig_runs:
         with tempfile.TemporaryDirectory() as tmp:
@@ -321,12 +400,13 @@ def upright(args) -> None:
     """Cannot tell where the truth is out of reach: water in the upright bottle."""
     box = "upright-bottle"
     train_rows = []
-    for name in ("water", "mirin", "olive-oil", "sugar-water 100"):
+    for li, name in enumerate(("water", "mirin", "olive-oil", "sugar-water 100")):
         nm, _, conc = name.partition(" ")
         for i, h in enumerate(np.linspace(15, UPRIGHT_TRAIN_TOP_MM, 10)):
-            train_rows.append(training_row(nm, float(h), 2000 + i, args, box,
+            seed = bottle_seed("upright-train", li, i)
+            train_rows.append(training_row(nm, float(h), seed, args, box,
                                            conc=float(conc) if conc else None))  # fmt: skip
-    model = train(train_rows, ["height_mm"])
+    model = train(train_rows, ["height_mm"], args.model)
     asked = UPRIGHT_ASKED_MM
     plan = plan_push(box, "height_mm", asked, fills_mm=list(UPRIGHT_FILLS_MM))
     print(f"\n## Upright bottle (water, target height ± {asked:g} mm): out of reach by the "
@@ -334,9 +414,10 @@ def upright(args) -> None:
     print("| fill mm | physics floor ± mm | out of reach | cannot tell | met | median abs error "
           "| ±2σ covers (answers given) |")  # fmt: skip
     print("|---|---|---|---|---|---|---|")
-    for fill, floor in zip(UPRIGHT_FILLS_MM, plan.chosen.limit_std, strict=True):
+    for fi, (fill, floor) in enumerate(zip(UPRIGHT_FILLS_MM, plan.chosen.limit_std, strict=True)):
         said, met, errs, cover = [], [], [], []
-        for seed in range(args.seeds):
+        for s in range(args.seeds):
+            seed = bottle_seed("upright-test", fi, s)
             pushes = [ring_down("water", fill, seed, p, args.hold_s, box)
                       for p in range(args.max_pushes)]  # fmt: skip
             for k in range(1, args.max_pushes + 1):
