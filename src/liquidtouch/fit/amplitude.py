@@ -53,7 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from liquidtouch.fit import model as om
-from liquidtouch.fit.solve import FitState, std_from_variance
+from liquidtouch.fit.solve import RATE_MAX, FitState, std_from_variance
 
 #: range of the exponent p of λ(A) = λ0 (1 + κ A^p): a velocity-squared damper (flow past
 #: a baffle, p = 1) to the slosh's steepness-squared damping (and a cubic damper, p = 2)
@@ -101,6 +101,13 @@ def amplitude_damped_cosine(
 def n_nonlinear(second: bool) -> int:
     """Nonlinear parameters: ``λ0, ω, g`` and, with a second mode, its ``λ', ω'``."""
     return N_NONLINEAR + 2 * int(second)
+
+
+def nonlinear_bounds(size: int, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of ``[λ0, ω, g]`` (and a second mode's ``λ', ω'``) in the solve."""
+    lo = np.array([0.0, band[0], 0.0, 0.0, band[0]][:size])
+    hi = np.array([RATE_MAX, band[1], GAIN_MAX, RATE_MAX, band[1]][:size])
+    return lo, hi
 
 
 def basis(
@@ -195,6 +202,9 @@ class AmplitudeState(FitState):
     @property
     def n_params(self) -> int:
         return self.theta.size - int(self.gain_fixed) + int(self.exponent_free)
+
+    def nonlinear_bounds(self, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+        return nonlinear_bounds(n_nonlinear(self.second), band)
 
     def _exponent_in_covariance(self) -> bool:
         return self.exponent_free and self.gain > GAIN_IDENTIFIES_EXPONENT

@@ -17,7 +17,6 @@ from scipy.optimize import least_squares
 from liquidtouch.fit import model as om
 from liquidtouch.fit.amplitude import (
     EXPONENT_BOUNDS,
-    GAIN_MAX,
     N_NONLINEAR,
     TWO_MODE_EXPONENT,
     AmplitudeState,
@@ -26,8 +25,9 @@ from liquidtouch.fit.amplitude import (
     exponent_derivative,
     jacobian,
     n_nonlinear,
+    nonlinear_bounds,
 )
-from liquidtouch.fit.solve import MAX_EVALUATIONS, RATE_MAX, FitState
+from liquidtouch.fit.solve import MAX_EVALUATIONS, FitState
 from liquidtouch.fit.start import amplitude_starts, spectral_peaks
 
 __all__ = [
@@ -49,7 +49,7 @@ def _solve(
 ) -> AmplitudeState:
     """Least squares at a fixed exponent ``p``, from the start ``theta_nl``."""
     second = theta_nl.size == n_nonlinear(True)
-    lo_nl, hi_nl = _nonlinear_bounds(theta_nl.size, band)
+    lo_nl, hi_nl = nonlinear_bounds(theta_nl.size, band)
     span = hi_nl - lo_nl
     theta_nl = np.clip(theta_nl, lo_nl + 1e-6 * span, hi_nl - 1e-6 * span)
     lin, _ = om.solve_linear(basis(tau, x, theta_nl, exponent, second), u, sqrt_w)
@@ -73,13 +73,6 @@ def _solve(
     )
 
 
-def _nonlinear_bounds(size: int, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds of ``[λ0, ω, g]`` (and a second mode's ``λ', ω'``)."""
-    lo = np.array([0.0, band[0], 0.0, 0.0, band[0]][:size])
-    hi = np.array([RATE_MAX, band[1], GAIN_MAX, RATE_MAX, band[1]][:size])
-    return lo, hi
-
-
 def _free_exponent(start: AmplitudeState, band: tuple[float, float]) -> AmplitudeState:
     """Least squares with ``p`` free in :data:`EXPONENT_BOUNDS`, from the optimum ``start``.
 
@@ -87,7 +80,7 @@ def _free_exponent(start: AmplitudeState, band: tuple[float, float]) -> Amplitud
     """
     tau, x, u, sqrt_w, second = start.tau, start.x, start.u, start.sqrt_w, start.second
     k = n_nonlinear(second)
-    lo_nl, hi_nl = _nonlinear_bounds(k, band)
+    lo_nl, hi_nl = nonlinear_bounds(k, band)
     n_lin = start.theta.size - k
     lo = np.concatenate([lo_nl, [EXPONENT_BOUNDS[0]], np.full(n_lin, -np.inf)])
     hi = np.concatenate([hi_nl, [EXPONENT_BOUNDS[1]], np.full(n_lin, np.inf)])

@@ -166,6 +166,9 @@ class DriftingLineState(FitState):
     def freqs(self) -> np.ndarray:
         return self.theta[1:2]
 
+    def nonlinear_bounds(self, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+        return _nonlinear_bounds(band)
+
     @property
     def gain(self) -> float:
         """Excess damping g = λ(A0)/λ0 − 1 at the window start."""
@@ -225,6 +228,14 @@ class DriftingLineState(FitState):
         return std_from_variance(float(grad @ cov @ grad) / scale**4)
 
 
+def _nonlinear_bounds(band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of ``[λ0, ω0, g, s]`` in the solve."""
+    return (
+        np.array([RATE_MIN, band[0], 0.0, -SHIFT_MAX]),
+        np.array([RATE_MAX, band[1], GAIN_MAX, SHIFT_MAX]),
+    )
+
+
 def _solve(
     theta_nl: np.ndarray,
     tau: np.ndarray,
@@ -233,8 +244,7 @@ def _solve(
     sqrt_w: np.ndarray,
     band: tuple[float, float],
 ) -> DriftingLineState:
-    lo_nl = np.array([RATE_MIN, band[0], 0.0, -SHIFT_MAX])
-    hi_nl = np.array([RATE_MAX, band[1], GAIN_MAX, SHIFT_MAX])
+    lo_nl, hi_nl = _nonlinear_bounds(band)
     span = hi_nl - lo_nl
     theta_nl = np.clip(theta_nl, lo_nl + 1e-6 * span, hi_nl - 1e-6 * span)
     lin, _ = om.solve_linear(_basis(tau, x, theta_nl), u, sqrt_w)

@@ -49,12 +49,15 @@ MIN_BLOCKS = 5
 MIN_BLOCK_FITS = 3
 
 
-def refit(state: FitState, keep: np.ndarray) -> FitState | None:
+def refit(state: FitState, keep: np.ndarray, band: tuple[float, float]) -> FitState | None:
     """``state``'s model re-solved on the samples ``keep`` (bool), from ``state``'s optimum.
 
-    A local solve (Levenberg–Marquardt, no start search, at most
-    :data:`~liquidtouch.fit.solve.MAX_EVALUATIONS` evaluations, as the full solves); the
-    parameters the state holds fixed stay fixed. ``None`` when its parameters are not finite.
+    A local solve within the bounds of the full solves (``state.bounds(band)``, ``band``
+    [rad/s]: decay rates and gains ≥ 0; a block's solve free of them finds a rising
+    amplitude's gain below 0 on a plain decay and carries a model the full window gave no
+    weight), no start search, at most :data:`~liquidtouch.fit.solve.MAX_EVALUATIONS`
+    evaluations; the parameters the state holds fixed stay fixed. ``None`` when its
+    parameters are not finite.
     """
     sub = replace(
         state, tau=state.tau[keep], x=state.x[keep], u=state.u[keep], sqrt_w=state.sqrt_w[keep]
@@ -72,8 +75,14 @@ def refit(state: FitState, keep: np.ndarray) -> FitState | None:
     def jac(values: np.ndarray) -> np.ndarray:
         return sub.sqrt_w[:, None] * at(values).theta_jacobian()[:, free]
 
+    lo, hi = (b[free] for b in state.bounds(band))
+    span = np.where(np.isfinite(hi - lo), hi - lo, 0.0)
+    start = np.clip(state.theta[free], lo + 1e-9 * span, hi - 1e-9 * span)
     with np.errstate(all="ignore"):
-        res = least_squares(fun, state.theta[free], jac=jac, method="lm", max_nfev=MAX_EVALUATIONS)
+        res = least_squares(
+            fun, start, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac",
+            max_nfev=MAX_EVALUATIONS,
+        )  # fmt: skip
     if not np.all(np.isfinite(res.x)):
         return None
     return replace(at(res.x), cost=float(2.0 * res.cost))
@@ -122,7 +131,11 @@ def _std(deviations: list[tuple[np.ndarray, float]]) -> tuple[float, float]:
 
 
 def averaged_jackknife_std(
-    candidates: Mapping[str, FitState], lead: str, centre: np.ndarray, noise_ratio: float
+    candidates: Mapping[str, FitState],
+    lead: str,
+    centre: np.ndarray,
+    noise_ratio: float,
+    band: tuple[float, float],
 ) -> tuple[float, float]:
     """Blocked-jackknife std of the model-averaged (λ [1/s], ω [rad/s]) ``centre``: the
     choice between the models included.
@@ -146,7 +159,7 @@ def averaged_jackknife_std(
         return math.nan, math.nan
     deviations = []
     for keep, weight in blocks:
-        subs = {n: s for n, s in ((n, refit(s, keep)) for n, s in candidates.items()) if s}
+        subs = {n: s for n, s in ((n, refit(s, keep, band)) for n, s in candidates.items()) if s}
         if not subs:
             continue
         weights = select_model(subs, noise_ratio).weights()

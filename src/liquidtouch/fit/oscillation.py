@@ -321,7 +321,7 @@ def fit_oscillation(
     if noise == "jackknife":  # the larger: conservative when the models are right
         centre = np.array([average["decay_rate"], average["angular_frequency"]])
         ratio = single.n / selection.n_effective
-        jack = averaged_jackknife_std(states, selection.chosen, centre, ratio)
+        jack = averaged_jackknife_std(states, selection.chosen, centre, ratio, band)
         if math.isfinite(jack[0]):
             average["decay_rate_std"] = max(average["decay_rate_std"], jack[0])
             average["angular_frequency_std"] = max(average["angular_frequency_std"], jack[1])

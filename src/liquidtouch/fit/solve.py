@@ -86,6 +86,19 @@ class FitState:
         """Indices of ``theta`` the solve moves (all here)."""
         return np.arange(self.theta.size)
 
+    def nonlinear_bounds(self, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of the nonlinear parameters in the solve (``band`` [rad/s] for ω)."""
+        return _nonlinear_bounds(self.n_modes, band)
+
+    def bounds(self, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of every entry of ``theta``: the nonlinear ones', the linear ones free."""
+        lo, hi = self.nonlinear_bounds(band)
+        n_lin = self.theta.size - lo.size
+        return (
+            np.concatenate([lo, np.full(n_lin, -np.inf)]),
+            np.concatenate([hi, np.full(n_lin, np.inf)]),
+        )
+
     def oscillates(self) -> np.ndarray:
         """Per mode: oscillates (ω ≥ ``MIN_OSCILLATION_OMEGA_OVER_LAMBDA`` λ), not a transient."""
         return self.freqs >= MIN_OSCILLATION_OMEGA_OVER_LAMBDA * self.rates
@@ -286,16 +299,13 @@ def _newey_west_meat(g: np.ndarray, lags: int) -> np.ndarray:
     return meat
 
 
-def _bounds(n_modes: int, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
-    n_lin = 2 * n_modes + om.N_DRIFT
+def _nonlinear_bounds(n_modes: int, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
     if n_modes == 1:
-        lo_nl, hi_nl = [0.0, band[0]], [RATE_MAX, band[1]]
-    else:
-        lo_nl = [0.0, band[0], DELTA_MIN, band[0]]
-        hi_nl = [RATE_MAX, band[1], 2 * RATE_MAX, band[1]]
-    lo = np.concatenate([lo_nl, np.full(n_lin, -np.inf)])
-    hi = np.concatenate([hi_nl, np.full(n_lin, np.inf)])
-    return lo, hi
+        return np.array([0.0, band[0]]), np.array([RATE_MAX, band[1]])
+    return (
+        np.array([0.0, band[0], DELTA_MIN, band[0]]),
+        np.array([RATE_MAX, band[1], 2 * RATE_MAX, band[1]]),
+    )
 
 
 def _solve(
@@ -307,13 +317,13 @@ def _solve(
     sqrt_w: np.ndarray,
     band: tuple[float, float],
 ) -> FitState:
-    lo, hi = _bounds(n_modes, band)
-    k = om.n_nonlinear(n_modes)
-    span = hi[:k] - lo[:k]
-    theta_nl = np.clip(theta_nl, lo[:k] + 1e-6 * span, hi[:k] - 1e-6 * span)
+    lo_nl, hi_nl = _nonlinear_bounds(n_modes, band)
+    span = hi_nl - lo_nl
+    theta_nl = np.clip(theta_nl, lo_nl + 1e-6 * span, hi_nl - 1e-6 * span)
     rates, freqs = om.rates_and_freqs(theta_nl, n_modes)
     lin, _ = om.solve_linear(om.basis(tau, x, rates, freqs), u, sqrt_w)
     theta0 = np.concatenate([theta_nl, lin])
+    lo, hi = FitState(n_modes, theta0, tau, x, u, sqrt_w, math.inf).bounds(band)
 
     def fun(theta: np.ndarray) -> np.ndarray:
         return sqrt_w * (om.curve(theta, tau, x, n_modes) - u)
