@@ -27,7 +27,7 @@ from liquidtouch.fit.amplitude import (
     n_nonlinear,
     nonlinear_bounds,
 )
-from liquidtouch.fit.solve import MAX_EVALUATIONS, FitState
+from liquidtouch.fit.solve import MAX_EVALUATIONS, FitState, with_free_linear
 from liquidtouch.fit.start import amplitude_starts, spectral_peaks
 
 __all__ = [
@@ -54,9 +54,7 @@ def _solve(
     theta_nl = np.clip(theta_nl, lo_nl + 1e-6 * span, hi_nl - 1e-6 * span)
     lin, _ = om.solve_linear(basis(tau, x, theta_nl, exponent, second), u, sqrt_w)
     theta0 = np.concatenate([theta_nl, lin])
-    n_lin = lin.size
-    lo = np.concatenate([lo_nl, np.full(n_lin, -np.inf)])
-    hi = np.concatenate([hi_nl, np.full(n_lin, np.inf)])
+    lo, hi = with_free_linear(lo_nl, hi_nl, theta0.size)
 
     def fun(theta: np.ndarray) -> np.ndarray:
         return sqrt_w * (curve(theta, tau, x, exponent, second) - u)

@@ -41,7 +41,13 @@ from scipy.optimize import least_squares
 
 from liquidtouch.fit import model as om
 from liquidtouch.fit.amplitude import GAIN_MAX, AmplitudeState, envelope
-from liquidtouch.fit.solve import MAX_EVALUATIONS, RATE_MAX, FitState, std_from_variance
+from liquidtouch.fit.solve import (
+    MAX_EVALUATIONS,
+    RATE_MAX,
+    FitState,
+    std_from_variance,
+    with_free_linear,
+)
 
 __all__ = ["DriftingLineState", "drifting_cosine", "optimise_drifting_line"]
 
@@ -248,9 +254,7 @@ def _solve(
     span = hi_nl - lo_nl
     theta_nl = np.clip(theta_nl, lo_nl + 1e-6 * span, hi_nl - 1e-6 * span)
     lin, _ = om.solve_linear(_basis(tau, x, theta_nl), u, sqrt_w)
-    n_lin = lin.size
-    lo = np.concatenate([lo_nl, np.full(n_lin, -np.inf)])
-    hi = np.concatenate([hi_nl, np.full(n_lin, np.inf)])
+    lo, hi = with_free_linear(lo_nl, hi_nl, len(lo_nl) + lin.size)
 
     def fun(theta: np.ndarray) -> np.ndarray:
         return sqrt_w * (curve(theta, tau, x) - u)

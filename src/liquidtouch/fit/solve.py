@@ -92,12 +92,7 @@ class FitState:
 
     def bounds(self, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
         """Bounds of every entry of ``theta``: the nonlinear ones', the linear ones free."""
-        lo, hi = self.nonlinear_bounds(band)
-        n_lin = self.theta.size - lo.size
-        return (
-            np.concatenate([lo, np.full(n_lin, -np.inf)]),
-            np.concatenate([hi, np.full(n_lin, np.inf)]),
-        )
+        return with_free_linear(*self.nonlinear_bounds(band), self.theta.size)
 
     def oscillates(self) -> np.ndarray:
         """Per mode: oscillates (ω ≥ ``MIN_OSCILLATION_OMEGA_OVER_LAMBDA`` λ), not a transient."""
@@ -299,6 +294,18 @@ def _newey_west_meat(g: np.ndarray, lags: int) -> np.ndarray:
     return meat
 
 
+def with_free_linear(
+    lo_nl: np.ndarray, hi_nl: np.ndarray, size: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of a ``size``-entry θ whose nonlinear entries ``lo_nl``-``hi_nl`` lead and
+    whose linear coefficients after them are free."""
+    n_lin = size - len(lo_nl)
+    return (
+        np.concatenate([lo_nl, np.full(n_lin, -np.inf)]),
+        np.concatenate([hi_nl, np.full(n_lin, np.inf)]),
+    )
+
+
 def _nonlinear_bounds(n_modes: int, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
     if n_modes == 1:
         return np.array([0.0, band[0]]), np.array([RATE_MAX, band[1]])
@@ -323,7 +330,7 @@ def _solve(
     rates, freqs = om.rates_and_freqs(theta_nl, n_modes)
     lin, _ = om.solve_linear(om.basis(tau, x, rates, freqs), u, sqrt_w)
     theta0 = np.concatenate([theta_nl, lin])
-    lo, hi = FitState(n_modes, theta0, tau, x, u, sqrt_w, math.inf).bounds(band)
+    lo, hi = with_free_linear(lo_nl, hi_nl, theta0.size)
 
     def fun(theta: np.ndarray) -> np.ndarray:
         return sqrt_w * (om.curve(theta, tau, x, n_modes) - u)

@@ -164,19 +164,12 @@ _DIGIT_LEDS = (
     LedLobe(center=(-0.15, 0.9), rgb=(10.0, 110.0, 10.0), width=0.35),
     LedLobe(center=(1.15, 0.9), rgb=(10.0, 10.0, 110.0), width=0.35),
 )
-SENSOR_PROFILES["digit"] = SensorProfile(
+SENSOR_PROFILES["digit"] = replace(  # the Mini's gel geometry and optics, DIGIT's clock and light
+    SENSOR_PROFILES["mini"],
     name="digit",
-    width_px=320,
-    height_px=240,
     fps=60.0,
-    mm_per_px=0.06,
-    marker_radius_px=5.9,
-    marker_edge_px=1.0,
-    shear_compliance_px_per_n=6.0,
-    twist_compliance_rad_per_nmm=0.004,
     base_rgb=(40.0, 40.0, 40.0),
     leds=_DIGIT_LEDS,
-    noise_std=1.0,
     gel="plain",
 )
 
