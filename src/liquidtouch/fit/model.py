@@ -58,7 +58,9 @@ def cosine_drift(tau: np.ndarray, amplitudes: np.ndarray, duration_s: float) -> 
 def drift_turns(duration_s: float, band_low_rad_s: float) -> int:
     """Most half-turns ``J`` of a drift over a record of ``duration_s`` [s] that stays below
     the band the slosh is looked for in (lower edge ``band_low_rad_s`` [rad/s]):
-    ``cos(Jπτ/T)`` is a ``J / (2 T)`` Hz motion, so ``J = ⌊2 T f_low⌋``.
+    ``cos(Jπτ/T)`` is a ``J / (2 T)`` Hz motion, so ``J = ⌊2 T f_low⌋`` (also the number
+    of independent shapes slower than ``f_low`` that ``T`` seconds of samples hold, Landau
+    & Pollak 1962: ``T`` is the time the samples cover, without a long stall's).
 
     A 13 s hold in a 0.3 Hz band holds a thermal or creep drift that turns 7 times; a
     record shorter than ``3 / (2 f_low)`` keeps the quadratic alone. Cosines, not a

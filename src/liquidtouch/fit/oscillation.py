@@ -277,7 +277,10 @@ def fit_oscillation(
     t, u = validate_signal(t, u, min_duration_s)
     band = _band(band_hz, t)
     tau = t - t[0]
-    drift_basis = om.drift_basis(tau, om.drift_turns(tau[-1], band[0]))
+    # the time the samples cover: a record with a stall of minutes has as few slow shapes
+    # to tell apart as its samples span, not as its clock does
+    observed_s = min(float(tau[-1]), tau.size * float(np.median(np.diff(tau))))
+    drift_basis = om.drift_basis(tau, om.drift_turns(observed_s, band[0]))
     mean, scale = float(u.mean()), float(u.std())
     if not 0 < scale < math.inf:  # under- or overflow of u² (|u| ~ 1e-160 or 1e+160)
         peak = float(np.max(np.abs(u)))
