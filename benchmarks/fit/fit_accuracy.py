@@ -56,7 +56,7 @@ def crb(lam, omega, amp, phase, fast, sigma) -> tuple[float, float]:
             [lam, omega, fl - lam, fw, a, b, fa * math.cos(fp), -fa * math.sin(fp), *d]
         )
         n_modes = 2
-    jac = om.jacobian(theta, T, om.drift_basis(T, 2), n_modes)  # the signals' quadratic drift
+    jac = om.jacobian(theta, T, om.drift_columns(T, 2), n_modes)  # the signals' quadratic drift
     cov = sigma**2 * np.linalg.inv(jac.T @ jac)
     return math.sqrt(cov[0, 0]), math.sqrt(cov[1, 1])
 

@@ -17,7 +17,7 @@ T = np.arange(0.0, 13.0, 1 / 30)
 
 @pytest.mark.parametrize("gain", [0.0, 1e-6, 0.7, 3.0])
 def test_jacobian_matches_finite_differences(gain: float) -> None:
-    tau, x = T, om.drift_basis(T, 2)
+    tau, x = T, om.drift_columns(T, 2)
     theta = np.array([0.4, 10.0, gain, -0.05, 0.8, -0.3, 0.05, 0.02, 0.1, 0.2, 0.05])
     numeric = np.empty((tau.size, theta.size))
     for i in range(theta.size):

@@ -307,7 +307,7 @@ def test_the_damped_cosine_is_written_once_and_matches_the_fitted_basis() -> Non
         theta += [amplitude * math.cos(phase), -amplitude * math.sin(phase)]
     length = tau[-1]
     theta += [fit.drift_c0, fit.drift_c1 * length, fit.drift_c2 * length**2, *fit.drift_cosines]
-    drift_basis = model.drift_basis(tau, model.N_QUADRATIC - 1 + len(fit.drift_cosines))
+    drift_basis = model.drift_columns(tau, model.N_QUADRATIC - 1 + len(fit.drift_cosines))
     basis_curve = model.curve(np.array(theta), tau, drift_basis, n_modes=2)
     np.testing.assert_allclose(basis_curve, slow + fast + drift, atol=1e-9)
 

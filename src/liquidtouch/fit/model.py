@@ -1,7 +1,7 @@
 """The damped-oscillation model of the tactile signal: curve, analytic Jacobian, linear part.
 
 Each mode is a damped cosine ``B e^{-λτ} cos(ωτ + ψ)`` (:func:`damped_cosine`, the one
-place it is written out) on a slow drift (:func:`drift_basis`): a quadratic, and on a long
+place it is written out) on a slow drift (:func:`drift_columns`): a quadratic, and on a long
 record the slow cosines below the band the slosh is looked for in. For the fit the model
 is written, in time ``tau`` [s] measured from the first sample, as::
 
@@ -49,7 +49,7 @@ def quadratic_drift(tau: np.ndarray, c0: float, c1: float, c2: float) -> np.ndar
 def cosine_drift(tau: np.ndarray, amplitudes: np.ndarray, duration_s: float) -> np.ndarray:
     """``Σ_j a_j cos(jπτ/T)`` for ``j = 3, 4, ...`` (``amplitudes`` in that order, unit of
     u) at times ``tau`` [s] of a record of ``duration_s`` ``T`` [s]: the drift beyond the
-    quadratic (:func:`drift_basis`)."""
+    quadratic (:func:`drift_columns`)."""
     tau = np.asarray(tau, dtype=float)
     turns = N_QUADRATIC + np.arange(len(amplitudes))
     return np.cos(np.pi * np.outer(tau / duration_s, turns)) @ np.asarray(amplitudes, float)
@@ -72,7 +72,7 @@ def drift_turns(duration_s: float, band_low_rad_s: float) -> int:
     return int(2 * duration_s * band_low_rad_s / (2 * np.pi))
 
 
-def drift_basis(tau: np.ndarray, turns: int) -> np.ndarray:
+def drift_columns(tau: np.ndarray, turns: int) -> np.ndarray:
     """The drift's columns at times ``tau`` [s] (from 0, ``x = tau / tau[-1]``): ``1``,
     ``x``, ``x²`` and ``cos(jπx)`` for ``3 ≤ j ≤ turns`` (:func:`drift_turns`), shape
     ``(n, 3 + max(0, turns − 2))``."""

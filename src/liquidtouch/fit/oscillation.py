@@ -280,7 +280,7 @@ def fit_oscillation(
     # the time the samples cover: a record with a stall of minutes has as few slow shapes
     # to tell apart as its samples span, not as its clock does
     observed_s = min(float(tau[-1]), tau.size * float(np.median(np.diff(tau))))
-    drift_basis = om.drift_basis(tau, om.drift_turns(observed_s, band[0]))
+    drift_basis = om.drift_columns(tau, om.drift_turns(observed_s, band[0]))
     mean, scale = float(u.mean()), float(u.std())
     if not 0 < scale < math.inf:  # under- or overflow of u² (|u| ~ 1e-160 or 1e+160)
         peak = float(np.max(np.abs(u)))

@@ -170,7 +170,7 @@ class FitState:
         return np.hypot(a, b), np.arctan2(-b, a)
 
     def drift(self) -> np.ndarray:
-        """The drift's coefficients, of its columns (:func:`~liquidtouch.fit.model.drift_basis`)."""
+        """The drift's coefficients (of :func:`~liquidtouch.fit.model.drift_columns`)."""
         return self.theta[-self.drift_basis.shape[1] :]
 
     def standard_errors(self, weights: np.ndarray, *, correlated: bool) -> list[float]:
