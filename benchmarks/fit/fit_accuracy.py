@@ -46,7 +46,6 @@ def naive_fit(t: np.ndarray, u: np.ndarray) -> tuple[float, float]:
 
 def crb(lam, omega, amp, phase, fast, sigma) -> tuple[float, float]:
     """Cramér–Rao bound (std) of λ, ω for the exact model under white noise σ."""
-    x = T / T[-1]
     a, b = amp * math.cos(phase), -amp * math.sin(phase)
     d = [DRIFT[0], DRIFT[1] * T[-1], DRIFT[2] * T[-1] ** 2]
     if fast is None:
@@ -57,7 +56,7 @@ def crb(lam, omega, amp, phase, fast, sigma) -> tuple[float, float]:
             [lam, omega, fl - lam, fw, a, b, fa * math.cos(fp), -fa * math.sin(fp), *d]
         )
         n_modes = 2
-    jac = om.jacobian(theta, T, x, n_modes)
+    jac = om.jacobian(theta, T, om.drift_columns(T, 2), n_modes)  # the signals' quadratic drift
     cov = sigma**2 * np.linalg.inv(jac.T @ jac)
     return math.sqrt(cov[0, 0]), math.sqrt(cov[1, 1])
 

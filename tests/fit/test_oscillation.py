@@ -297,16 +297,18 @@ def test_the_damped_cosine_is_written_once_and_matches_the_fitted_basis() -> Non
         slow,
         model.damped_cosine(tau, fit.amplitude, fit.decay_rate, fit.angular_frequency, fit.phase),
     )
-    np.testing.assert_array_equal(
-        drift, model.quadratic_drift(tau, fit.drift_c0, fit.drift_c1, fit.drift_c2)
-    )
+    quadratic = model.quadratic_drift(tau, fit.drift_c0, fit.drift_c1, fit.drift_c2)
+    cosines = model.cosine_drift(tau, np.array(fit.drift_cosines), fit.duration_s)
+    assert len(fit.drift_cosines) == 5  # 13 s in a 0.3 Hz band: turns 3 to 7
+    np.testing.assert_array_equal(drift, quadratic + cosines)
     theta = [fit.decay_rate, fit.angular_frequency]
     theta += [fit.fast_decay_rate - fit.decay_rate, fit.fast_angular_frequency]
     for amplitude, phase in ((fit.amplitude, fit.phase), (fit.fast_amplitude, fit.fast_phase)):
         theta += [amplitude * math.cos(phase), -amplitude * math.sin(phase)]
     length = tau[-1]
-    theta += [fit.drift_c0, fit.drift_c1 * length, fit.drift_c2 * length**2]
-    basis_curve = model.curve(np.array(theta), tau, tau / length, n_modes=2)
+    theta += [fit.drift_c0, fit.drift_c1 * length, fit.drift_c2 * length**2, *fit.drift_cosines]
+    drift_basis = model.drift_columns(tau, model.N_QUADRATIC - 1 + len(fit.drift_cosines))
+    basis_curve = model.curve(np.array(theta), tau, drift_basis, n_modes=2)
     np.testing.assert_allclose(basis_curve, slow + fast + drift, atol=1e-9)
 
 

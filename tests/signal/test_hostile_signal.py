@@ -280,10 +280,10 @@ def test_start_search_on_a_long_signal_is_thinned_and_chunked(monkeypatch) -> No
     assert start.thin(short, band_high_rad_s=2 * np.pi * 600.0)[0].size == short.size
     # the profile grid in chunks equals the grid at once
     tau = np.linspace(0.0, 13.0, 500)
-    x, u, w = tau / 13.0, np.exp(-0.3 * tau) * np.cos(9.0 * tau), np.ones(500)
-    whole = model.profile_cost_grid(tau, x, u, w, start.RATE_GRID, np.array([8.5, 9.0, 9.5]))
+    drift, u, w = model.drift_columns(tau, 2), np.exp(-0.3 * tau) * np.cos(9.0 * tau), np.ones(500)
+    whole = model.profile_cost_grid(tau, drift, u, w, start.RATE_GRID, np.array([8.5, 9.0, 9.5]))
     monkeypatch.setattr(model, "GRID_CHUNK_BYTES", 3 * 500 * 5 * 8 * 4)  # 4 rates per chunk
-    chunked = model.profile_cost_grid(tau, x, u, w, start.RATE_GRID, np.array([8.5, 9.0, 9.5]))
+    chunked = model.profile_cost_grid(tau, drift, u, w, start.RATE_GRID, np.array([8.5, 9.0, 9.5]))
     np.testing.assert_allclose(chunked, whole, rtol=1e-12)
 
 

@@ -52,7 +52,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from liquidtouch.fit import model as om
 from liquidtouch.fit.solve import RATE_MAX, FitState, std_from_variance
 
 #: range of the exponent p of λ(A) = λ0 (1 + κ A^p): a velocity-squared damper (flow past
@@ -111,14 +110,18 @@ def nonlinear_bounds(size: int, band: tuple[float, float]) -> tuple[np.ndarray, 
 
 
 def basis(
-    tau: np.ndarray, x: np.ndarray, theta_nl: np.ndarray, exponent: float, second: bool = False
+    tau: np.ndarray,
+    drift_basis: np.ndarray,
+    theta_nl: np.ndarray,
+    exponent: float,
+    second: bool = False,
 ) -> np.ndarray:
     """Design matrix: ``E cos ωτ``, ``E sin ωτ`` (with ``second``: ``e^{−λ'τ} cos ω'τ``,
-    ``e^{−λ'τ} sin ω'τ``), ``1``, ``x``, ``x²``."""
+    ``e^{−λ'τ} sin ω'τ``), the drift's columns."""
     rate, omega, gain = theta_nl[:N_NONLINEAR]
     env = envelope(tau, rate, gain, exponent)
     n_modes = 1 + int(second)
-    cols = np.empty((tau.size, 2 * n_modes + om.N_DRIFT))
+    cols = np.empty((tau.size, 2 * n_modes + drift_basis.shape[1]))
     cols[:, 0] = env * np.cos(omega * tau)
     cols[:, 1] = env * np.sin(omega * tau)
     if second:
@@ -126,40 +129,46 @@ def basis(
         env_2 = np.exp(-rate_2 * tau)
         cols[:, 2] = env_2 * np.cos(omega_2 * tau)
         cols[:, 3] = env_2 * np.sin(omega_2 * tau)
-    cols[:, -3] = 1.0
-    cols[:, -2] = x
-    cols[:, -1] = x * x
+    cols[:, -drift_basis.shape[1] :] = drift_basis
     return cols
 
 
 def curve(
-    theta: np.ndarray, tau: np.ndarray, x: np.ndarray, exponent: float, second: bool = False
+    theta: np.ndarray,
+    tau: np.ndarray,
+    drift_basis: np.ndarray,
+    exponent: float,
+    second: bool = False,
 ) -> np.ndarray:
     """The model's value at each sample."""
-    return basis(tau, x, theta, exponent, second) @ theta[n_nonlinear(second) :]
+    return basis(tau, drift_basis, theta, exponent, second) @ theta[n_nonlinear(second) :]
 
 
 def _first_mode(
-    theta: np.ndarray, tau: np.ndarray, x: np.ndarray, exponent: float, second: bool
+    theta: np.ndarray, tau: np.ndarray, drift_basis: np.ndarray, exponent: float, second: bool
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The design matrix, the amplitude-damped mode, ``q = e^{−p λ0 τ}``, ``G = 1 + g (1 − q)``."""
     k = n_nonlinear(second)
     rate, _, gain = theta[:N_NONLINEAR]
     a, b = theta[k : k + 2]
-    design = basis(tau, x, theta, exponent, second)
+    design = basis(tau, drift_basis, theta, exponent, second)
     mode = a * design[:, 0] + b * design[:, 1]
     q = np.exp(-exponent * rate * tau)
     return design, mode, q, 1.0 + gain * (1.0 - q)
 
 
 def jacobian(
-    theta: np.ndarray, tau: np.ndarray, x: np.ndarray, exponent: float, second: bool = False
+    theta: np.ndarray,
+    tau: np.ndarray,
+    drift_basis: np.ndarray,
+    exponent: float,
+    second: bool = False,
 ) -> np.ndarray:
     """Analytic Jacobian ``d curve / d theta``, shape ``(n, theta.size)``."""
     k = n_nonlinear(second)
     gain = theta[2]
     a, b = theta[k : k + 2]
-    design, mode, q, grown = _first_mode(theta, tau, x, exponent, second)
+    design, mode, q, grown = _first_mode(theta, tau, drift_basis, exponent, second)
     ec, es = design[:, 0], design[:, 1]
     jac = np.empty((tau.size, theta.size))
     # ln E = −λ0 τ − ln(1 + g (1 − q)) / p,  q = e^{−p λ0 τ}
@@ -176,11 +185,15 @@ def jacobian(
 
 
 def exponent_derivative(
-    theta: np.ndarray, tau: np.ndarray, x: np.ndarray, exponent: float, second: bool = False
+    theta: np.ndarray,
+    tau: np.ndarray,
+    drift_basis: np.ndarray,
+    exponent: float,
+    second: bool = False,
 ) -> np.ndarray:
     """``d curve / d p``: ``ln E = −λ0 τ − ln G / p`` with ``G = 1 + g (1 − e^{−p λ0 τ})``."""
     rate, _, gain = theta[:N_NONLINEAR]
-    _, mode, q, grown = _first_mode(theta, tau, x, exponent, second)
+    _, mode, q, grown = _first_mode(theta, tau, drift_basis, exponent, second)
     return mode * (np.log(grown) / exponent**2 - gain * rate * tau * q / (exponent * grown))
 
 
@@ -223,20 +236,22 @@ class AmplitudeState(FitState):
         return self.theta[[1, 4]] if self.second else self.theta[1:2]
 
     def model_curve(self) -> np.ndarray:
-        return curve(self.theta, self.tau, self.x, self.exponent, self.second)
+        return curve(self.theta, self.tau, self.drift_basis, self.exponent, self.second)
 
     def model_jacobian(self) -> np.ndarray:
         """Jacobian of the free parameters: θ (without g when held), then p when fitted."""
-        jac = jacobian(self.theta, self.tau, self.x, self.exponent, self.second)
+        jac = jacobian(self.theta, self.tau, self.drift_basis, self.exponent, self.second)
         if self.gain_fixed:
             return np.delete(jac, 2, axis=1)
         if self._exponent_in_covariance():
-            d_exp = exponent_derivative(self.theta, self.tau, self.x, self.exponent, self.second)
+            d_exp = exponent_derivative(
+                self.theta, self.tau, self.drift_basis, self.exponent, self.second
+            )
             return np.column_stack([jac, d_exp])
         return jac
 
     def theta_jacobian(self) -> np.ndarray:
-        return jacobian(self.theta, self.tau, self.x, self.exponent, self.second)
+        return jacobian(self.theta, self.tau, self.drift_basis, self.exponent, self.second)
 
     def free_parameters(self) -> np.ndarray:
         """Indices of ``theta`` a solve moves: all but g when it is held (p is not in theta)."""

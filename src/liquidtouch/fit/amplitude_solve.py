@@ -42,7 +42,7 @@ def _solve(
     theta_nl: np.ndarray,
     exponent: float,
     tau: np.ndarray,
-    x: np.ndarray,
+    drift_basis: np.ndarray,
     u: np.ndarray,
     sqrt_w: np.ndarray,
     band: tuple[float, float],
@@ -52,22 +52,22 @@ def _solve(
     lo_nl, hi_nl = nonlinear_bounds(theta_nl.size, band)
     span = hi_nl - lo_nl
     theta_nl = np.clip(theta_nl, lo_nl + 1e-6 * span, hi_nl - 1e-6 * span)
-    lin, _ = om.solve_linear(basis(tau, x, theta_nl, exponent, second), u, sqrt_w)
+    lin, _ = om.solve_linear(basis(tau, drift_basis, theta_nl, exponent, second), u, sqrt_w)
     theta0 = np.concatenate([theta_nl, lin])
     lo, hi = with_free_linear(lo_nl, hi_nl, theta0.size)
 
     def fun(theta: np.ndarray) -> np.ndarray:
-        return sqrt_w * (curve(theta, tau, x, exponent, second) - u)
+        return sqrt_w * (curve(theta, tau, drift_basis, exponent, second) - u)
 
     def jac(theta: np.ndarray) -> np.ndarray:
-        return sqrt_w[:, None] * jacobian(theta, tau, x, exponent, second)
+        return sqrt_w[:, None] * jacobian(theta, tau, drift_basis, exponent, second)
 
     res = least_squares(
         fun, theta0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=MAX_EVALUATIONS
     )
     cost = float(2 * res.cost)
     return AmplitudeState(
-        1 + int(second), res.x, tau, x, u, sqrt_w, cost, exponent=exponent, second=second
+        1 + int(second), res.x, tau, drift_basis, u, sqrt_w, cost, exponent=exponent, second=second
     )
 
 
@@ -76,7 +76,13 @@ def _free_exponent(start: AmplitudeState, band: tuple[float, float]) -> Amplitud
 
     The parameter vector is θ with ``p`` after the nonlinear parameters.
     """
-    tau, x, u, sqrt_w, second = start.tau, start.x, start.u, start.sqrt_w, start.second
+    tau, drift_basis, u, sqrt_w, second = (
+        start.tau,
+        start.drift_basis,
+        start.u,
+        start.sqrt_w,
+        start.second,
+    )
     k = n_nonlinear(second)
     lo_nl, hi_nl = nonlinear_bounds(k, band)
     n_lin = start.theta.size - k
@@ -91,12 +97,12 @@ def _free_exponent(start: AmplitudeState, band: tuple[float, float]) -> Amplitud
 
     def fun(v: np.ndarray) -> np.ndarray:
         theta, exponent = split(v)
-        return sqrt_w * (curve(theta, tau, x, exponent, second) - u)
+        return sqrt_w * (curve(theta, tau, drift_basis, exponent, second) - u)
 
     def jac(v: np.ndarray) -> np.ndarray:
         theta, exponent = split(v)
-        full_jac = jacobian(theta, tau, x, exponent, second)
-        d_exp = exponent_derivative(theta, tau, x, exponent, second)
+        full_jac = jacobian(theta, tau, drift_basis, exponent, second)
+        d_exp = exponent_derivative(theta, tau, drift_basis, exponent, second)
         return sqrt_w[:, None] * np.column_stack([full_jac[:, :k], d_exp, full_jac[:, k:]])
 
     res = least_squares(
@@ -107,7 +113,7 @@ def _free_exponent(start: AmplitudeState, band: tuple[float, float]) -> Amplitud
         start.n_modes,
         theta,
         tau,
-        x,
+        drift_basis,
         u,
         sqrt_w,
         float(2 * res.cost),
@@ -119,7 +125,7 @@ def _free_exponent(start: AmplitudeState, band: tuple[float, float]) -> Amplitud
 
 def optimise_amplitude_ends(
     tau: np.ndarray,
-    x: np.ndarray,
+    drift_basis: np.ndarray,
     u: np.ndarray,
     sqrt_w: np.ndarray,
     band: tuple[float, float],
@@ -133,7 +139,10 @@ def optimise_amplitude_ends(
     lam, omega = float(single.rates[0]), float(single.freqs[0])
     return [
         min(
-            (_solve(np.array(s), p, tau, x, u, sqrt_w, band) for s in amplitude_starts(lam, omega)),
+            (
+                _solve(np.array(s), p, tau, drift_basis, u, sqrt_w, band)
+                for s in amplitude_starts(lam, omega)
+            ),
             key=lambda f: f.cost,
         )
         for p in EXPONENT_BOUNDS
@@ -163,7 +172,7 @@ def without_gain(single: FitState, exponent: float) -> AmplitudeState:
         1,
         theta,
         single.tau,
-        single.x,
+        single.drift_basis,
         single.u,
         single.sqrt_w,
         single.cost,
@@ -174,7 +183,7 @@ def without_gain(single: FitState, exponent: float) -> AmplitudeState:
 
 def optimise_amplitude_two_mode(
     tau: np.ndarray,
-    x: np.ndarray,
+    drift_basis: np.ndarray,
     u: np.ndarray,
     sqrt_w: np.ndarray,
     band: tuple[float, float],
@@ -195,7 +204,15 @@ def optimise_amplitude_two_mode(
         i = int(np.argmax(np.abs(two.freqs - omega)))
         seconds.append((float(two.rates[i]), float(two.freqs[i])))
     fits = [
-        _solve(np.array([lam0, omega, gain, r, w]), TWO_MODE_EXPONENT, tau, x, u, sqrt_w, band)
+        _solve(
+            np.array([lam0, omega, gain, r, w]),
+            TWO_MODE_EXPONENT,
+            tau,
+            drift_basis,
+            u,
+            sqrt_w,
+            band,
+        )
         for r, w in seconds
     ]
     return min(fits, key=lambda f: f.cost)

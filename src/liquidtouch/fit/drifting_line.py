@@ -86,31 +86,29 @@ def _phase_integral(tau: np.ndarray, rate: float, gain: float) -> tuple[np.ndarr
     return integral, d_rate, d_gain, q, grown
 
 
-def _basis(tau: np.ndarray, x: np.ndarray, theta_nl: np.ndarray) -> np.ndarray:
-    """Design matrix: ``E^k cos kφ``, ``E^k sin kφ`` for each harmonic k, ``1``, ``x``, ``x²``."""
+def _basis(tau: np.ndarray, drift_basis: np.ndarray, theta_nl: np.ndarray) -> np.ndarray:
+    """Design matrix: ``E^k cos kφ``, ``E^k sin kφ`` for each harmonic k, the drift's columns."""
     rate, omega, gain, shift = theta_nl[:N_NONLINEAR]
     integral = _phase_integral(tau, rate, gain)[0]
     phase = omega * (tau + shift * integral)
     env = envelope(tau, rate, gain, EXPONENT)
-    cols = np.empty((tau.size, 2 * len(HARMONICS) + om.N_DRIFT))
+    cols = np.empty((tau.size, 2 * len(HARMONICS) + drift_basis.shape[1]))
     for i, k in enumerate(HARMONICS):
         cols[:, 2 * i] = env**k * np.cos(k * phase)
         cols[:, 2 * i + 1] = env**k * np.sin(k * phase)
-    cols[:, -3] = 1.0
-    cols[:, -2] = x
-    cols[:, -1] = x * x
+    cols[:, -drift_basis.shape[1] :] = drift_basis
     return cols
 
 
-def curve(theta: np.ndarray, tau: np.ndarray, x: np.ndarray) -> np.ndarray:
+def curve(theta: np.ndarray, tau: np.ndarray, drift_basis: np.ndarray) -> np.ndarray:
     """The model's value at each sample."""
-    return _basis(tau, x, theta) @ theta[N_NONLINEAR:]
+    return _basis(tau, drift_basis, theta) @ theta[N_NONLINEAR:]
 
 
-def jacobian(theta: np.ndarray, tau: np.ndarray, x: np.ndarray) -> np.ndarray:
+def jacobian(theta: np.ndarray, tau: np.ndarray, drift_basis: np.ndarray) -> np.ndarray:
     """Analytic Jacobian ``d curve / d theta``, shape ``(n, theta.size)``."""
     rate, omega, gain, shift = theta[:N_NONLINEAR]
-    design = _basis(tau, x, theta)
+    design = _basis(tau, drift_basis, theta)
     integral, d_int_rate, d_int_gain, q, grown = _phase_integral(tau, rate, gain)
     # ln E = −λ0 τ − ln G / 2 and φ = ω0 (τ + f L): their derivatives by λ0, ω0, g, f
     d_log_env = (-tau - gain * tau * q / grown, 0.0, -(1.0 - q) / (EXPONENT * grown), 0.0)
@@ -186,10 +184,10 @@ class DriftingLineState(FitState):
         return float(self.theta[3])
 
     def model_curve(self) -> np.ndarray:
-        return curve(self.theta, self.tau, self.x)
+        return curve(self.theta, self.tau, self.drift_basis)
 
     def model_jacobian(self) -> np.ndarray:
-        return jacobian(self.theta, self.tau, self.x)
+        return jacobian(self.theta, self.tau, self.drift_basis)
 
     def reported_mode(self) -> int:
         return 0
@@ -245,7 +243,7 @@ def _nonlinear_bounds(band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray
 def _solve(
     theta_nl: np.ndarray,
     tau: np.ndarray,
-    x: np.ndarray,
+    drift_basis: np.ndarray,
     u: np.ndarray,
     sqrt_w: np.ndarray,
     band: tuple[float, float],
@@ -253,14 +251,14 @@ def _solve(
     lo_nl, hi_nl = _nonlinear_bounds(band)
     span = hi_nl - lo_nl
     theta_nl = np.clip(theta_nl, lo_nl + 1e-6 * span, hi_nl - 1e-6 * span)
-    lin, _ = om.solve_linear(_basis(tau, x, theta_nl), u, sqrt_w)
+    lin, _ = om.solve_linear(_basis(tau, drift_basis, theta_nl), u, sqrt_w)
     lo, hi = with_free_linear(lo_nl, hi_nl, len(lo_nl) + lin.size)
 
     def fun(theta: np.ndarray) -> np.ndarray:
-        return sqrt_w * (curve(theta, tau, x) - u)
+        return sqrt_w * (curve(theta, tau, drift_basis) - u)
 
     def jac(theta: np.ndarray) -> np.ndarray:
-        return sqrt_w[:, None] * jacobian(theta, tau, x)
+        return sqrt_w[:, None] * jacobian(theta, tau, drift_basis)
 
     with np.errstate(all="ignore"):
         res = least_squares(
@@ -273,7 +271,7 @@ def _solve(
             max_nfev=MAX_EVALUATIONS,
         )
     cost = float(2 * res.cost) if np.all(np.isfinite(res.x)) else math.inf
-    return DriftingLineState(1, res.x, tau, x, u, sqrt_w, cost)
+    return DriftingLineState(1, res.x, tau, drift_basis, u, sqrt_w, cost)
 
 
 def optimise_drifting_line(
@@ -284,4 +282,4 @@ def optimise_drifting_line(
     reached the same optima on all 180 validation signals, ``benchmarks/fit/validation.py``).
     """
     s = amplitude
-    return _solve(np.array([*s.theta[:3], 0.0]), s.tau, s.x, s.u, s.sqrt_w, band)
+    return _solve(np.array([*s.theta[:3], 0.0]), s.tau, s.drift_basis, s.u, s.sqrt_w, band)

@@ -60,7 +60,11 @@ def refit(state: FitState, keep: np.ndarray, band: tuple[float, float]) -> FitSt
     parameters are not finite.
     """
     sub = replace(
-        state, tau=state.tau[keep], x=state.x[keep], u=state.u[keep], sqrt_w=state.sqrt_w[keep]
+        state,
+        tau=state.tau[keep],
+        drift_basis=state.drift_basis[keep],
+        u=state.u[keep],
+        sqrt_w=state.sqrt_w[keep],
     )
     free = state.free_parameters()
 

@@ -1,25 +1,31 @@
 """The damped-oscillation model of the tactile signal: curve, analytic Jacobian, linear part.
 
 Each mode is a damped cosine ``B e^{-λτ} cos(ωτ + ψ)`` (:func:`damped_cosine`, the one
-place it is written out) on a quadratic drift (:func:`quadratic_drift`). For the
-fit the model is written, in time ``tau`` [s] measured from the first sample, as::
+place it is written out) on a slow drift (:func:`drift_columns`): a quadratic, and on a long
+record the slow cosines below the band the slosh is looked for in. For the fit the model
+is written, in time ``tau`` [s] measured from the first sample, as::
 
-    u(tau) = sum_k exp(-r_k tau) (a_k cos(w_k tau) + b_k sin(w_k tau)) + d0 + d1 x + d2 x**2
+    u(tau) = sum_k exp(-r_k tau) (a_k cos(w_k tau) + b_k sin(w_k tau))
+             + d0 + d1 x + d2 x**2 + sum_{j=3..J} d_j cos(j pi x)
 
-with ``x = tau / T`` (``T`` the record length, for conditioning), ``r_1 = λ`` (slow
-mode), ``r_2 = λ + Δ`` (fast mode, ``Δ > 0``), ``w_k > 0``. The cosine/sine
-amplitudes ``(a, b)`` keep the model linear in everything but the rates and
-frequencies, so those can be solved exactly for any start (variable projection).
+with ``x = tau / T`` (``T`` the record length, for conditioning; ``J`` from
+:func:`drift_turns`), ``r_1 = λ`` (slow mode), ``r_2 = λ + Δ`` (fast mode, ``Δ > 0``),
+``w_k > 0``. The cosine/sine amplitudes ``(a, b)`` and the drift's ``d_j`` keep the model
+linear in everything but the rates and frequencies, so those can be solved exactly for any
+start (variable projection). The drift's columns (``drift_basis``, one row per sample)
+are built once per record and passed in.
 
-Parameter vectors are ordered ``[λ, ω, a1, b1, d0, d1, d2]`` for one mode and
-``[λ, ω, Δ, ω', a1, b1, a2, b2, d0, d1, d2]`` for two modes.
+Parameter vectors are ordered ``[λ, ω, a1, b1, d0, d1, d2, d3, ...]`` for one mode and
+``[λ, ω, Δ, ω', a1, b1, a2, b2, d0, d1, d2, d3, ...]`` for two modes.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-N_DRIFT = 3
+#: drift columns of the quadratic ``1, x, x²``, always held; it spans the first two
+#: half-turns of a slow motion (one monotone change and one bend)
+N_QUADRATIC = 3
 
 
 def damped_cosine(
@@ -40,6 +46,41 @@ def quadratic_drift(tau: np.ndarray, c0: float, c1: float, c2: float) -> np.ndar
     return c0 + c1 * tau + c2 * tau * tau
 
 
+def cosine_drift(tau: np.ndarray, amplitudes: np.ndarray, duration_s: float) -> np.ndarray:
+    """``Σ_j a_j cos(jπτ/T)`` for ``j = 3, 4, ...`` (``amplitudes`` in that order, unit of
+    u) at times ``tau`` [s] of a record of ``duration_s`` ``T`` [s]: the drift beyond the
+    quadratic (:func:`drift_columns`)."""
+    tau = np.asarray(tau, dtype=float)
+    turns = N_QUADRATIC + np.arange(len(amplitudes))
+    return np.cos(np.pi * np.outer(tau / duration_s, turns)) @ np.asarray(amplitudes, float)
+
+
+def drift_turns(duration_s: float, band_low_rad_s: float) -> int:
+    """Most half-turns ``J`` of a drift over a record of ``duration_s`` [s] that stays below
+    the band the slosh is looked for in (lower edge ``band_low_rad_s`` [rad/s]):
+    ``cos(Jπτ/T)`` is a ``J / (2 T)`` Hz motion, so ``J = ⌊2 T f_low⌋`` (also the number
+    of independent shapes slower than ``f_low`` that ``T`` seconds of samples hold, Landau
+    & Pollak 1962: ``T`` is the time the samples cover, without a long stall's).
+
+    A 13 s hold in a 0.3 Hz band holds a thermal or creep drift that turns 7 times; a
+    record shorter than ``3 / (2 f_low)`` keeps the quadratic alone. Cosines, not a
+    polynomial of degree ``J``: a polynomial's turns crowd at the record's ends (its
+    zeros ~``T / J²`` apart there), where a ring-down starts and the push's transient is,
+    and there it follows them (degree 7 moved λ of the simulator's force ring-downs by
+    1-2 % and took a detergent slosh's push transient for drift); a cosine turns evenly.
+    """
+    return int(2 * duration_s * band_low_rad_s / (2 * np.pi))
+
+
+def drift_columns(tau: np.ndarray, turns: int) -> np.ndarray:
+    """The drift's columns at times ``tau`` [s] (from 0, ``x = tau / tau[-1]``): ``1``,
+    ``x``, ``x²`` and ``cos(jπx)`` for ``3 ≤ j ≤ turns`` (:func:`drift_turns`), shape
+    ``(n, 3 + max(0, turns − 2))``."""
+    x = np.asarray(tau, dtype=float) / tau[-1]
+    cosines = np.cos(np.pi * np.outer(x, np.arange(N_QUADRATIC, turns + 1)))
+    return np.column_stack([np.ones_like(x), x, x * x, cosines])
+
+
 def n_nonlinear(n_modes: int) -> int:
     """Number of nonlinear parameters (rates and frequencies) for ``n_modes`` modes."""
     return 2 * n_modes
@@ -53,31 +94,33 @@ def rates_and_freqs(theta_nl: np.ndarray, n_modes: int) -> tuple[np.ndarray, np.
     return np.array([lam, lam + delta]), np.array([omega, omega_fast])
 
 
-def basis(tau: np.ndarray, x: np.ndarray, rates: np.ndarray, freqs: np.ndarray) -> np.ndarray:
-    """Design matrix ``(n, 2 * n_modes + 3)`` of the linear parameters."""
+def basis(
+    tau: np.ndarray, drift_basis: np.ndarray, rates: np.ndarray, freqs: np.ndarray
+) -> np.ndarray:
+    """Design matrix ``(n, 2 * n_modes + D + 1)`` of the linear parameters."""
     env = np.exp(-np.outer(tau, rates))
     phase = np.outer(tau, freqs)
-    cols = np.empty((tau.size, 2 * rates.size + N_DRIFT))
+    cols = np.empty((tau.size, 2 * rates.size + drift_basis.shape[1]))
     cols[:, 0 : 2 * rates.size : 2] = env * np.cos(phase)
     cols[:, 1 : 2 * rates.size : 2] = env * np.sin(phase)
-    cols[:, -3] = 1.0
-    cols[:, -2] = x
-    cols[:, -1] = x * x
+    cols[:, 2 * rates.size :] = drift_basis
     return cols
 
 
-def curve(theta: np.ndarray, tau: np.ndarray, x: np.ndarray, n_modes: int) -> np.ndarray:
+def curve(theta: np.ndarray, tau: np.ndarray, drift_basis: np.ndarray, n_modes: int) -> np.ndarray:
     """The model's value at each sample."""
     k = n_nonlinear(n_modes)
     rates, freqs = rates_and_freqs(theta[:k], n_modes)
-    return basis(tau, x, rates, freqs) @ theta[k:]
+    return basis(tau, drift_basis, rates, freqs) @ theta[k:]
 
 
-def jacobian(theta: np.ndarray, tau: np.ndarray, x: np.ndarray, n_modes: int) -> np.ndarray:
+def jacobian(
+    theta: np.ndarray, tau: np.ndarray, drift_basis: np.ndarray, n_modes: int
+) -> np.ndarray:
     """Analytic Jacobian ``d curve / d theta``, shape ``(n, len(theta))``."""
     k = n_nonlinear(n_modes)
     rates, freqs = rates_and_freqs(theta[:k], n_modes)
-    design = basis(tau, x, rates, freqs)
+    design = basis(tau, drift_basis, rates, freqs)
     lin = theta[k:]
     jac = np.empty((tau.size, theta.size))
     jac[:, k:] = design
@@ -109,13 +152,13 @@ def solve_linear(design: np.ndarray, u: np.ndarray, sqrt_w: np.ndarray) -> tuple
     return params, float(resid @ resid)
 
 
-#: bytes of the (rates, freqs, n, 5) design array evaluated at once by profile_cost_grid
+#: bytes of the (rates, freqs, n, 2 + D + 1) design array evaluated at once by profile_cost_grid
 GRID_CHUNK_BYTES = 64 * 2**20
 
 
 def profile_cost_grid(
     tau: np.ndarray,
-    x: np.ndarray,
+    drift_basis: np.ndarray,
     u: np.ndarray,
     sqrt_w: np.ndarray,
     rates: np.ndarray,
@@ -130,13 +173,13 @@ def profile_cost_grid(
     of a few hundred samples).
     """
     rates = np.asarray(rates, dtype=float)
-    per_rate = max(1, freqs.size * tau.size * 5 * 8)
+    per_rate = max(1, freqs.size * tau.size * (2 + drift_basis.shape[1]) * 8)
     step = max(1, GRID_CHUNK_BYTES // per_rate)
     if step >= rates.size:
-        return _profile_cost_chunk(tau, x, u, sqrt_w, rates, freqs)
+        return _profile_cost_chunk(tau, drift_basis, u, sqrt_w, rates, freqs)
     return np.concatenate(
         [
-            _profile_cost_chunk(tau, x, u, sqrt_w, rates[i : i + step], freqs)
+            _profile_cost_chunk(tau, drift_basis, u, sqrt_w, rates[i : i + step], freqs)
             for i in range(0, rates.size, step)
         ]
     )
@@ -144,7 +187,7 @@ def profile_cost_grid(
 
 def _profile_cost_chunk(
     tau: np.ndarray,
-    x: np.ndarray,
+    drift_basis: np.ndarray,
     u: np.ndarray,
     sqrt_w: np.ndarray,
     rates: np.ndarray,
@@ -154,19 +197,16 @@ def _profile_cost_chunk(
     phase = np.outer(freqs, tau)  # (F, n)
     cos, sin = np.cos(phase), np.sin(phase)
     n = tau.size
-    # design (R, F, n, 5)
-    design = np.empty((rates.size, freqs.size, n, 5))
+    design = np.empty((rates.size, freqs.size, n, 2 + drift_basis.shape[1]))
     design[..., 0] = env[:, None, :] * cos[None, :, :]
     design[..., 1] = env[:, None, :] * sin[None, :, :]
-    design[..., 2] = 1.0
-    design[..., 3] = x
-    design[..., 4] = x * x
+    design[..., 2:] = drift_basis
     design *= sqrt_w[:, None]
     b = u * sqrt_w
     design_t = np.swapaxes(design, -1, -2)
     gram = design_t @ design
     rhs = design_t @ b
-    gram += 1e-10 * np.eye(5) * np.trace(gram, axis1=-2, axis2=-1)[..., None, None]
+    gram += 1e-10 * np.eye(design.shape[-1]) * np.trace(gram, axis1=-2, axis2=-1)[..., None, None]
     params = np.linalg.solve(gram, rhs[..., None])[..., 0]
     # cost = |b|² - rhs·params at the normal-equation solution
     return float(b @ b) - np.sum(rhs * params, axis=-1)

@@ -79,6 +79,7 @@ import numpy as np
 
 from liquidtouch._core.checks import check_times
 from liquidtouch.errors import NoOscillationError, SignalError
+from liquidtouch.fit import model as om
 from liquidtouch.fit.amplitude import TWO_MODE_EXPONENT, AmplitudeState
 from liquidtouch.fit.amplitude_solve import (
     optimise_amplitude,
@@ -181,15 +182,21 @@ def _band(band_hz: tuple[float, float], t: np.ndarray) -> tuple[float, float]:
     return 2 * math.pi * lo, 2 * math.pi * min(hi, 0.9 * nyquist_hz)
 
 
-def _check_is_oscillation(state: FitState, band: tuple[float, float]) -> None:
-    snr = float(state.mode_snr()[0])
+def _check_above_noise(single: FitState) -> None:
+    snr = float(single.mode_snr()[0])
     if snr < MIN_OSCILLATION_SNR:
         raise NoOscillationError(
             f"no oscillation above the noise (noise only: the best damped cosine's energy is "
             f"{snr:.3g}× the local noise level, need {MIN_OSCILLATION_SNR:g}); check that the "
             "container was pushed and that the signal is the slosh"
         )
-    lam, omega = state.rates[0], state.freqs[0]
+
+
+def _check_oscillates(state: FitState, band: tuple[float, float]) -> None:
+    """The reported mode of the chosen model (not the one-mode fit: beside a push's
+    transient, one damped cosine is a compromise between the two, at ω ≈ 2λ)."""
+    mode = state.reported_mode()
+    lam, omega = state.rates[mode], state.freqs[mode]
     at_edge = min(abs(omega - band[0]) / band[0], abs(omega - band[1]) / band[1]) < 0.01
     if omega < 2 * lam or at_edge:
         raise NoOscillationError(
@@ -270,16 +277,18 @@ def fit_oscillation(
     t, u = validate_signal(t, u, min_duration_s)
     band = _band(band_hz, t)
     tau = t - t[0]
-    x = tau / tau[-1]
+    # the time the samples cover: a record with a stall of minutes has as few slow shapes
+    # to tell apart as its samples span, not as its clock does
+    observed_s = min(float(tau[-1]), tau.size * float(np.median(np.diff(tau))))
+    drift_basis = om.drift_columns(tau, om.drift_turns(observed_s, band[0]))
     mean, scale = float(u.mean()), float(u.std())
     if not 0 < scale < math.inf:  # under- or overflow of u² (|u| ~ 1e-160 or 1e+160)
         peak = float(np.max(np.abs(u)))
         mean, scale = float((u / peak).mean()) * peak, float((u / peak).std()) * peak
     u_n = (u - mean) / scale
 
-    drift_design = np.vander(x, 3)
-    drift_coef, *_ = np.linalg.lstsq(drift_design, u_n, rcond=None)
-    u_detrended = u_n - drift_design @ drift_coef
+    drift_coef, *_ = np.linalg.lstsq(drift_basis, u_n, rcond=None)
+    u_detrended = u_n - drift_basis @ drift_coef
     power = float(np.mean(u_detrended**2))
     if power < 1e-20:
         raise NoOscillationError("no oscillation: the signal is only a slow drift (noise-free)")
@@ -287,27 +296,31 @@ def fit_oscillation(
     weights = 1.0 / (u_detrended**2 + delta_n) if loss == "paper" else np.ones_like(u_n)
     weights /= weights.mean()
     sqrt_w = np.sqrt(weights)
-    single = optimise_single_mode(tau, x, u_n, u_detrended, sqrt_w, band, warm_start)
+    single = optimise_single_mode(tau, drift_basis, u_n, u_detrended, sqrt_w, band, warm_start)
     if check_oscillation:
-        _check_is_oscillation(single, band)
+        _check_above_noise(single)
     candidates: dict[str, FitState] = {"single-mode": single}
     wanted = AUTO_CANDIDATES if model == AUTO else (model,)
     two = None
     if {"amplitude", "drifting-line", COMBINED} & set(wanted):
-        ends = optimise_amplitude_ends(tau, x, u_n, sqrt_w, band, single)
+        ends = optimise_amplitude_ends(tau, drift_basis, u_n, sqrt_w, band, single)
         at_two = next(e for e in ends if e.exponent == TWO_MODE_EXPONENT)
         if "amplitude" in wanted:
             candidates["amplitude"] = optimise_amplitude(ends, band)
         if "drifting-line" in wanted:
             candidates["drifting-line"] = optimise_drifting_line(band, at_two)
     if "two-mode" in wanted or COMBINED in wanted:
-        two = optimise_two_mode(tau, x, u_n, sqrt_w, band, single)
+        two = optimise_two_mode(tau, drift_basis, u_n, sqrt_w, band, single)
         if two is not None and "two-mode" in wanted:
             candidates["two-mode"] = two
     if COMBINED in wanted:
-        candidates[COMBINED] = optimise_amplitude_two_mode(tau, x, u_n, sqrt_w, band, at_two, two)
+        candidates[COMBINED] = optimise_amplitude_two_mode(
+            tau, drift_basis, u_n, sqrt_w, band, at_two, two
+        )
     selection = select_model(candidates)
     chosen = candidates[selection.chosen]
+    if check_oscillation:
+        _check_oscillates(chosen, band)
     if model == "amplitude" and selection.chosen == "single-mode":
         chosen = without_gain(single, candidates["amplitude"].exponent)
     fit = _build_result(chosen, weights, noise, loss, delta_n * scale**2, t, mean, scale)
@@ -417,7 +430,7 @@ def _build_result(
     std = state.standard_errors(weights, correlated=noise != "white")
     amps, phases = state.amplitudes_phases()
     rates, freqs = state.rates, state.freqs
-    d0, d1, d2 = state.drift()
+    d0, d1, d2, *cosines = state.drift()
     length = t[-1] - t[0]
     two = state.n_modes == 2
     nan = math.nan
@@ -436,6 +449,7 @@ def _build_result(
         drift_c0=float(d0 * scale + mean),
         drift_c1=float(d1 * scale / length),
         drift_c2=float(d2 * scale / length**2),
+        drift_cosines=tuple(float(c * scale) for c in cosines),
         decay_rate_std=std[0],
         angular_frequency_std=std[1],
         fast_decay_rate_std=std[2] if two else nan,

@@ -10,7 +10,7 @@ import numpy as np
 from liquidtouch._core.numbers import fixed, with_uncertainty
 from liquidtouch.fit.amplitude import amplitude_damped_cosine
 from liquidtouch.fit.drifting_line import drifting_cosine
-from liquidtouch.fit.model import damped_cosine, quadratic_drift
+from liquidtouch.fit.model import N_QUADRATIC, cosine_drift, damped_cosine, quadratic_drift
 
 __all__ = ["OscillationFit"]
 
@@ -21,8 +21,11 @@ class OscillationFit:
 
     Amplitudes are in the unit of ``u`` and, like the phases [rad] and the drift
     coefficients ``drift_c0`` [u], ``drift_c1`` [u/s], ``drift_c2`` [u/s²], refer
-    to time measured from ``t0`` (the first time stamp). Fast-mode fields are NaN
-    when the single-mode model was used.
+    to time measured from ``t0`` (the first time stamp). On a record long enough to hold
+    them (:func:`~liquidtouch.fit.model.drift_turns`), ``drift_cosines`` [u] are the
+    amplitudes of the drift's slow cosines ``cos(jπτ/T)``, ``j = 3, 4, ...`` (``T`` =
+    ``duration_s``; empty otherwise). Fast-mode fields are NaN when the single-mode model
+    was used.
 
     ``model == "amplitude"`` (:mod:`liquidtouch.fit.amplitude`): the decay rate
     depends on the amplitude, ``λ(A) = λ0 (1 + κ A^p)``; ``decay_rate`` is the
@@ -77,6 +80,7 @@ class OscillationFit:
     drift_c0: float
     drift_c1: float
     drift_c2: float
+    drift_cosines: tuple[float, ...]
     decay_rate_std: float
     angular_frequency_std: float
     fast_decay_rate_std: float
@@ -161,6 +165,7 @@ class OscillationFit:
         else:
             fast = np.zeros_like(tau)
         drift = quadratic_drift(tau, self.drift_c0, self.drift_c1, self.drift_c2)
+        drift += cosine_drift(tau, np.array(self.drift_cosines), self.duration_s)
         return slow, fast, drift
 
     def curve(self, t: np.ndarray) -> np.ndarray:
@@ -169,9 +174,13 @@ class OscillationFit:
         return slow + fast + drift
 
     def to_dict(self) -> dict[str, float | int | str | None]:
-        """JSON-ready dict with the CLI's key names (NaN becomes ``None``)."""
+        """JSON-ready dict with the CLI's key names (NaN becomes ``None``); the drift's
+        cosines flat, as ``drift_cos3``, ``drift_cos4``, ... (a table's columns)."""
         out: dict[str, float | int | str | None] = {}
-        for key, value in asdict(self).items():
+        fields = asdict(self)
+        cosines = fields.pop("drift_cosines")
+        fields.update({f"drift_cos{j}": a for j, a in enumerate(cosines, N_QUADRATIC)})
+        for key, value in fields.items():
             if isinstance(value, float) and not math.isfinite(value):
                 out[key] = None
             elif isinstance(value, str | int):

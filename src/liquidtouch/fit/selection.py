@@ -101,7 +101,8 @@ def select_model(candidates: Mapping[str, FitState], noise_ratio: float | None =
     ratio = noise_ratio or local_noise_ratio(
         lead.tau, lead.residual(), float(lead.freqs[lead.reported_mode()])
     )
-    n_eff = float(np.clip(n / ratio, k_max + 2, n))
+    # a residual with no power near the mode (fitted exactly) gives no reason to discount n
+    n_eff = float(np.clip(n / ratio, k_max + 2, n)) if ratio > 0 else float(n)
     tiny = 1e-300  # a noise-free signal fitted exactly
     bic = {
         name: n_eff * math.log(max(rss[name], tiny) / n) + s.n_params * math.log(n_eff)

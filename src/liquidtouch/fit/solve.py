@@ -49,7 +49,7 @@ class FitState:
     n_modes: int
     theta: np.ndarray
     tau: np.ndarray
-    x: np.ndarray
+    drift_basis: np.ndarray
     u: np.ndarray
     sqrt_w: np.ndarray
     cost: float  # Σ w (u - û)²
@@ -72,11 +72,11 @@ class FitState:
 
     def model_curve(self) -> np.ndarray:
         """The model ``û`` at the samples (a subclass with another model overrides it)."""
-        return om.curve(self.theta, self.tau, self.x, self.n_modes)
+        return om.curve(self.theta, self.tau, self.drift_basis, self.n_modes)
 
     def model_jacobian(self) -> np.ndarray:
         """``d û / d theta`` at the samples, shape ``(n, n_params)``."""
-        return om.jacobian(self.theta, self.tau, self.x, self.n_modes)
+        return om.jacobian(self.theta, self.tau, self.drift_basis, self.n_modes)
 
     def theta_jacobian(self) -> np.ndarray:
         """``d û / d theta`` for every entry of ``theta`` (held ones too), ``(n, theta.size)``."""
@@ -138,7 +138,7 @@ class FitState:
         mistaken for a mode.
         """
         k = om.n_nonlinear(self.n_modes)
-        design = om.basis(self.tau, self.x, self.rates, self.freqs)
+        design = om.basis(self.tau, self.drift_basis, self.rates, self.freqs)
         lin = self.theta[k:]
         omega_bins, power = residual_periodogram(self.tau, self.residual())
         periodogram = power / (self.n - self.n_params)
@@ -170,8 +170,8 @@ class FitState:
         return np.hypot(a, b), np.arctan2(-b, a)
 
     def drift(self) -> np.ndarray:
-        """Drift coefficients (d0, d1, d2) of 1, x, x² (x = tau / T)."""
-        return self.theta[-3:]
+        """The drift's coefficients (of :func:`~liquidtouch.fit.model.drift_columns`)."""
+        return self.theta[-self.drift_basis.shape[1] :]
 
     def standard_errors(self, weights: np.ndarray, *, correlated: bool) -> list[float]:
         """Standard errors of [λ, ω, λ', ω'] (NaN for an absent fast mode)."""
@@ -319,7 +319,7 @@ def _solve(
     theta_nl: np.ndarray,
     n_modes: int,
     tau: np.ndarray,
-    x: np.ndarray,
+    drift_basis: np.ndarray,
     u: np.ndarray,
     sqrt_w: np.ndarray,
     band: tuple[float, float],
@@ -328,25 +328,25 @@ def _solve(
     span = hi_nl - lo_nl
     theta_nl = np.clip(theta_nl, lo_nl + 1e-6 * span, hi_nl - 1e-6 * span)
     rates, freqs = om.rates_and_freqs(theta_nl, n_modes)
-    lin, _ = om.solve_linear(om.basis(tau, x, rates, freqs), u, sqrt_w)
+    lin, _ = om.solve_linear(om.basis(tau, drift_basis, rates, freqs), u, sqrt_w)
     theta0 = np.concatenate([theta_nl, lin])
     lo, hi = with_free_linear(lo_nl, hi_nl, theta0.size)
 
     def fun(theta: np.ndarray) -> np.ndarray:
-        return sqrt_w * (om.curve(theta, tau, x, n_modes) - u)
+        return sqrt_w * (om.curve(theta, tau, drift_basis, n_modes) - u)
 
     def jac(theta: np.ndarray) -> np.ndarray:
-        return sqrt_w[:, None] * om.jacobian(theta, tau, x, n_modes)
+        return sqrt_w[:, None] * om.jacobian(theta, tau, drift_basis, n_modes)
 
     res = least_squares(
         fun, theta0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=MAX_EVALUATIONS
     )
-    return FitState(n_modes, res.x, tau, x, u, sqrt_w, float(2 * res.cost))
+    return FitState(n_modes, res.x, tau, drift_basis, u, sqrt_w, float(2 * res.cost))
 
 
 def optimise_single_mode(
     tau: np.ndarray,
-    x: np.ndarray,
+    drift_basis: np.ndarray,
     u: np.ndarray,
     u_detrended: np.ndarray,
     sqrt_w: np.ndarray,
@@ -363,19 +363,22 @@ def optimise_single_mode(
         if lam > 0 and band[0] < omega < band[1]:
             peak = spectral_peaks(tau, u_detrended, band, n_peaks=1)[0]
             starts = ([lam, omega], [lam, float(peak)])
-            fits = [_solve(np.array(s), 1, tau, x, u, sqrt_w, band) for s in starts]
+            fits = [_solve(np.array(s), 1, tau, drift_basis, u, sqrt_w, band) for s in starts]
             best = min(fits, key=lambda f: f.cost)
             if math.isfinite(best.cost):
                 return best
     peaks = spectral_peaks(tau, u_detrended, band, n_peaks=2)
-    starts = profile_starts(tau, x, u, sqrt_w, peaks, band)
-    fits = [_solve(np.array([lam, omega]), 1, tau, x, u, sqrt_w, band) for _, lam, omega in starts]
+    starts = profile_starts(tau, drift_basis, u, sqrt_w, peaks, band)
+    fits = [
+        _solve(np.array([lam, omega]), 1, tau, drift_basis, u, sqrt_w, band)
+        for _, lam, omega in starts
+    ]
     return min(fits, key=lambda f: f.cost)
 
 
 def optimise_two_mode(
     tau: np.ndarray,
-    x: np.ndarray,
+    drift_basis: np.ndarray,
     u: np.ndarray,
     sqrt_w: np.ndarray,
     band: tuple[float, float],
@@ -392,6 +395,6 @@ def optimise_two_mode(
         (0.5 * lam, resid_peaks[0], 0.5 * lam + 0.3, omega),
     ]
     starts += [(lam, omega, gap, p) for p in resid_peaks if abs(p / omega - 1) > 0.05]
-    fits = [_solve(np.array(s), 2, tau, x, u, sqrt_w, band) for s in starts]
+    fits = [_solve(np.array(s), 2, tau, drift_basis, u, sqrt_w, band) for s in starts]
     best = min(fits, key=lambda f: f.cost)
     return best if math.isfinite(best.cost) else None

@@ -88,7 +88,7 @@ def spectral_peaks(
 
 def profile_starts(
     tau: np.ndarray,
-    x: np.ndarray,
+    drift_basis: np.ndarray,
     u: np.ndarray,
     sqrt_w: np.ndarray,
     peaks: list[float],
@@ -98,12 +98,12 @@ def profile_starts(
 
     Signals longer than :data:`START_MAX_SAMPLES` are thinned first (:func:`thin`).
     """
-    tau, x, u, sqrt_w = thin(tau, x, u, sqrt_w, band_high_rad_s=band_rad_s[1])
+    tau, drift_basis, u, sqrt_w = thin(tau, drift_basis, u, sqrt_w, band_high_rad_s=band_rad_s[1])
     starts = []
     for peak in peaks:
         freqs = peak * np.linspace(0.93, 1.07, 7)
         freqs = np.clip(freqs, band_rad_s[0], band_rad_s[1])
-        cost = profile_cost_grid(tau, x, u, sqrt_w, RATE_GRID, freqs)
+        cost = profile_cost_grid(tau, drift_basis, u, sqrt_w, RATE_GRID, freqs)
         i, j = np.unravel_index(np.argmin(cost), cost.shape)
         starts.append((float(cost[i, j]), float(RATE_GRID[i]), float(freqs[j])))
     starts.sort()
