@@ -128,6 +128,16 @@ def _interrupt_at(target: str, delay_s: float | None):
     return on_step
 
 
+@pytest.fixture
+def ctrl_c_raises():
+    """Python's own Ctrl-C handler for the test, as in a terminal: pytest started in the
+    background of a non-interactive shell inherits SIGINT ignored, and a real SIGINT then
+    did nothing (every ``delay_s`` case failed with "DID NOT RAISE")."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
 CASES = [(step, None) for step in STEPS] + [
     ("grasp", 0.01), ("lift", 0.03), ("push", 0.1), ("hold", 0.5), ("return", 0.05),
     ("lower", 0.03), ("release", 0.0),
@@ -137,7 +147,7 @@ CASES = [(step, None) for step in STEPS] + [
 @pytest.mark.slow(seconds=60, exclusive=True)  # the rig's arm in real time
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize(("step", "delay_s"), CASES)
-def test_ctrl_c_at_each_step_then_a_new_trial(rig, tmp_path, step, delay_s):
+def test_ctrl_c_at_each_step_then_a_new_trial(rig, tmp_path, step, delay_s, ctrl_c_raises):
     rig, endpoints = rig
     out = tmp_path / "trial"
     with pytest.raises(KeyboardInterrupt):
