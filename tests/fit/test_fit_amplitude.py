@@ -110,6 +110,31 @@ def _excess_damping(fit) -> float:
     return fit.damping_gain * fit.amplitude**fit.damping_exponent
 
 
+def _two_mode_state(damped: list[float], plain: list[float]) -> am.AmplitudeState:
+    """An amplitude-damped mode (λ0, ω, g, amplitude) beside a plain one (λ', ω', amplitude)
+    on a simulated trial's clock (11.6 s at 25 fps)."""
+    tau = np.arange(0.0, 11.6, 1 / 25)
+    (rate, omega, gain, a1), (rate_2, omega_2, a2) = damped, plain
+    theta = np.array([rate, omega, gain, rate_2, omega_2, a1, 0.0, a2, 0.0, 0.0, 0.0, 0.0])
+    ones = np.ones_like(tau)
+    return am.AmplitudeState(2, theta, tau, om.drift_columns(tau, 2), ones, ones, 1.0, second=True)
+
+
+def test_the_slosh_is_reported_whichever_mode_holds_it() -> None:
+    """A demo olive-oil trial (λ 1.25 /s, ω 15.2 rad/s) was fitted with a faint persistent
+    line (1 % of the amplitude, λ0 at 0, g 7000) in the amplitude-damped mode and the
+    slosh in the plain one: λ was reported 3.5e-11 and the SVM called it water."""
+    sliver = _two_mode_state([1e-11, 15.83, 7000.0, 0.0186], [1.29, 15.25, 1.717])
+    assert sliver.reported_mode() == 1
+    assert sliver.rates[1] == pytest.approx(1.29) and sliver.freqs[1] == pytest.approx(15.25)
+    # the slosh in the damped mode beside the push's transient (ω' < λ'), stronger or not
+    for transient_amplitude in (0.5, 3.0):
+        slosh = _two_mode_state([1.25, 15.2, 0.5, 1.0], [16.0, 3.0, transient_amplitude])
+        assert slosh.reported_mode() == 0
+    # and beside a second line of comparable energy
+    assert _two_mode_state([1.25, 15.2, 0.5, 1.0], [2.0, 17.0, 0.8]).reported_mode() == 0
+
+
 def test_constant_rate_signal_falls_back_to_single_mode() -> None:
     # no amplitude dependence: κ not identifiable beyond 0, λ0 is the single-mode λ
     rng = np.random.default_rng(7)
