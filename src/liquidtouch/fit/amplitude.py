@@ -52,7 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from liquidtouch.fit.solve import RATE_MAX, SLIVER_ENERGY_SHARE, FitState, std_from_variance
+from liquidtouch.fit.solve import RATE_MAX, FitState, std_from_variance
 
 #: range of the exponent p of λ(A) = λ0 (1 + κ A^p): a velocity-squared damper (flow past
 #: a baffle, p = 1) to the slosh's steepness-squared damping (and a cubic damper, p = 2)
@@ -258,22 +258,16 @@ class AmplitudeState(FitState):
         free = np.arange(self.theta.size)
         return np.delete(free, 2) if self.gain_fixed else free
 
-    def reported_mode(self) -> int:
-        """The amplitude-damped mode is the slosh, unless it is a transient beside an
-        oscillating second mode or a sliver beside it (less than
-        :data:`~liquidtouch.fit.solve.SLIVER_ENERGY_SHARE` of its energy over the window):
-        the rules of :meth:`FitState.reported_mode`. A sliver: the fit has put a faint
-        persistent line in the damped mode, its λ0 at 0, and the slosh in the other."""
-        if not self.second:
-            return 0
-        oscillates = self.oscillates()
-        if oscillates[0] != oscillates[1]:  # the other is a transient (the push's)
-            return int(oscillates[1])
+    def slow_mode_energy_share(self) -> float:
+        """Energy of the amplitude-damped mode over the window relative to the second's (the
+        damped envelope is not ``e^{−λτ}``: from the modes' own curves). Through
+        :meth:`FitState.reported_mode`, a damped mode that is a sliver beside the second is
+        not reported: the fit put a faint persistent line there, its λ0 at 0."""
         design = basis(self.tau, self.drift_basis, self.theta, self.exponent, self.second)
         k = n_nonlinear(self.second)
         modes = design[:, :4] * self.theta[k : k + 4]
-        damped, plain = (modes[:, :2].sum(axis=1) ** 2).sum(), (modes[:, 2:].sum(axis=1) ** 2).sum()
-        return int(damped < SLIVER_ENERGY_SHARE * plain)
+        damped, plain = modes[:, :2].sum(axis=1), modes[:, 2:].sum(axis=1)
+        return float(damped @ damped) / float(plain @ plain)
 
     def amplitudes_phases(self) -> tuple[np.ndarray, np.ndarray]:
         k = n_nonlinear(self.second)
