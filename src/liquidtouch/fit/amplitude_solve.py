@@ -27,7 +27,7 @@ from liquidtouch.fit.amplitude import (
     n_nonlinear,
     nonlinear_bounds,
 )
-from liquidtouch.fit.solve import MAX_EVALUATIONS, FitState, with_free_linear
+from liquidtouch.fit.solve import MAX_EVALUATIONS, FitState, best_optimum, with_free_linear
 from liquidtouch.fit.start import amplitude_starts, spectral_peaks
 
 __all__ = [
@@ -138,12 +138,9 @@ def optimise_amplitude_ends(
     """
     lam, omega = float(single.rates[0]), float(single.freqs[0])
     return [
-        min(
-            (
-                _solve(np.array(s), p, tau, drift_basis, u, sqrt_w, band)
-                for s in amplitude_starts(lam, omega)
-            ),
-            key=lambda f: f.cost,
+        best_optimum(
+            _solve(np.array(s), p, tau, drift_basis, u, sqrt_w, band)
+            for s in amplitude_starts(lam, omega)
         )
         for p in EXPONENT_BOUNDS
     ]
@@ -158,7 +155,7 @@ def optimise_amplitude(ends: list[AmplitudeState], band: tuple[float, float]) ->
     :func:`without_gain`).
     """
     fits = [_free_exponent(s, band) for s in ends if math.isfinite(s.cost)]
-    return min(fits or ends, key=lambda f: f.cost)
+    return best_optimum(fits or ends)
 
 
 def without_gain(single: FitState, exponent: float) -> AmplitudeState:
@@ -215,4 +212,4 @@ def optimise_amplitude_two_mode(
         )
         for r, w in seconds
     ]
-    return min(fits, key=lambda f: f.cost)
+    return best_optimum(fits)

@@ -93,7 +93,7 @@ def select_model(candidates: Mapping[str, FitState], noise_ratio: float | None =
     fitted = {name: s for name, s in candidates.items() if math.isfinite(s.cost)}
     if not fitted:
         raise ValueError("no fitted candidate model")
-    rss = {name: float(np.sum(s.residual() ** 2)) for name, s in fitted.items()}
+    rss = {name: s.rss() for name, s in fitted.items()}
     best = min(rss, key=rss.__getitem__)
     n = next(iter(fitted.values())).n
     k_max = max(s.n_params for s in fitted.values())

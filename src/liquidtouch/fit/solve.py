@@ -7,7 +7,9 @@ Works on the normalised signal (zero mean, unit standard deviation) and on time
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -40,6 +42,8 @@ FFT_MIN_SAMPLES = 4096
 #: jackknife) took a median of 7, and 1.4 % of them more than this (validation signals and
 #: ``tests/fit/data``), where a few ran to 1200 and took most of a fit's time
 MAX_EVALUATIONS = 200
+
+FitStateT = TypeVar("FitStateT", bound="FitState")
 
 
 @dataclass
@@ -113,10 +117,15 @@ class FitState:
         """Unweighted residual ``u - û``."""
         return self.u - self.model_curve()
 
+    def rss(self) -> float:
+        """Residual sum of squares Σ (u − û)² (unweighted): the likelihood the model
+        criterion judges by (:mod:`liquidtouch.fit.selection`)."""
+        r = self.residual()
+        return float(r @ r)
+
     def noise_var(self) -> float:
         """Residual variance Σ (u − û)² / (n − p) (unweighted)."""
-        r = self.residual()
-        return float(r @ r) / (self.n - self.n_params)
+        return self.rss() / (self.n - self.n_params)
 
     def r2(self) -> float:
         r = self.residual()
@@ -210,6 +219,19 @@ class FitState:
         except np.linalg.LinAlgError:
             return None
         return inv @ meat @ inv
+
+
+def best_optimum(fits: Iterable[FitStateT]) -> FitStateT:
+    """Of several local optima of one model (a multi-start), the one the model criterion
+    scores best: the lowest unweighted RSS, so that one measure chooses between optima
+    within a model and between models (:mod:`liquidtouch.fit.selection`). The paper's
+    weighted loss, which each solve minimises, weighs the noisy tail of a ring-down most:
+    ranked by it, a faint line fitted to the tail's noise beat a second mode the whole
+    record carries. A failed solve (cost not finite) is chosen only when all failed.
+    """
+    fits = list(fits)
+    finite = [f for f in fits if math.isfinite(f.cost)]
+    return min(finite, key=lambda f: f.rss()) if finite else fits[0]
 
 
 def std_from_variance(v: float) -> float:
@@ -364,7 +386,7 @@ def optimise_single_mode(
             peak = spectral_peaks(tau, u_detrended, band, n_peaks=1)[0]
             starts = ([lam, omega], [lam, float(peak)])
             fits = [_solve(np.array(s), 1, tau, drift_basis, u, sqrt_w, band) for s in starts]
-            best = min(fits, key=lambda f: f.cost)
+            best = best_optimum(fits)
             if math.isfinite(best.cost):
                 return best
     peaks = spectral_peaks(tau, u_detrended, band, n_peaks=2)
@@ -373,7 +395,7 @@ def optimise_single_mode(
         _solve(np.array([lam, omega]), 1, tau, drift_basis, u, sqrt_w, band)
         for _, lam, omega in starts
     ]
-    return min(fits, key=lambda f: f.cost)
+    return best_optimum(fits)
 
 
 def optimise_two_mode(
@@ -396,5 +418,5 @@ def optimise_two_mode(
     ]
     starts += [(lam, omega, gap, p) for p in resid_peaks if abs(p / omega - 1) > 0.05]
     fits = [_solve(np.array(s), 2, tau, drift_basis, u, sqrt_w, band) for s in starts]
-    best = min(fits, key=lambda f: f.cost)
+    best = best_optimum(fits)
     return best if math.isfinite(best.cost) else None
