@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.signal import lfilter
 
 from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.fit import oscillation
@@ -178,3 +179,34 @@ def test_ring_downs_of_one_line_carry_an_honest_error(name) -> None:
     both = fit_oscillation(t, u, model=before)
     assert both.model == before
     assert both.fast_angular_frequency >= both.fast_decay_rate  # two oscillating modes
+
+
+def _weak_line_under_ar1_noise(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """The slosh (λ 0.4, ω 9.5) with a weak second mode inside its line (0.4 of its
+    amplitude, λ 1.1, ω 10.1), a 7 s drift, and AR(1) noise (φ 0.8, std 0.04)."""
+    rng = np.random.default_rng(seed)
+    phase = rng.uniform(0.0, 2 * np.pi, 3)
+    u = np.exp(-0.4 * T) * np.cos(9.5 * T + phase[0])
+    u += 0.4 * np.exp(-1.1 * T) * np.cos(10.1 * T + phase[1])
+    u += 0.1 * np.sin(2 * np.pi * T / 7.0 + phase[2])
+    rho = 0.8
+    innovations = rng.normal(0.0, 0.04 * math.sqrt(1 - rho**2), T.size)
+    return T, u + lfilter([1.0], [1.0, -rho], innovations)
+
+
+def test_a_weak_second_mode_in_the_line_is_not_traded_for_a_line_in_the_noise() -> None:
+    """Each model's optimum is the one of its local optima the criterion scores best (lowest
+    RSS), not the lowest paper loss: that loss weighs the noise-dominated tail most, and
+    there a faint persistent line in the coloured noise beat the second mode the whole record
+    carries. Ranked by it, the two-mode candidate lost the criterion, one mode was reported,
+    and ω was biased beyond its ±: on these 12 signals RMS z of ω 1.90, seeds 0, 4, 8 at
+    z +2.3, +2.7, +3.8 (now 1.16; −0.1, +0.7, +2.0)."""
+    z = []
+    for seed in range(12):
+        fit = fit_oscillation(*_weak_line_under_ar1_noise(seed))
+        z.append((fit.angular_frequency - 9.5) / fit.angular_frequency_std)
+        if seed in (0, 4):
+            assert fit.model == "two-mode"
+            assert fit.angular_frequency == pytest.approx(9.5, rel=0.005)
+            assert abs(z[-1]) < 1
+    assert math.sqrt(np.mean(np.square(z))) < 1.5

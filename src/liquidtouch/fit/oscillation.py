@@ -51,9 +51,11 @@ hard the container was pushed), the drifting line (:mod:`liquidtouch.fit.driftin
 damping and frequency both move with the amplitude, λ0 and ω0 reported), the paper's two
 modes, and the amplitude-damped mode beside a second one. The information criterion alone
 weighs them (:mod:`liquidtouch.fit.selection`: BIC under the noise the fit estimates near
-the slosh); no rule leaves a candidate out. ``decay_rate``, ``angular_frequency`` and their
-std are the average over the candidates by their criterion weights, with the law of total
-variance: where the data cannot tell two models apart (two modes inside one line, or one
+the slosh); no rule leaves a candidate out. Each candidate is solved from several starts
+and its local optimum of lowest RSS is the one weighed
+(:func:`~liquidtouch.fit.solve.best_optimum`): the criterion's measure, not the loss each
+solve minimises. ``decay_rate``, ``angular_frequency`` and their std are the average
+over the candidates by their criterion weights, with the law of total variance: where the data cannot tell two models apart (two modes inside one line, or one
 line whose frequency drifts), the ± holds the spread between them; where one part of the
 window alone carries the choice, the jackknife of the average does. ``model`` of the result
 names the candidate of most weight, ``model_weight`` its weight, ``model_reason`` why (the

@@ -5,7 +5,8 @@ fitted to the same samples; its criterion is::
 
     BIC_m = n_eff · ln(RSS_m / n) + k_m · ln(n_eff)
 
-with ``RSS_m`` the (unweighted) residual sum of squares, ``k_m`` its number of
+with ``RSS_m`` the (unweighted) residual sum of squares (of the local optimum of
+``m`` that scores best in it, :func:`~liquidtouch.fit.solve.best_optimum`), ``k_m`` its number of
 free parameters and ``n_eff`` the effective number of independent samples of
 the noise. For Gaussian noise of a common variance, ``−n/2 · ln(RSS/n)`` is the
 maximised log-likelihood; noise that was low-pass filtered (the tactile signal is,
