@@ -54,11 +54,12 @@ weighs them (:mod:`liquidtouch.fit.selection`: BIC under the noise the fit estim
 the slosh); no rule leaves a candidate out. Each candidate is solved from several starts
 and its local optimum of lowest RSS is the one weighed
 (:func:`~liquidtouch.fit.solve.best_optimum`): the criterion's measure, not the loss each
-solve minimises. ``decay_rate``, ``angular_frequency`` and their std are the average
-over the candidates by their criterion weights, with the law of total variance: where the data cannot tell two models apart (two modes inside one line, or one
-line whose frequency drifts), the ± holds the spread between them; where one part of the
-window alone carries the choice, the jackknife of the average does. ``model`` of the result
-names the candidate of most weight, ``model_weight`` its weight, ``model_reason`` why (the
+solve minimises. ``decay_rate``, ``angular_frequency`` and their std are the average over
+the candidates by their criterion weights, with the law of total variance: where the data
+cannot tell two models apart (two modes inside one line, or one line whose frequency
+drifts), the ± holds the spread between them; where one part of the window alone carries
+the choice, the jackknife of the average does. ``model`` of the result names the candidate
+of most weight, ``model_weight`` its weight, ``model_reason`` why (the
 criteria and the weights), and ``delta_bic_*`` the criterion of each candidate over it.
 Asking for ``"two-mode"`` weighs one and two modes the same way (fast-mode fields NaN when
 one mode leads: ``model == "single-mode"``); ``"amplitude"`` keeps a gain of 0 (λ0 the
