@@ -14,7 +14,7 @@ Prints markdown tables for ``benchmarks/RESULTS.md``.
 
 from __future__ import annotations
 
-import sys
+import argparse
 import threading
 import time
 from pathlib import Path
@@ -129,4 +129,7 @@ def speed(out: Path) -> None:
 
 
 if __name__ == "__main__":
-    speed(Path(sys.argv[1]) if len(sys.argv) > 1 else Path("live-speed"))
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out_dir", nargs="?", type=Path, default=Path("live-speed"),
+                        help="where the simulated trials are written")  # fmt: skip
+    speed(parser.parse_args().out_dir)
