@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import tempfile
 import time
 from pathlib import Path
@@ -64,11 +65,12 @@ def both_ways(trials: int, duration_s: float, root: Path, x264_params: str) -> l
     videos encoded with ``x264_params`` (the simulator's default, or lossless)."""
     lines = [
         "| liquid | trials | λ plain/markers − 1 (median) | ω plain/markers − 1 (median) "
+        "| ω plain/markers − 1 (min to max) | \\|Δλ\\| / σ, \\|Δω\\| / σ (median) "
         "| λ markers/truth − 1 | λ plain/truth − 1 | refused |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for liquid, extra in LIQUIDS.items():
-        d_lam, d_om, m_truth, p_truth, refused = [], [], [], [], 0
+        d_lam, d_om, z_lam, z_om, m_truth, p_truth, refused = [], [], [], [], [], [], 0
         for seed in range(trials):
             height = HEIGHTS_MM[0] + (HEIGHTS_MM[1] - HEIGHTS_MM[0]) * ((seed * 0.618) % 1.0)
             trial = simulate_trial(
@@ -88,14 +90,28 @@ def both_ways(trials: int, duration_s: float, root: Path, x264_params: str) -> l
                 continue
             d_lam.append(plain.decay_rate / marker.decay_rate - 1)
             d_om.append(plain.angular_frequency / marker.angular_frequency - 1)
+            # the two fits' std combined as if independent (they share the slosh, so their
+            # difference varies less): |z| < 1 is agreement within what either can tell
+            z_lam.append(_z(plain.decay_rate, marker.decay_rate,
+                            plain.decay_rate_std, marker.decay_rate_std))  # fmt: skip
+            z_om.append(_z(plain.angular_frequency, marker.angular_frequency,
+                           plain.angular_frequency_std, marker.angular_frequency_std))  # fmt: skip
             m_truth.append(marker.decay_rate / trial.true_decay_rate - 1)
             p_truth.append(plain.decay_rate / trial.true_decay_rate - 1)
         med = [f"{100 * np.median(v):+.2f} %" if v else "—" for v in (d_lam, d_om)]
         truth = [f"{100 * np.median(v):+.1f} %" if v else "—" for v in (m_truth, p_truth)]
+        span = f"{100 * min(d_om):+.2f} to {100 * max(d_om):+.2f} %" if d_om else "—"
+        z = f"{np.median(z_lam):.2f}, {np.median(z_om):.2f}" if z_om else "—"
         lines.append(
-            f"| {liquid} | {trials} | {med[0]} | {med[1]} | {truth[0]} | {truth[1]} | {refused} |"
+            f"| {liquid} | {trials} | {med[0]} | {med[1]} | {span} | {z} | {truth[0]} "
+            f"| {truth[1]} | {refused} |"
         )
     return lines
+
+
+def _z(a: float, b: float, std_a: float, std_b: float) -> float:
+    """|a − b| over the two std combined."""
+    return abs(a - b) / math.hypot(std_a, std_b)
 
 
 def _cells_dis(frames: list[np.ndarray], tracker: FlowTracker) -> np.ndarray:
