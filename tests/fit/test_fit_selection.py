@@ -194,6 +194,7 @@ def _weak_line_under_ar1_noise(seed: int) -> tuple[np.ndarray, np.ndarray]:
     return T, u + lfilter([1.0], [1.0, -rho], innovations)
 
 
+@pytest.mark.slow(seconds=8)
 def test_a_weak_second_mode_in_the_line_is_not_traded_for_a_line_in_the_noise() -> None:
     """Each model's optimum is the one of its local optima the criterion scores best (lowest
     RSS), not the lowest paper loss: that loss weighs the noise-dominated tail most, and
