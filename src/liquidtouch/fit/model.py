@@ -50,9 +50,14 @@ def cosine_drift(tau: np.ndarray, amplitudes: np.ndarray, duration_s: float) -> 
     """``Σ_j a_j cos(jπτ/T)`` for ``j = 3, 4, ...`` (``amplitudes`` in that order, unit of
     u) at times ``tau`` [s] of a record of ``duration_s`` ``T`` [s]: the drift beyond the
     quadratic (:func:`drift_columns`)."""
-    tau = np.asarray(tau, dtype=float)
-    turns = N_QUADRATIC + np.arange(len(amplitudes))
-    return np.cos(np.pi * np.outer(tau / duration_s, turns)) @ np.asarray(amplitudes, float)
+    x = np.asarray(tau, dtype=float) / duration_s
+    return _slow_cosines(x, N_QUADRATIC - 1 + len(amplitudes)) @ np.asarray(amplitudes, float)
+
+
+def _slow_cosines(x: np.ndarray, turns: int) -> np.ndarray:
+    """``cos(jπx)`` for ``3 ≤ j ≤ turns`` at ``x`` (time over the record's length), shape
+    ``(n, max(0, turns − 2))``: the drift beyond the quadratic."""
+    return np.cos(np.pi * np.outer(x, np.arange(N_QUADRATIC, turns + 1)))
 
 
 def drift_turns(duration_s: float, band_low_rad_s: float) -> int:
@@ -77,8 +82,7 @@ def drift_columns(tau: np.ndarray, turns: int) -> np.ndarray:
     ``x``, ``x²`` and ``cos(jπx)`` for ``3 ≤ j ≤ turns`` (:func:`drift_turns`), shape
     ``(n, 3 + max(0, turns − 2))``."""
     x = np.asarray(tau, dtype=float) / tau[-1]
-    cosines = np.cos(np.pi * np.outer(x, np.arange(N_QUADRATIC, turns + 1)))
-    return np.column_stack([np.ones_like(x), x, x * x, cosines])
+    return np.column_stack([np.ones_like(x), x, x * x, _slow_cosines(x, turns)])
 
 
 def n_nonlinear(n_modes: int) -> int:

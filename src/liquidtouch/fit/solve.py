@@ -128,9 +128,8 @@ class FitState:
         return self.rss() / (self.n - self.n_params)
 
     def r2(self) -> float:
-        r = self.residual()
         centred = self.u - self.u.mean()
-        return 1.0 - float(r @ r) / float(centred @ centred)
+        return 1.0 - self.rss() / float(centred @ centred)
 
     def bic(self) -> float:
         return self.n * math.log(self.cost / self.n) + self.n_params * math.log(self.n)
