@@ -43,7 +43,9 @@ decision wait)), error, coverage, and how often it ended with "cannot tell"; per
 pooled over the fills, the shares with their 95 % Clopper-Pearson interval; and the
 ceiling: a model of the same kind trained and tested on the simulator's exact
 small-amplitude (λ, ω) of the same bottles (no fit error at all): what no number of
-pushes can beat.
+pushes can beat. And what repeated pushes average: each test bottle's fit errors split
+into the part that differs between its pushes and the part every push of it shares
+(:func:`error_split`), for pushes of the drawn strength and of ``--push-scales`` times it.
 
 Usage: nice -n 10 python benchmarks/acquire/pushes.py [--seeds 5] [--train-heights 7]
 (the size of benchmarks/RESULTS.md: ``--seeds 10 --train-heights 13 --train-seeds 2
@@ -60,12 +62,15 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
 from scipy.stats import beta
 
 from liquidtouch import combine_ring_downs
+from liquidtouch._core.containers import get_container
+from liquidtouch._core.liquids import get_liquid
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.models import save_model
@@ -76,6 +81,7 @@ from liquidtouch.sim.gelsight import sensor_scene
 from liquidtouch.sim.presets import TRAIN_CONCENTRATIONS
 from liquidtouch.sim.protocol_scene import ProtocolTimings
 from liquidtouch.sim.sensors import get_sensor_profile
+from liquidtouch.sim.slosh import slosh_system
 from liquidtouch.sim.trial import simulate_trial
 from liquidtouch.testing.rig_runs import CLI, rig_serving
 from liquidtouch.testing.scene_tracks import noisy_true_tracks
@@ -122,15 +128,18 @@ def bottle_seed(kind: str, *index: int) -> int:
 
 
 def ring_down(liquid: str, height: float, seed: int, push: int, hold_s: float,
-              container: str = "grooved-cuboid", conc: float | None = None) -> dict:  # fmt: skip
-    """One push's fit: λ, ω, their std (NaN when the fit refuses), and the truth."""
+              container: str = "grooved-cuboid", conc: float | None = None,
+              push_scale: float = 1.0) -> dict:  # fmt: skip
+    """One push's fit: λ, ω, their std (NaN when the fit refuses), and the truth.
+    ``push_scale``: the bottle's drawn push distance times this (same duration: faster)."""
     extra = {"sugar_concentration": conc} if conc else {}
     base = simulate_trial(liquid, height_mm=height, seed=seed, container=container,
                           duration_s=3.0, **extra)  # fmt: skip
     duration = base.params.push_end_s + hold_s
+    distance = base.params.push_distance_mm * push_scale * (-1) ** push
     trial = simulate_trial(
         liquid, height_mm=height, seed=seed, container=container, duration_s=max(duration, 3.0),
-        parameters={"push_distance_mm": base.params.push_distance_mm * (-1) ** push},
+        parameters={"push_distance_mm": distance},
         noise_seed=push + 1 if push else None, **extra,
     )  # fmt: skip
     rng = np.random.default_rng([seed, push, 77])
@@ -216,6 +225,34 @@ def _share(flags) -> str:
     return f"{k}/{n} ({100 * k / n:.0f} %, {100 * lo:.0f}-{100 * hi:.0f})"
 
 
+def error_split(bottles: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What repeated pushes average and what they do not: per feature (λ, ω), the sd of the
+    fit's relative error between the pushes of one bottle (``within``: divided by √n with n
+    pushes), the sd of the error every push of a bottle shares (``shared``: one-way
+    analysis of variance, between-bottle variance less ``within²/n``; 0 when negative),
+    and the median error. ``bottles``: per bottle, an (n pushes, 2) array of λ/λ_true − 1,
+    ω/ω_true − 1; bottles with a refused fit are left out."""
+    E = np.array([b for b in bottles if np.all(np.isfinite(b))])
+    n = E.shape[1]
+    within = E.var(axis=1, ddof=1).mean(axis=0)
+    shared = np.maximum(E.mean(axis=1).var(axis=0, ddof=1) - within / n, 0.0)
+    return np.sqrt(within), np.sqrt(shared), np.median(E.reshape(-1, 2), axis=0)
+
+
+def height_sensitivity(liquid: str, height: float) -> float:
+    """|dω/dh| / ω of the simulator's small-amplitude slow mode [1/mm] (the grooved cuboid)."""
+    props = get_liquid(liquid)
+    box = get_container("grooved-cuboid")
+    hi, lo = (slosh_system(props, box, height + d).slow_mode()[1] for d in (0.5, -0.5))
+    return abs(hi - lo) / (0.5 * (hi + lo))
+
+
+def _fit_errors(pushes: list[dict]) -> np.ndarray:
+    return np.array([[r["decay_rate"] / r["true_decay_rate"] - 1,
+                      r["angular_frequency"] / r["true_angular_frequency"] - 1]
+                     for r in pushes])  # fmt: skip
+
+
 def _med(x, digits=2) -> str:
     x = np.asarray([v for v in x if v is not None and math.isfinite(v)])
     return f"{np.median(x):.{digits}f}" if x.size else "—"
@@ -234,6 +271,9 @@ def main() -> int:
     parser.add_argument("--skip-upright", action="store_true")
     parser.add_argument("--only-upright", action="store_true")
     parser.add_argument("--rig-runs", type=int, default=0, help="simulated-rig trials per liquid")
+    parser.add_argument("--push-scales", type=lambda v: [float(x) for x in v.split(",")],
+                        default=[1.0], help="push distances (× the drawn one) whose fit "
+                        "errors the error split also measures, e.g. 1,2")  # fmt: skip
     parser.add_argument("--model", default="gpr", choices=("gpr", "physics-gpr"),
                         help="the property models' kind (liquidtouch train --model)")  # fmt: skip
     args = parser.parse_args()
@@ -260,6 +300,7 @@ def main() -> int:
           f"pushes, model {args.model} "
           f"({time.perf_counter() - began:.0f} s to train)\n")  # fmt: skip
     k_rows, stop_rows, pooled = [], [], []
+    split_cells = defaultdict(list)
     rng = np.random.default_rng(0)
     for li, (liquid, target, asked, tol) in enumerate(TESTS):
         by_k = {k: [] for k in range(1, args.max_pushes + 1)}
@@ -272,6 +313,12 @@ def main() -> int:
                 seed = bottle_seed("test", li, fi, s)
                 pushes = [ring_down(liquid, fill, seed, p, args.hold_s, conc=conc)
                           for p in range(args.max_pushes)]  # fmt: skip
+                split_cells[(liquid, fill, 1.0)].append(_fit_errors(pushes))
+                for scale in set(args.push_scales) - {1.0}:
+                    scaled = [ring_down(liquid, fill, seed, p, args.hold_s, conc=conc,
+                                        push_scale=scale)
+                              for p in range(args.max_pushes)]  # fmt: skip
+                    split_cells[(liquid, fill, scale)].append(_fit_errors(scaled))
                 truth = pushes[0][target]
                 exact = [[pushes[0]["true_decay_rate"], pushes[0]["true_angular_frequency"]]]
                 exact_err.append(abs(float(ceiling.predict(exact)[target][0][0]) - truth))
@@ -327,6 +374,7 @@ def main() -> int:
     print("|---|---|---|---|---|---|---|")
     for r in pooled:
         print("| " + " | ".join(str(v) for v in r) + " |")
+    print_error_split(split_cells, args.max_pushes)
     if args.rig_runs:
         with tempfile.TemporaryDirectory() as tmp:
             rig(args, save_model(model, Path(tmp) / "model.json"), Path(tmp))
@@ -335,6 +383,28 @@ def main() -> int:
     print(f"\nCommand: `nice -n 10 .venv/bin/python benchmarks/acquire/pushes.py "
           f"{shlex.join(sys.argv[1:])}` ({time.perf_counter() - began:.0f} s)")  # fmt: skip
     return 0
+
+
+def print_error_split(cells: dict, pushes: int) -> None:
+    """The table of :func:`error_split` per liquid, fill and push scale, with what the
+    shared ω error means for the height: its sd over ω's relative sensitivity."""
+    print(f"\n## What repeated pushes average: the fit's relative error split over the "
+          f"{pushes} pushes of each test bottle (within: between pushes of one bottle, "
+          "averaged by √n; shared: what every push of the bottle shares, which no number of "
+          "pushes of this kind averages), and the height that the shared ω error is\n")  # fmt: skip
+    print("| liquid | fill mm | push × | bottles | ω within | ω shared | ω median "
+          "| λ within | λ shared | λ median | ω per mm | shared ω in mm |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for (liquid, fill, scale), bottles in sorted(cells.items()):
+        within, shared, median = error_split(bottles)
+        cells_pct = [f"{100 * v:.2f} %" for v in (within[1], shared[1], median[1])]
+        cells_pct += [f"{100 * v:.1f} %" for v in (within[0], shared[0], median[0])]
+        height = "— | —"
+        if liquid != "sugar-water":  # its concentration is drawn per bottle
+            per_mm = height_sensitivity(liquid, fill)
+            height = f"{100 * per_mm:.2f} % | {shared[1] / per_mm:.2f}"
+        print(f"| {liquid} | {fill:g} | {scale:g} | {len(bottles)} | " + " | ".join(cells_pct)
+              + f" | {height} |")  # fmt: skip
 
 
 def rig(args, model_path: Path, tmp: Path) -> None:
