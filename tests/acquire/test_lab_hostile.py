@@ -67,12 +67,14 @@ def _marker_csv(path, scale: float = 1.0, t_scale: float | None = None) -> None:
         (1e300, None, "30", "beyond ±1e+06 px"),
         (1.0, 1e-300, None, "at least 1e-06 s apart"),
         (1.0, None, "1e300", "up to 1e+06"),
+        (1.0, 0.5, None, "holds 90 frames over 1.48 s; the fit needs at least 20 frames over 2 s"),
     ],
 )
 def test_dataset_add_refuses_marker_tracks_beyond_range(
     tmp_path, capsys, scale, t_scale, fps, message
 ) -> None:
-    """They were added, then crashed `extract` (OverflowError, LinAlgError)."""
+    """They were added, then crashed `extract` (OverflowError, LinAlgError); tracks shorter
+    than the fit's shortest signal were added, then failed `features`."""
     root = tmp_path / "data"
     assert main(["dataset", "init", str(root)]) == 0
     csv = tmp_path / "m.csv"

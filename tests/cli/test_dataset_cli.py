@@ -53,7 +53,8 @@ def simulated(tmp_path_factory: pytest.TempPathFactory):
 
 @pytest.fixture
 def images(tmp_path: Path) -> Path:
-    """A small image folder (synthetic marker dots), without timestamps.csv."""
+    """A small image folder (synthetic marker dots; 61 frames: the fit's 2 s at 30 fps),
+    without timestamps.csv."""
     from helpers import grid, render_blobs
 
     folder = tmp_path / "cam"
@@ -61,8 +62,8 @@ def images(tmp_path: Path) -> Path:
     import cv2
 
     points = grid((80, 100), pitch=20.0)
-    for k in range(5):
-        cv2.imwrite(str(folder / f"frame{k}.png"), render_blobs(points + 0.3 * k, (80, 100)))
+    for k in range(61):
+        cv2.imwrite(str(folder / f"frame{k}.png"), render_blobs(points + 0.01 * k, (80, 100)))
     (folder / "notes.txt").write_text("not an image")
     return folder
 
@@ -121,12 +122,22 @@ def test_image_folders_need_a_frame_rate(images: Path, tmp_path: Path, capsys) -
     added = add_trial(root, [images], fps=30.0, sensor_names=["left"])
     assert added.fps == 30.0 and added.sensors == ["left"]
     copied = sorted(p.name for p in (added.path / "left").iterdir())
-    assert copied == [f"frame{k}.png" for k in range(5)]  # images only
+    assert copied == sorted(f"frame{k}.png" for k in range(61))  # images only
     # with timestamps.csv the folder times itself; meta.json gets its rate
-    (images / "timestamps.csv").write_text("t_s\n" + "".join(f"{k * 0.05}\n" for k in range(5)))
+    (images / "timestamps.csv").write_text("t_s\n" + "".join(f"{k * 0.05}\n" for k in range(61)))
     added = add_trial(root, [images])
     assert added.fps == pytest.approx(20.0) and added.trial == "trial-0002"
     assert (added.path / "cam" / "timestamps.csv").is_file()
+    assert read_manifest(root)["trial"].tolist() == ["trial-0001", "trial-0002"]
+    # the same 61 frames over 1.2 s (or 6 of them): no fit can come from them, refused now
+    (images / "timestamps.csv").write_text("t_s\n" + "".join(f"{k * 0.02}\n" for k in range(61)))
+    status, _, err = _run(capsys, "dataset", "add", root, images, "-l", "liquid=water")
+    assert status == 2 and "holds 61 frames over 1.2 s; the fit needs at least 20" in err, err
+    for k in range(6, 61):
+        (images / f"frame{k}.png").unlink()
+    (images / "timestamps.csv").unlink()
+    status, _, err = _run(capsys, "dataset", "add", root, images, "--fps", "2")
+    assert status == 2 and "holds 6 frames over 2.5 s; the fit needs at least 20" in err, err
     assert read_manifest(root)["trial"].tolist() == ["trial-0001", "trial-0002"]
 
 

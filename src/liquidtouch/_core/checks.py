@@ -27,6 +27,12 @@ MIN_TIME_STEP_S = 1e-6
 """Smallest step between consecutive frame or sample times [s] (1 MHz)."""
 MAX_RATE_HZ = 1.0 / MIN_TIME_STEP_S
 """Largest frame or sample rate taken in [Hz]."""
+MIN_FIT_SAMPLES = 20
+"""Fewest samples the oscillation fit takes (``fit``); ``dataset add`` refuses a recording
+of fewer frames, which no feature can come from."""
+MIN_FIT_DURATION_S = 2.0
+"""Shortest signal the oscillation fit takes [s] (``fit``); ``dataset add`` refuses a
+shorter recording."""
 
 
 def as_number(value: object) -> float:

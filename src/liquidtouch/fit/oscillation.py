@@ -80,7 +80,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from liquidtouch._core.checks import check_times
+from liquidtouch._core.checks import MIN_FIT_DURATION_S, MIN_FIT_SAMPLES, check_times
 from liquidtouch.errors import NoOscillationError, SignalError
 from liquidtouch.fit import model as om
 from liquidtouch.fit.amplitude import TWO_MODE_EXPONENT, AmplitudeState
@@ -109,11 +109,11 @@ from liquidtouch.fit.solve import FitState, optimise_single_mode, optimise_two_m
 __all__ = ["fit_oscillation", "validate_signal"]
 
 DEFAULT_DELTA_REL = 1.0
-MIN_SAMPLES = 20
+MIN_SAMPLES = MIN_FIT_SAMPLES
 #: most samples a fit takes: time and memory grow linearly (200 000 samples: 23 s CPU,
 #: 270 MB peak; 1 000 000: 160 s, 850 MB). A 3 Hz slosh needs ~30 samples/s: resample
 MAX_SAMPLES = 200_000
-MIN_DURATION_S = 2.0
+MIN_DURATION_S = MIN_FIT_DURATION_S
 #: u varying by less than this fraction of its magnitude is flat (float precision)
 FLAT_RELATIVE = 1e-12
 #: energy of the fitted oscillation over the local noise level below which it is noise

@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from liquidtouch._core.checks import MAX_RATE_HZ
+from liquidtouch._core.checks import MAX_RATE_HZ, MIN_FIT_DURATION_S, MIN_FIT_SAMPLES
 from liquidtouch._core.progress import progress_bar
 from liquidtouch.errors import DatasetError
 from liquidtouch.io.dataset import FEATURES_NAME, MANIFEST_NAME, META_NAME, trial_path
@@ -109,6 +109,7 @@ class _Source:
     path: Path
     folder: bool
     fps: float | None  # the video stream's rate, or the rate of a folder's timestamps.csv
+    frames: int
     images: list[Path] = field(default_factory=list)
     has_timestamps: bool = False
 
@@ -128,15 +129,29 @@ def _inspect_source(path: Path) -> _Source:
         fps = None
         if stamps is not None and len(stamps) > 1:  # the rate extract fits (bursts too)
             fps = fit_frame_period(stamps).fps
-        return _Source(path, True, fps, files, (path / TIMESTAMPS_NAME).is_file())
+        return _Source(path, True, fps, len(files), files, (path / TIMESTAMPS_NAME).is_file())
     if path.suffix.lower() in IMAGE_SUFFIXES:
         raise DatasetError(
             f"{path} is one image; give the folder of a sensor's images (or its video)"
         )
     info = video_info(path)
     # the container's count, else its packets (nothing decoded): what extract will track
-    check_frame_count(info.frames or count_frames(path), f"video {path}", DatasetError)
-    return _Source(path, False, info.fps if info.fps > 0 else None)
+    frames = info.frames or count_frames(path)
+    check_frame_count(frames, f"video {path}", DatasetError)
+    return _Source(path, False, info.fps if info.fps > 0 else None, frames)
+
+
+def check_fit_length(frames: int, duration_s: float, what: str) -> None:
+    """Refuse (:class:`DatasetError`) a sensor's recording that no feature can come from:
+    fewer frames than the oscillation fit takes (:data:`MIN_FIT_SAMPLES`) or shorter than
+    its shortest signal (:data:`MIN_FIT_DURATION_S`, ``duration_s`` from the first frame to
+    the last), so that ``dataset add`` says so instead of ``features`` later."""
+    if frames < MIN_FIT_SAMPLES or not duration_s >= MIN_FIT_DURATION_S:
+        raise DatasetError(
+            f"{what} holds {frames} frames over {duration_s:.3g} s; the fit needs at least "
+            f"{MIN_FIT_SAMPLES} frames over {MIN_FIT_DURATION_S:g} s (a recording is the push "
+            "and its ring-down: ~15 s)"
+        )
 
 
 def check_image_frames(folder: Path, files: Sequence[Path]) -> None:
@@ -256,6 +271,8 @@ def build_from_files(
                     f"`fps` {fps:g} differs from the {it.fps:g} fps of {it.path.name}'s video "
                     "stream; meta.json records `fps` (videos are timed by their own timestamps)"
                 )
+    for it in items:
+        check_fit_length(it.frames, (it.frames - 1) / rate, f"{it.path} at {rate:g} fps")
     entries, linked, copied = [], 0, 0
     reasons: set[str] = set()
     for it, sensor in zip(items, names, strict=True):
@@ -298,6 +315,7 @@ def build_from_markers(
     tracks = [read_marker_csv(p, fps=fps, sensor=n) for p, n in zip(paths, names, strict=True)]
     for tr in tracks:
         check_frame_count(len(tr.t), f"marker CSV of sensor {tr.sensor}", DatasetError)
+        check_fit_length(len(tr.t), float(tr.t[-1] - tr.t[0]), f"marker CSV of sensor {tr.sensor}")
     check_consistent(tracks)
     rate = fps if fps is not None else fit_frame_period(tracks[0].t).fps
     save_tracks(tmp / TRACKS_NAME, tracks)
@@ -325,6 +343,8 @@ def build_from_bag(
             bag, tmp, topics=topics, names=names, time_source=time_source, on_message=advance
         )
     rate = fps if fps is not None else imported[0].fps
+    for topic in imported:
+        check_fit_length(topic.frames, (topic.frames - 1) / rate, f"topic {topic.topic}")
     source = {
         "inputs": [bag.name],
         "topics": [t.topic for t in imported],
