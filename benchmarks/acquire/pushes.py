@@ -45,7 +45,8 @@ ceiling: a model of the same kind trained and tested on the simulator's exact
 small-amplitude (λ, ω) of the same bottles (no fit error at all): what no number of
 pushes can beat. And what repeated pushes average: each test bottle's fit errors split
 into the part that differs between its pushes and the part every push of it shares
-(:func:`error_split`), for pushes of the drawn strength and of ``--push-scales`` times it.
+(:func:`error_split`), for pushes of the drawn strength and u(t) of the default 16 markers
+and for the ``--split-variants`` (push scale, markers); ``--split-only`` runs that alone.
 
 Usage: nice -n 10 python benchmarks/acquire/pushes.py [--seeds 5] [--train-heights 7]
 (the size of benchmarks/RESULTS.md: ``--seeds 10 --train-heights 13 --train-seeds 2
@@ -129,9 +130,10 @@ def bottle_seed(kind: str, *index: int) -> int:
 
 def ring_down(liquid: str, height: float, seed: int, push: int, hold_s: float,
               container: str = "grooved-cuboid", conc: float | None = None,
-              push_scale: float = 1.0) -> dict:  # fmt: skip
+              push_scale: float = 1.0, n_markers: int = 16) -> dict:  # fmt: skip
     """One push's fit: λ, ω, their std (NaN when the fit refuses), and the truth.
-    ``push_scale``: the bottle's drawn push distance times this (same duration: faster)."""
+    ``push_scale``: the bottle's drawn push distance times this (same duration: faster);
+    ``n_markers``: the markers u(t) is built from (``tactile_signal``)."""
     extra = {"sugar_concentration": conc} if conc else {}
     base = simulate_trial(liquid, height_mm=height, seed=seed, container=container,
                           duration_s=3.0, **extra)  # fmt: skip
@@ -153,7 +155,7 @@ def ring_down(liquid: str, height: float, seed: int, push: int, hold_s: float,
         "true_angular_frequency": float(trial.true_angular_frequency),
     }
     try:
-        sig = tactile_signal(tracks)
+        sig = tactile_signal(tracks, n_markers=n_markers)
         fit = FitSettings().fit(sig.t, sig.u)
         row.update(
             decay_rate=fit.decay_rate, decay_rate_std=fit.decay_rate_std,
@@ -253,6 +255,15 @@ def _fit_errors(pushes: list[dict]) -> np.ndarray:
                      for r in pushes])  # fmt: skip
 
 
+def _variants(text: str) -> list[tuple[float, int]]:
+    """``1:16,2:16`` → ``[(1.0, 16), (2.0, 16)]``."""
+    out = []
+    for item in text.split(","):
+        scale, _, markers = item.partition(":")
+        out.append((float(scale), int(markers or 16)))
+    return out
+
+
 def _med(x, digits=2) -> str:
     x = np.asarray([v for v in x if v is not None and math.isfinite(v)])
     return f"{np.median(x):.{digits}f}" if x.size else "—"
@@ -271,13 +282,20 @@ def main() -> int:
     parser.add_argument("--skip-upright", action="store_true")
     parser.add_argument("--only-upright", action="store_true")
     parser.add_argument("--rig-runs", type=int, default=0, help="simulated-rig trials per liquid")
-    parser.add_argument("--push-scales", type=lambda v: [float(x) for x in v.split(",")],
-                        default=[1.0], help="push distances (× the drawn one) whose fit "
-                        "errors the error split also measures, e.g. 1,2")  # fmt: skip
+    parser.add_argument("--split-variants", type=_variants, default=[(1.0, 16)],
+                        help="the error split's variants SCALE:MARKERS (push distance × the "
+                        "drawn one, markers of u(t)), e.g. 1:16,2:16,1:400")  # fmt: skip
+    parser.add_argument("--split-only", action="store_true",
+                        help="the error split alone: no model, rig or upright bottle")  # fmt: skip
     parser.add_argument("--model", default="gpr", choices=("gpr", "physics-gpr"),
                         help="the property models' kind (liquidtouch train --model)")  # fmt: skip
     args = parser.parse_args()
     began = time.perf_counter()
+    if args.split_only:
+        split_only(args)
+        print(f"\nCommand: `nice -n 10 .venv/bin/python benchmarks/acquire/pushes.py "
+              f"{shlex.join(sys.argv[1:])}` ({time.perf_counter() - began:.0f} s)")  # fmt: skip
+        return 0
     if args.only_upright:
         upright(args)
         return 0
@@ -313,12 +331,7 @@ def main() -> int:
                 seed = bottle_seed("test", li, fi, s)
                 pushes = [ring_down(liquid, fill, seed, p, args.hold_s, conc=conc)
                           for p in range(args.max_pushes)]  # fmt: skip
-                split_cells[(liquid, fill, 1.0)].append(_fit_errors(pushes))
-                for scale in set(args.push_scales) - {1.0}:
-                    scaled = [ring_down(liquid, fill, seed, p, args.hold_s, conc=conc,
-                                        push_scale=scale)
-                              for p in range(args.max_pushes)]  # fmt: skip
-                    split_cells[(liquid, fill, scale)].append(_fit_errors(scaled))
+                split_bottle(split_cells, args, liquid, fill, seed, conc, pushes)
                 truth = pushes[0][target]
                 exact = [[pushes[0]["true_decay_rate"], pushes[0]["true_angular_frequency"]]]
                 exact_err.append(abs(float(ceiling.predict(exact)[target][0][0]) - truth))
@@ -385,6 +398,31 @@ def main() -> int:
     return 0
 
 
+def split_bottle(cells: dict, args, liquid: str, fill: float, seed: int, conc: float | None,
+                 pushes: list[dict] | None = None) -> None:  # fmt: skip
+    """Add one test bottle's fit errors to ``cells`` for every ``--split-variants`` (push
+    scale, markers); ``pushes``: the default variant's ring-downs when already made."""
+    for scale, markers in args.split_variants:
+        if pushes is None or (scale, markers) != (1.0, 16):
+            made = [ring_down(liquid, fill, seed, p, args.hold_s, conc=conc, push_scale=scale,
+                              n_markers=markers) for p in range(args.max_pushes)]  # fmt: skip
+        else:
+            made = pushes
+        cells[(liquid, fill, scale, markers)].append(_fit_errors(made))
+
+
+def split_only(args) -> None:
+    """The error split alone (no model): the same test bottles as the full run."""
+    cells = defaultdict(list)
+    rng = np.random.default_rng(0)
+    for li, (liquid, *_) in enumerate(TESTS):
+        for fi, fill in enumerate(TEST_FILLS_MM):
+            for s in range(args.seeds):
+                conc = float(rng.uniform(20, 140)) if liquid == "sugar-water" else None
+                split_bottle(cells, args, liquid, fill, bottle_seed("test", li, fi, s), conc)
+    print_error_split(cells, args.max_pushes)
+
+
 def print_error_split(cells: dict, pushes: int) -> None:
     """The table of :func:`error_split` per liquid, fill and push scale, with what the
     shared ω error means for the height: its sd over ω's relative sensitivity."""
@@ -392,10 +430,10 @@ def print_error_split(cells: dict, pushes: int) -> None:
           f"{pushes} pushes of each test bottle (within: between pushes of one bottle, "
           "averaged by √n; shared: what every push of the bottle shares, which no number of "
           "pushes of this kind averages), and the height that the shared ω error is\n")  # fmt: skip
-    print("| liquid | fill mm | push × | bottles | ω within | ω shared | ω median "
+    print("| liquid | fill mm | push × | markers | bottles | ω within | ω shared | ω median "
           "| λ within | λ shared | λ median | ω per mm | shared ω in mm |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for (liquid, fill, scale), bottles in sorted(cells.items()):
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for (liquid, fill, scale, markers), bottles in sorted(cells.items()):
         within, shared, median = error_split(bottles)
         cells_pct = [f"{100 * v:.2f} %" for v in (within[1], shared[1], median[1])]
         cells_pct += [f"{100 * v:.1f} %" for v in (within[0], shared[0], median[0])]
@@ -403,7 +441,8 @@ def print_error_split(cells: dict, pushes: int) -> None:
         if liquid != "sugar-water":  # its concentration is drawn per bottle
             per_mm = height_sensitivity(liquid, fill)
             height = f"{100 * per_mm:.2f} % | {shared[1] / per_mm:.2f}"
-        print(f"| {liquid} | {fill:g} | {scale:g} | {len(bottles)} | " + " | ".join(cells_pct)
+        print(f"| {liquid} | {fill:g} | {scale:g} | {markers} | {len(bottles)} | "
+              + " | ".join(cells_pct)
               + f" | {height} |")  # fmt: skip
 
 
