@@ -204,6 +204,7 @@ def test_choices_are_the_librarys_and_listed_in_help(capsys) -> None:
     from liquidtouch.extraction.fit_settings import FitSettings
     from liquidtouch.fit.choices import LOSSES, MODELS, NOISE_MODELS
     from liquidtouch.models.property_model import MODEL_KINDS
+    from liquidtouch.signal.tactile import DEFAULT_N_MARKERS
 
     assert [c.value for c in options.LossChoice] == list(LOSSES)
     assert [c.value for c in options.FitModelChoice] == list(MODELS)
@@ -219,6 +220,7 @@ def test_choices_are_the_librarys_and_listed_in_help(capsys) -> None:
         None,
     )
     assert defaults == FitSettings()
+    assert options.DEFAULT_MARKERS == DEFAULT_N_MARKERS  # the CLI's copy, kept light to import
     for command, listed in (
         ("fit", ("paper", "ls", "two-mode", "single-mode", "white", "correlated")),
         ("train", ("gpr", "quadratic", "physics-gpr")),

@@ -38,7 +38,7 @@ from liquidtouch.io.dataset import (
 )
 from liquidtouch.io.tables import FEATURE_COLUMNS
 from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
-from liquidtouch.signal.tactile import check_signal_options
+from liquidtouch.signal.tactile import DEFAULT_N_MARKERS, check_signal_options
 from liquidtouch.tracking.gel import DEFAULT_TRACKING, check_tracking
 
 __all__ = [
@@ -92,7 +92,7 @@ def feature_settings(
     source: str = "gelsight",
     *,
     lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
-    n_markers: int = 16,
+    n_markers: int = DEFAULT_N_MARKERS,
     sensors: list[str] | tuple[str, ...] | None = None,
     fit_settings: FitSettings | None = None,
     tracking: str = DEFAULT_TRACKING,
@@ -295,7 +295,7 @@ def extract_features(
     progress: bool = True,
     on_trial: Callable[[str, dict[str, object]], None] | None = None,
     lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
-    n_markers: int = 16,
+    n_markers: int = DEFAULT_N_MARKERS,
     sensors: list[str] | tuple[str, ...] | None = None,
     fit_settings: FitSettings | None = None,
     tracking: str = DEFAULT_TRACKING,

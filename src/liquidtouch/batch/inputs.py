@@ -21,6 +21,7 @@ from liquidtouch.io.frames import VIDEO_SUFFIXES
 from liquidtouch.io.tables import feature_matrix, read_table
 from liquidtouch.models.feature_rows import error_messages, failed_rows
 from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
+from liquidtouch.signal.tactile import DEFAULT_N_MARKERS
 
 
 def read_prediction_input(
@@ -29,7 +30,7 @@ def read_prediction_input(
     jobs: int = 1,
     dask_address: str | None = None,
     lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
-    n_markers: int = 16,
+    n_markers: int = DEFAULT_N_MARKERS,
     sensors: Sequence[str] | None = None,
     fit_settings: FitSettings | None = None,
 ) -> pd.DataFrame:

@@ -4,7 +4,7 @@ A command takes e.g. ``loss: options.Loss = options.DEFAULT_LOSS``: the flags an
 the help text live here only, so ``fit``, ``extract``, ``features`` and
 ``predict`` offer the same fit options, and every ``--out``/``--jobs`` has the
 same short flag. Choices are enums, so ``--help`` lists them and typer refuses
-anything else. Nothing heavy is imported (``--help`` stays fast; ``liquidtouch.signal.tactile``,
+anything else. Nothing heavy is imported (``--help`` stays fast; ``liquidtouch.signal.lowpass``,
 for its one default cut-off, brings only numpy); the choice
 lists and defaults equal the library's (``tests/cli/test_cli_consistency.py`` checks).
 

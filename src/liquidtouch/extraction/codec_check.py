@@ -44,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from liquidtouch.io.frames import image_files, video_info
+from liquidtouch.signal.tactile import DEFAULT_N_MARKERS
 from liquidtouch.tracking.tracks import MarkerTracks
 
 #: codecs (FFmpeg names; image folders by format) that store frames without loss
@@ -157,7 +158,9 @@ def x264_settings(path: str | Path) -> dict[str, str]:
     return dict(re.findall(r"([\w-]+)=(\S+)", options))
 
 
-def frozen_steps(tracks: Sequence[MarkerTracks], n_markers: int = 16) -> tuple[float, float]:
+def frozen_steps(
+    tracks: Sequence[MarkerTracks], n_markers: int = DEFAULT_N_MARKERS
+) -> tuple[float, float]:
     """``(share, step_px)``: frozen frame steps of the ``n_markers`` most moving markers.
 
     A step (frame k → k+1 of one marker, valid in both) is frozen when the
@@ -215,7 +218,9 @@ def _x264_lossless(encoder: dict[str, str]) -> bool:
 
 
 def check_codec(
-    tracks: Sequence[MarkerTracks], sources: Sequence[str | Path] = (), n_markers: int = 16
+    tracks: Sequence[MarkerTracks],
+    sources: Sequence[str | Path] = (),
+    n_markers: int = DEFAULT_N_MARKERS,
 ) -> CodecCheck:
     """The :class:`CodecCheck` of ``tracks`` tracked from ``sources`` (none: imported tracks)."""
     codecs, encoder = [], {}

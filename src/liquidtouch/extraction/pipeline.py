@@ -26,7 +26,12 @@ from liquidtouch.io.frames import iter_frames, video_info
 from liquidtouch.io.sources import resolve_sources, select_sensors
 from liquidtouch.io.trial_tracks import stored_tracks
 from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
-from liquidtouch.signal.tactile import TactileSignal, check_signal_options, tactile_signal
+from liquidtouch.signal.tactile import (
+    DEFAULT_N_MARKERS,
+    TactileSignal,
+    check_signal_options,
+    tactile_signal,
+)
 from liquidtouch.tracking.clock import check_consistent
 from liquidtouch.tracking.gel import DEFAULT_TRACKING, check_tracking, track_gel
 from liquidtouch.tracking.tracks import MarkerTracks
@@ -137,7 +142,7 @@ def extract(
     paths: PathLike | Sequence[PathLike],
     *,
     lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
-    n_markers: int = 16,
+    n_markers: int = DEFAULT_N_MARKERS,
     fps: float | None = None,
     progress: bool = False,
     fit: bool = True,
@@ -177,7 +182,7 @@ def extract_signal(
     paths: PathLike | Sequence[PathLike],
     *,
     lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
-    n_markers: int = 16,
+    n_markers: int = DEFAULT_N_MARKERS,
     fps: float | None = None,
     progress: bool = False,
 ) -> TactileSignal:
@@ -191,7 +196,7 @@ def extract_trial(
     trial_dir: PathLike,
     *,
     lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
-    n_markers: int = 16,
+    n_markers: int = DEFAULT_N_MARKERS,
     fit_settings: FitSettings | None = None,
     sensors: Sequence[str] | None = None,
     tracking: str = DEFAULT_TRACKING,

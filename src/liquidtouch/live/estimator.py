@@ -60,7 +60,7 @@ from liquidtouch.ring_down import (
     trial_segments,
 )
 from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
-from liquidtouch.signal.tactile import check_signal_options
+from liquidtouch.signal.tactile import DEFAULT_N_MARKERS, check_signal_options
 from liquidtouch.tracking.gel import DEFAULT_TRACKING, check_tracking
 
 logger = logging.getLogger(__name__)
@@ -119,7 +119,7 @@ class LiveEstimator:
         model: object | None = None,
         until_std: Mapping[str, float] | None = None,
         lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
-        n_markers: int = 16,
+        n_markers: int = DEFAULT_N_MARKERS,
         fit_settings: FitSettings | None = None,
         refresh_s: float = REFRESH_S,
         threaded: bool = False,

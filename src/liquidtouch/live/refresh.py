@@ -32,7 +32,7 @@ from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.fit.choices import AUTO as AUTO_MODEL
 from liquidtouch.fit.oscillation import fit_oscillation
 from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
-from liquidtouch.signal.tactile import TactileSignal, tactile_signal
+from liquidtouch.signal.tactile import DEFAULT_N_MARKERS, TactileSignal, tactile_signal
 from liquidtouch.tracking.tracks import MarkerTracks
 
 #: signal within this much of the newest sample is not trusted while streaming [s]: the
@@ -129,7 +129,7 @@ def shared_signal(
     tracks: Sequence[MarkerTracks],
     *,
     lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
-    n_markers: int = 16,
+    n_markers: int = DEFAULT_N_MARKERS,
     from_s: float = -math.inf,
     to_s: float = math.inf,
 ) -> TactileSignal:

@@ -30,6 +30,7 @@ from liquidtouch.live.updates import LiveUpdate
 from liquidtouch.models.kernel_limits import single_threaded_blas
 from liquidtouch.models.modelfile import load_model
 from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
+from liquidtouch.signal.tactile import DEFAULT_N_MARKERS
 from liquidtouch.tracking.gel import DEFAULT_TRACKING, check_tracking
 
 PathLike = str | os.PathLike[str]
@@ -54,7 +55,7 @@ def live_updates(
     sensors: Sequence[str] | None = None,
     fps: float | None = None,
     lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
-    n_markers: int = 16,
+    n_markers: int = DEFAULT_N_MARKERS,
     fit_settings: FitSettings | None = None,
     refresh_s: float = REFRESH_S,
     threaded: bool | None = None,

@@ -56,6 +56,7 @@ from liquidtouch.tracking.clock import frame_period, frame_times
 from liquidtouch.tracking.tracks import MarkerTracks
 
 __all__ = [
+    "DEFAULT_N_MARKERS",
     "TactileSignal",
     "check_signal_options",
     "first_component",
@@ -65,6 +66,10 @@ __all__ = [
 
 #: fewest usable markers (over all sensors) a signal is built from
 MIN_SELECTED = 2
+#: markers u(t) is built from by default: the most moving (the paper's method). More
+#: average more tracking noise but take in markers of small motion, which a lossy codec
+#: freezes first (``benchmarks/RESULTS.md``, "pushes": λ on the validation's H.264 video)
+DEFAULT_N_MARKERS = 16
 
 
 @dataclass(repr=False)
@@ -227,7 +232,7 @@ def tactile_signal(
     tracks: Sequence[MarkerTracks],
     *,
     lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
-    n_markers: int = 16,
+    n_markers: int = DEFAULT_N_MARKERS,
     max_lost_fraction: float = 0.05,
     max_gap_s: float = 0.25,
 ) -> TactileSignal:
@@ -319,7 +324,7 @@ def _on_the_lattice(tracks: MarkerTracks) -> MarkerTracks:
 
 def check_signal_options(
     lowpass_hz: float | None = DEFAULT_LOWPASS_HZ,
-    n_markers: int = 16,
+    n_markers: int = DEFAULT_N_MARKERS,
     max_lost_fraction: float = 0.05,
     max_gap_s: float = 0.25,
 ) -> None:
