@@ -127,8 +127,10 @@ def test_image_folders_need_a_frame_rate(images: Path, tmp_path: Path, capsys) -
     (images / "timestamps.csv").write_text("t_s\n" + "".join(f"{k * 0.05}\n" for k in range(61)))
     added = add_trial(root, [images])
     assert added.fps == pytest.approx(20.0) and added.trial == "trial-0002"
+    # its length is judged on its own clock, not on a `fps` that disagrees with it
+    assert add_trial(root, [images], fps=1000.0, name="fast").fps == 1000.0
     assert (added.path / "cam" / "timestamps.csv").is_file()
-    assert read_manifest(root)["trial"].tolist() == ["trial-0001", "trial-0002"]
+    assert read_manifest(root)["trial"].tolist() == ["trial-0001", "trial-0002", "fast"]
     # the same 61 frames over 1.2 s (or 6 of them): no fit can come from them, refused now
     (images / "timestamps.csv").write_text("t_s\n" + "".join(f"{k * 0.02}\n" for k in range(61)))
     status, _, err = _run(capsys, "dataset", "add", root, images, "-l", "liquid=water")
@@ -138,7 +140,7 @@ def test_image_folders_need_a_frame_rate(images: Path, tmp_path: Path, capsys) -
     (images / "timestamps.csv").unlink()
     status, _, err = _run(capsys, "dataset", "add", root, images, "--fps", "2")
     assert status == 2 and "holds 6 frames over 2.5 s; the fit needs at least 20" in err, err
-    assert read_manifest(root)["trial"].tolist() == ["trial-0001", "trial-0002"]
+    assert read_manifest(root)["trial"].tolist() == ["trial-0001", "trial-0002", "fast"]
 
 
 def test_init_refuses_existing_things(tmp_path: Path, capsys) -> None:

@@ -271,8 +271,9 @@ def build_from_files(
                     f"`fps` {fps:g} differs from the {it.fps:g} fps of {it.path.name}'s video "
                     "stream; meta.json records `fps` (videos are timed by their own timestamps)"
                 )
-    for it in items:
-        check_fit_length(it.frames, (it.frames - 1) / rate, f"{it.path} at {rate:g} fps")
+    for it in items:  # timed as extract will time it: its own clock, else `fps`
+        own = it.fps or rate
+        check_fit_length(it.frames, (it.frames - 1) / own, f"{it.path} at {own:g} fps")
     entries, linked, copied = [], 0, 0
     reasons: set[str] = set()
     for it, sensor in zip(items, names, strict=True):
