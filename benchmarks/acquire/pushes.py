@@ -70,14 +70,13 @@ import numpy as np
 from scipy.stats import beta
 
 from liquidtouch import combine_ring_downs
-from liquidtouch._core.containers import get_container
-from liquidtouch._core.liquids import get_liquid
 from liquidtouch.errors import LiquidTouchError
 from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.models import save_model
 from liquidtouch.models.training import train_regression
 from liquidtouch.planning.push import plan_push
 from liquidtouch.signal.tactile import tactile_signal
+from liquidtouch.sim import get_container, get_liquid
 from liquidtouch.sim.gelsight import sensor_scene
 from liquidtouch.sim.presets import TRAIN_CONCENTRATIONS
 from liquidtouch.sim.protocol_scene import ProtocolTimings
