@@ -75,7 +75,7 @@ from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.models import save_model
 from liquidtouch.models.training import train_regression
 from liquidtouch.planning.push import plan_push
-from liquidtouch.signal.tactile import tactile_signal
+from liquidtouch.signal.tactile import DEFAULT_N_MARKERS, tactile_signal
 from liquidtouch.sim import get_container, get_liquid
 from liquidtouch.sim.gelsight import sensor_scene
 from liquidtouch.sim.presets import TRAIN_CONCENTRATIONS
@@ -129,7 +129,7 @@ def bottle_seed(kind: str, *index: int) -> int:
 
 def ring_down(liquid: str, height: float, seed: int, push: int, hold_s: float,
               container: str = "grooved-cuboid", conc: float | None = None,
-              push_scale: float = 1.0, n_markers: int = 16) -> dict:  # fmt: skip
+              push_scale: float = 1.0, n_markers: int = DEFAULT_N_MARKERS) -> dict:  # fmt: skip
     """One push's fit: λ, ω, their std (NaN when the fit refuses), and the truth.
     ``push_scale``: the bottle's drawn push distance times this (same duration: faster);
     ``n_markers``: the markers u(t) is built from (``tactile_signal``)."""
@@ -259,7 +259,7 @@ def _variants(text: str) -> list[tuple[float, int]]:
     out = []
     for item in text.split(","):
         scale, _, markers = item.partition(":")
-        out.append((float(scale), int(markers or 16)))
+        out.append((float(scale), int(markers or DEFAULT_N_MARKERS)))
     return out
 
 
@@ -281,7 +281,7 @@ def main() -> int:
     parser.add_argument("--skip-upright", action="store_true")
     parser.add_argument("--only-upright", action="store_true")
     parser.add_argument("--rig-runs", type=int, default=0, help="simulated-rig trials per liquid")
-    parser.add_argument("--split-variants", type=_variants, default=[(1.0, 16)],
+    parser.add_argument("--split-variants", type=_variants, default=[(1.0, DEFAULT_N_MARKERS)],
                         help="the error split's variants SCALE:MARKERS (push distance × the "
                         "drawn one, markers of u(t)), e.g. 1:16,2:16,1:400")  # fmt: skip
     parser.add_argument("--split-only", action="store_true",
@@ -402,7 +402,7 @@ def split_bottle(cells: dict, args, liquid: str, fill: float, seed: int, conc: f
     """Add one test bottle's fit errors to ``cells`` for every ``--split-variants`` (push
     scale, markers); ``pushes``: the default variant's ring-downs when already made."""
     for scale, markers in args.split_variants:
-        if pushes is None or (scale, markers) != (1.0, 16):
+        if pushes is None or (scale, markers) != (1.0, DEFAULT_N_MARKERS):
             made = [ring_down(liquid, fill, seed, p, args.hold_s, conc=conc, push_scale=scale,
                               n_markers=markers) for p in range(args.max_pushes)]  # fmt: skip
         else:
