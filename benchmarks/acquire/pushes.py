@@ -50,7 +50,8 @@ and for the ``--split-variants`` (push scale, markers); ``--split-only`` runs th
 
 Usage: nice -n 10 python benchmarks/acquire/pushes.py [--seeds 5] [--train-heights 7]
 (the size of benchmarks/RESULTS.md: ``--seeds 10 --train-heights 13 --train-seeds 2
---train-pushes 3 --rig-runs 4``, ~15 min; ``--model physics-gpr`` the physics-informed GP)
+--train-pushes 3 --rig-runs 4``, ~15 min; ``--model physics-gpr`` the physics-informed GP;
+``--n-markers N`` u(t) of N markers everywhere, the rig's ``run-trial --markers`` too)
 """
 
 from __future__ import annotations
@@ -171,7 +172,8 @@ def training_row(liquid: str, height: float, seed: int, args, container: str = "
                  conc: float | None = None) -> dict:  # fmt: skip
     """One training bottle: ``--train-pushes`` ring-downs combined (as a trial with that many
     pushes would give them; one: the single ring-down)."""
-    pushes = [ring_down(liquid, height, seed, p, args.hold_s, container, conc)
+    pushes = [ring_down(liquid, height, seed, p, args.hold_s, container, conc,
+                        n_markers=args.n_markers)
               for p in range(args.train_pushes)]  # fmt: skip
     row = dict(pushes[0])
     try:
@@ -281,6 +283,9 @@ def main() -> int:
     parser.add_argument("--skip-upright", action="store_true")
     parser.add_argument("--only-upright", action="store_true")
     parser.add_argument("--rig-runs", type=int, default=0, help="simulated-rig trials per liquid")
+    parser.add_argument("--n-markers", type=int, default=DEFAULT_N_MARKERS,
+                        help="markers of u(t) for every ring-down: training, test, rig "
+                        "(run-trial --markers) and the upright bottle")  # fmt: skip
     parser.add_argument("--split-variants", type=_variants, default=[(1.0, DEFAULT_N_MARKERS)],
                         help="the error split's variants SCALE:MARKERS (push distance × the "
                         "drawn one, markers of u(t)), e.g. 1:16,2:16,1:400")  # fmt: skip
@@ -328,7 +333,8 @@ def main() -> int:
             for s in range(args.seeds):
                 conc = float(rng.uniform(20, 140)) if liquid == "sugar-water" else None
                 seed = bottle_seed("test", li, fi, s)
-                pushes = [ring_down(liquid, fill, seed, p, args.hold_s, conc=conc)
+                pushes = [ring_down(liquid, fill, seed, p, args.hold_s, conc=conc,
+                                    n_markers=args.n_markers)
                           for p in range(args.max_pushes)]  # fmt: skip
                 split_bottle(split_cells, args, liquid, fill, seed, conc, pushes)
                 truth = pushes[0][target]
@@ -402,7 +408,7 @@ def split_bottle(cells: dict, args, liquid: str, fill: float, seed: int, conc: f
     """Add one test bottle's fit errors to ``cells`` for every ``--split-variants`` (push
     scale, markers); ``pushes``: the default variant's ring-downs when already made."""
     for scale, markers in args.split_variants:
-        if pushes is None or (scale, markers) != (1.0, DEFAULT_N_MARKERS):
+        if pushes is None or (scale, markers) != (1.0, args.n_markers):
             made = [ring_down(liquid, fill, seed, p, args.hold_s, conc=conc, push_scale=scale,
                               n_markers=markers) for p in range(args.max_pushes)]  # fmt: skip
         else:
@@ -463,7 +469,7 @@ def rig(args, model_path: Path, tmp: Path) -> None:
             if liquid == "sugar-water":
                 spec["sugar_concentration"] = round(float(rng.uniform(20, 140)), 1)
             rows.append(rig_trial(spec, model_path, protocol, tmp / f"{liquid}-{run}",
-                                  target, asked, args.max_pushes))  # fmt: skip
+                                  target, asked, args.max_pushes, args.n_markers))  # fmt: skip
         ok = [r for r in rows if r is not None]
         if not ok:
             print(f"| {liquid} | {asked:g} | — | — | — | — | — | — | — | 0/{len(rows)} |")
@@ -475,14 +481,14 @@ def rig(args, model_path: Path, tmp: Path) -> None:
               f"{_pct(told)} | {len(ok)}/{len(rows)} |")  # fmt: skip
 
 
-def rig_trial(spec, model_path, protocol, out, target, asked, max_pushes):
+def rig_trial(spec, model_path, protocol, out, target, asked, max_pushes, n_markers):
     """One ``run-trial`` on a rig of ``spec``: (pushes, s from the first push to the answer,
     |error|, std, met, cannot tell); ``None`` when the run failed."""
     with rig_serving(**spec) as endpoints:
         argv = [*CLI, "run-trial", "--gripper", endpoints["gripper"], "--arm", endpoints["arm"],
                 "--out", str(out), "--protocol", str(protocol), "--model", str(model_path),
                 "--until-std", f"{target}={asked}", "--max-pushes", str(max_pushes),
-                "--json"]  # fmt: skip
+                "--markers", str(n_markers), "--json"]  # fmt: skip
         for url in endpoints["cameras"].values():
             argv += ["--camera", url]
         done = subprocess.run(argv, capture_output=True, text=True, timeout=600)
@@ -526,7 +532,8 @@ def upright(args) -> None:
         said, met, errs, cover = [], [], [], []
         for s in range(args.seeds):
             seed = bottle_seed("upright-test", fi, s)
-            pushes = [ring_down("water", fill, seed, p, args.hold_s, box)
+            pushes = [ring_down("water", fill, seed, p, args.hold_s, box,
+                                n_markers=args.n_markers)
                       for p in range(args.max_pushes)]  # fmt: skip
             for k in range(1, args.max_pushes + 1):
                 a = answer(model, pushes[:k], "height_mm", asked)

@@ -67,6 +67,8 @@ def _bad_options(tmp_path, models):
         "one camera twice": (["--camera", "0", "--camera", "0"], "same camera"),
         "tracking without a live estimate": (["--tracking", "flow"], "--live"),
         "tracking typo": (["--live", "--tracking", "dots"], "dots"),
+        "markers without a live estimate": (["--markers", "100"], "--live"),
+        "markers below one": (["--live", "--markers", "0"], "n_markers"),
     }
 
 
@@ -106,3 +108,21 @@ def test_live_with_a_classifier_and_a_property_target_says_why(models, capsys):
     status = main(["live", "0", "--model", str(models["liquid"]), "--until-std", "height_mm=1"])
     err = capsys.readouterr().err
     assert status == 2 and "is a classifier" in err and "without --model" not in err
+
+
+def test_markers_reach_the_live_estimate(monkeypatch):
+    import liquidtouch.live as live
+    from liquidtouch.cli.live_trial import LiveTrial
+    from liquidtouch.signal.tactile import DEFAULT_N_MARKERS
+
+    seen = {}
+
+    def fake_updates(frames, **options):
+        seen.update(options)
+        return iter(())
+
+    monkeypatch.setattr(live, "live_updates", fake_updates)
+    trial = LiveTrial(["left", "right"], n_markers=40)
+    trial._run()
+    assert seen["n_markers"] == 40 and seen["tracking"] == trial.tracking
+    assert LiveTrial(["left", "right"]).n_markers == DEFAULT_N_MARKERS  # as extract's

@@ -35,13 +35,16 @@ class LiveTrial:
     """The live estimate beside a ``run-trial`` (module docstring)."""
 
     def __init__(self, names, *, model_file=None, until_std=(), serve=None, max_pushes=1,
-                 tracking=None):  # fmt: skip
-        """Check everything (model file, targets, serve address, --max-pushes, --tracking)
-        before a robot moves."""
+                 tracking=None, n_markers=None):  # fmt: skip
+        """Check everything (model file, targets, serve address, --max-pushes, --tracking,
+        --markers) before a robot moves."""
         from liquidtouch.live.stopping import parse_until_std
+        from liquidtouch.signal.tactile import DEFAULT_N_MARKERS, check_signal_options
         from liquidtouch.tracking.gel import DEFAULT_TRACKING, check_tracking
 
         self.tracking = check_tracking(DEFAULT_TRACKING if tracking is None else tracking)
+        self.n_markers = DEFAULT_N_MARKERS if n_markers is None else n_markers
+        check_signal_options(n_markers=self.n_markers)
 
         self.names = list(names)
         self.limits = parse_until_std(list(until_std))
@@ -139,6 +142,7 @@ class LiveTrial:
                 on_frame=on_frame,
                 stop_on_until_std=self.max_pushes <= 1,  # else the pushes' answer decides
                 tracking=self.tracking,
+                n_markers=self.n_markers,
             ):
                 if update.segment_final and update.combined:
                     self.finals_seen = max(self.finals_seen, update.segment)

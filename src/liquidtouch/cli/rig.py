@@ -124,6 +124,7 @@ def run_trial_command(
     read_timeout_s: options.ReadTimeout = TRIAL_READ_TIMEOUT_S,
     warmup_timeout_s: options.WarmupTimeout = DEFAULT_WARMUP_TIMEOUT_S,
     tracking: options.Tracking = options.DEFAULT_TRACKING,
+    n_markers: options.Markers = options.DEFAULT_MARKERS,
 ) -> None:
     """Run one trial on a robot: grasp, lift, record, push, hold, return, lower, release.
 
@@ -141,8 +142,9 @@ def run_trial_command(
     labels = {k: v for k, v in typed_labels(label).items() if v is not None}
     if plan:
         return _plan(params, labels, model_file, until_std, as_json)
-    live_run = _live_trial(name, len(camera), model_file, until_std, serve, params, str(tracking),
-                           asked=live or model_file is not None or bool(serve))  # fmt: skip
+    asked = live or model_file is not None or bool(serve)
+    live_run = _live_trial(name, len(camera), model_file, until_std, serve, params,
+                           str(tracking), n_markers, asked=asked)  # fmt: skip
     from liquidtouch.acquire.bench import run_trial_at  # after the checks: it imports more
 
     timeouts = dict(open_timeout_s=open_timeout_s, read_timeout_s=read_timeout_s,
@@ -174,7 +176,7 @@ def _progress(as_json: bool):
 
 
 def _live_trial(names: list[str], n_cameras: int, model_file, until_std, serve, params,
-                tracking: str, *, asked: bool):  # fmt: skip
+                tracking: str, n_markers: int, *, asked: bool):  # fmt: skip
     """The live estimate beside the trial (its model, targets and pushes checked now), when
     ``asked`` (--live, --model, --serve), --until-std or --max-pushes want one; else None."""
     from liquidtouch.acquire.cameras.capture import default_names
@@ -182,15 +184,19 @@ def _live_trial(names: list[str], n_cameras: int, model_file, until_std, serve, 
     from liquidtouch.errors import LiquidTouchError
 
     if not (asked or until_std or params.max_pushes > 1):
-        if tracking != options.DEFAULT_TRACKING:  # it would go unused: refused, not ignored
-            raise LiquidTouchError(
-                f"--tracking {tracking} chooses how the live estimate reads the gels: add "
-                "--live (or --model); a recorded trial is tracked when it is extracted"
-            )
+        unused = (("--tracking", tracking, options.DEFAULT_TRACKING),
+                  ("--markers", n_markers, options.DEFAULT_MARKERS))  # fmt: skip
+        for flag, value, default in unused:
+            if value != default:  # it would go unused: refused, not ignored
+                raise LiquidTouchError(
+                    f"{flag} {value} chooses how the live estimate reads the gels: add "
+                    "--live (or --model); a recorded trial is read when it is extracted"
+                )
         return None
     names = list(names) or default_names(n_cameras)
     return LiveTrial(names, model_file=model_file, until_std=until_std, serve=serve,
-                     max_pushes=params.max_pushes, tracking=tracking)  # fmt: skip
+                     max_pushes=params.max_pushes, tracking=tracking,
+                     n_markers=n_markers)  # fmt: skip
 
 
 def _plan(params, labels: dict, model_file, until_std: list[str], as_json: bool) -> None:
