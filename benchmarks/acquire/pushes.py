@@ -286,14 +286,16 @@ def main() -> int:
     parser.add_argument("--n-markers", type=int, default=DEFAULT_N_MARKERS,
                         help="markers of u(t) for every ring-down: training, test, rig "
                         "(run-trial --markers) and the upright bottle")  # fmt: skip
-    parser.add_argument("--split-variants", type=_variants, default=[(1.0, DEFAULT_N_MARKERS)],
+    parser.add_argument("--split-variants", type=_variants, default=None,
                         help="the error split's variants SCALE:MARKERS (push distance × the "
-                        "drawn one, markers of u(t)), e.g. 1:16,2:16,1:400")  # fmt: skip
+                        "drawn one, markers of u(t)), e.g. 1:16,2:16,1:400; default: the "
+                        "drawn push and --n-markers")  # fmt: skip
     parser.add_argument("--split-only", action="store_true",
                         help="the error split alone: no model, rig or upright bottle")  # fmt: skip
     parser.add_argument("--model", default="gpr", choices=("gpr", "physics-gpr"),
                         help="the property models' kind (liquidtouch train --model)")  # fmt: skip
     args = parser.parse_args()
+    args.split_variants = args.split_variants or [(1.0, args.n_markers)]
     began = time.perf_counter()
     if args.split_only:
         split_only(args)
