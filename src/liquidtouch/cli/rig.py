@@ -134,12 +134,7 @@ def run_trial_command(
     again until the answer is known or cannot be told. On any error or Ctrl-C the arm
     stops, the gripper KEEPS holding the bottle and no trial is written.
     """
-    from liquidtouch.acquire.protocol_params import trial_parameters
-    from liquidtouch.io.labels import typed_labels
-
-    params = trial_parameters(protocol, hold_s=seconds, camera_profile=sensor,
-                              max_pushes=max_pushes)  # fmt: skip
-    labels = {k: v for k, v in typed_labels(label).items() if v is not None}
+    params, labels = _trial_options(protocol, seconds, sensor, max_pushes, label)
     if plan:
         return _plan(params, labels, model_file, until_std, as_json)
     asked = live or model_file is not None or bool(serve)
@@ -164,6 +159,16 @@ def run_trial_command(
     if live_run is not None:
         live_run.write(run.trial_dir)
     _report(run, as_json, live_run)
+
+
+def _trial_options(protocol, seconds, sensor, max_pushes, label: list[str]):
+    """The trial's parameters (protocol file and options) and its typed labels, checked."""
+    from liquidtouch.acquire.protocol_params import trial_parameters
+    from liquidtouch.io.labels import typed_labels
+
+    params = trial_parameters(protocol, hold_s=seconds, camera_profile=sensor,
+                              max_pushes=max_pushes)  # fmt: skip
+    return params, {k: v for k, v in typed_labels(label).items() if v is not None}
 
 
 def _progress(as_json: bool):
