@@ -128,6 +128,14 @@ def bottle_seed(kind: str, *index: int) -> int:
     return seed
 
 
+def test_bottle(rng: np.random.Generator, liquid: str, *index: int) -> tuple[int, float | None]:
+    """Test bottle ``index`` (liquid, fill, repeat): its seed and, for sugar water, its
+    concentration drawn from ``rng`` (20-140 g per 100 g; drawn in the order the bottles
+    are made, so the full run and ``--split-only`` test the same bottles)."""
+    conc = float(rng.uniform(20, 140)) if liquid == "sugar-water" else None
+    return bottle_seed("test", *index), conc
+
+
 def ring_down(liquid: str, height: float, seed: int, push: int, hold_s: float,
               container: str = "grooved-cuboid", conc: float | None = None,
               push_scale: float = 1.0, n_markers: int = DEFAULT_N_MARKERS) -> dict:  # fmt: skip
@@ -333,8 +341,7 @@ def main() -> int:
             cells = {k: [] for k in range(1, args.max_pushes + 1)}
             stops = []
             for s in range(args.seeds):
-                conc = float(rng.uniform(20, 140)) if liquid == "sugar-water" else None
-                seed = bottle_seed("test", li, fi, s)
+                seed, conc = test_bottle(rng, liquid, li, fi, s)
                 pushes = [ring_down(liquid, fill, seed, p, args.hold_s, conc=conc,
                                     n_markers=args.n_markers)
                           for p in range(args.max_pushes)]  # fmt: skip
@@ -425,8 +432,7 @@ def split_only(args) -> None:
     for li, (liquid, *_) in enumerate(TESTS):
         for fi, fill in enumerate(TEST_FILLS_MM):
             for s in range(args.seeds):
-                conc = float(rng.uniform(20, 140)) if liquid == "sugar-water" else None
-                split_bottle(cells, args, liquid, fill, bottle_seed("test", li, fi, s), conc)
+                split_bottle(cells, args, liquid, fill, *test_bottle(rng, liquid, li, fi, s))
     print_error_split(cells, args.max_pushes)
 
 
