@@ -25,6 +25,7 @@ from liquidtouch.sim.rig.mjpeg import MjpegServer
 from liquidtouch.tracking.clock import fit_frame_period
 
 FPS = 30.0
+BURST_S = 0.2  # the servers send their frames together every 0.2 s [s]
 LAM, OMEGA = 0.5, 2 * np.pi * 1.3  # a slow ring-down: 3 s of it is 1.5 decay times
 
 
@@ -44,16 +45,22 @@ def _ring_down(base_s: float, push_s: float, seconds: float, amplitude_px: float
     return source
 
 
+def _skipped(server: MjpegServer) -> int:
+    """Frame slots the server skipped while it ran (its producer fell behind)."""
+    return int(np.sum(np.rint(np.diff(server.sent_timestamps) * server.fps) - 1))
+
+
 @pytest.mark.slow(seconds=25)
 def test_two_healthy_streams_delivered_in_bursts_make_a_trial_that_extracts(tmp_path):
     out = tmp_path / "trial"
     base = time.monotonic()
     source = _ring_down(base, base + 4.0, 16.0)  # the push after the cameras are warmed up
     with (
-        MjpegServer(source, fps=FPS, timed=True, stamped=False, burst_s=0.2) as a,
-        MjpegServer(source, fps=FPS, timed=True, stamped=False, burst_s=0.2) as b,
+        MjpegServer(source, fps=FPS, timed=True, stamped=False, burst_s=BURST_S) as a,
+        MjpegServer(source, fps=FPS, timed=True, stamped=False, burst_s=BURST_S) as b,
     ):
-        summary = record([a.url, b.url], 8.0, out, fmt="ffv1")
+        servers = {a.url: a, b.url: b}
+        summary = record(list(servers), 8.0, out, fmt="ffv1")
     for name in ("left", "right"):
         stamps, _ = read_frames(out / f"{name}.mkv")
         steps = np.diff(stamps)
@@ -64,7 +71,10 @@ def test_two_healthy_streams_delivered_in_bursts_make_a_trial_that_extracts(tmp_
         assert fit.delivered and 0.97 * FPS <= fit.fps <= 1.01 * FPS
         s = summary.sensors[name]
         assert s.measured_fps == pytest.approx(fit.fps, rel=1e-4)  # what extract fits
-        assert s.drops <= 0.03 * s.frames  # bursts are not drops (6 of every 6 were, before)
+        # bursts are not drops (6 of every 6 were, before): at most the frame slots the
+        # server skipped, and one burst's frames more (the last frames' delay, when a busy
+        # reader splits their burst, cannot be told from drops)
+        assert s.drops <= _skipped(servers[s.source]) + round(BURST_S * FPS)
     # meta.json: what extract fits
     assert read_trial_meta(out).fps == pytest.approx(summary.fps, rel=1e-9)
     result = extract(out)  # before: "videos of one trial differ in frame rate"

@@ -158,7 +158,8 @@ def fit_frame_period(t: np.ndarray) -> PeriodFit:
       lower convex hull's edge at the middle frame; Moon, Skelly and Towsley (1999),
       "Estimation and removal of clock skew from network delay measurements", IEEE
       INFOCOM), not the least-squares line, which the delays' drift over a recording
-      moved by up to 1 %.
+      moved by up to 1 %. Drops are only counted before the last frames delivered
+      together: no later frame tells their delay from drops.
 
     The reading kept is the one whose least-squares line leaves the smaller RMS
     residual: a camera's stamps lie on
@@ -189,9 +190,16 @@ def fit_frame_period(t: np.ndarray) -> PeriodFit:
             index = _latest_slots((t - start) / period)
         period, start = _floor_line(index, t)
         residual = t - start - period * index
-    # frame slots: the runs' own, and each stall's length in periods
-    stalls = np.rint(gaps[stall] / period) if not delivered else np.zeros(0)
-    slots = int(index[-1] + np.sum(stalls - 1.0))
+    if delivered:
+        # a delivered frame's slot is only the latest it can have, bounded by the next
+        # frame's; the last frames, delivered together (within half a period), have no
+        # next frame: held back rather than after drops (a recording that ends inside a
+        # burst), one slot each after the frame before them
+        held = np.flatnonzero(gaps >= 0.5 * period)
+        last_bounded = int(held[-1]) if held.size else 0
+        slots = int(index[last_bounded]) + t.size - 1 - last_bounded
+    else:  # the runs' own slots, and each stall's length in periods
+        slots = int(index[-1] + np.sum(np.rint(gaps[stall] / period) - 1.0))
     n_pieces = int(piece[-1]) + 1
     first, last = np.full(n_pieces, np.inf), np.full(n_pieces, -np.inf)
     np.minimum.at(first, piece, index)
