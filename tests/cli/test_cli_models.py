@@ -12,6 +12,7 @@ import pytest
 
 from liquidtouch.cli import main
 from liquidtouch.io.tables import FEATURE_COLUMNS
+from liquidtouch.models.modelfile_schema import FORMAT_VERSION
 from liquidtouch.testing.synthetic_tables import (
     CONTAINER_B,
     PAPER_CONCENTRATIONS,
@@ -169,7 +170,7 @@ def _bad_tables(d):
     (d / "empty.csv").write_text("")
     (d / "foreign.json").write_text('{"weights": [1, 2]}')
     newer = json.loads((d / "m.json").read_text()) if (d / "m.json").exists() else {}
-    newer.update({"format": "liquidtouch-model", "format_version": 8})
+    newer.update({"format": "liquidtouch-model", "format_version": FORMAT_VERSION + 1})
     (d / "newer.json").write_text(json.dumps(newer))
 
 
@@ -206,7 +207,7 @@ def _bad_tables(d):
         ),
         (["classify", "{d}/train.csv", "--out", "{d}/x.json"], "missing column.*liquid"),
         (["predict", "{d}/foreign.json", "{d}/test.csv"], "not a liquidtouch model"),
-        (["predict", "{d}/newer.json", "{d}/test.csv"], "version 8"),
+        (["predict", "{d}/newer.json", "{d}/test.csv"], f"version {FORMAT_VERSION + 1}"),
         (["predict", "{d}/absent.json", "{d}/test.csv"], "no such model file"),
         (["predict", "{d}/c.json", "{d}/no_lambda.csv"], "decay_rate"),
         (["predict", "{d}/c.json", "{d}"], "directory"),

@@ -46,7 +46,7 @@ def test_mirin_is_unknown_and_held_out_trials_of_trained_classes_are_named(synth
     # the rule is in the model file and survives a round trip (format version 3)
     path = save_model(model, tmp_path / "clf.json")
     doc = json.loads(path.read_text())
-    assert doc["format_version"] == 7
+    assert doc["format_version"] == 8
     rule = doc["classifier"]["unknown"]
     assert rule["rule"] == "hotelling-t2" and rule["alpha"] == 0.001
     assert sorted(rule["classes"]) == sorted(TRAINED) and rule["classes"]["water"]["n"] == 8

@@ -150,7 +150,7 @@ def test_the_calibration_is_stored_in_the_model_file(tmp_path) -> None:
     lo0, hi0 = fitted.predict_interval(X, 0.9)["h"]
     assert np.array_equal(lo, lo0) and np.array_equal(hi, hi0)
     doc = json.loads(path.read_text())
-    assert doc["format_version"] == 7 and doc["calibration"]["h"]["n_folds"] == 5
+    assert doc["format_version"] == 8 and doc["calibration"]["h"]["n_folds"] == 5
     # a version-2 file (no calibration) still loads, uncalibrated
     from liquidtouch.models.modelfile_checks import document_sha256
 

@@ -380,7 +380,7 @@ def test_provenance_is_recorded_and_old_files_still_load(gp_doc, tmp_path, files
     import sklearn
 
     prov = gp_doc["provenance"]
-    assert gp_doc["format_version"] == 7
+    assert gp_doc["format_version"] == 8
     assert prov["liquidtouch"] == liquidtouch.__version__
     assert prov["scikit_learn"] == sklearn.__version__ and prov["numpy"] == np.__version__
     # the same training table gives the same training hash whatever the model kind

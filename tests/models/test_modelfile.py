@@ -46,7 +46,7 @@ def test_regression_round_trip_is_exact(tmp_path, tables, kind: str) -> None:
         assert np.array_equal(before[target][1], after[target][1])
     assert again.feature_map == model.feature_map and again.targets == model.targets
     doc = json.loads(path.read_text())
-    assert doc["format"] == "liquidtouch-model" and doc["format_version"] == 7
+    assert doc["format"] == "liquidtouch-model" and doc["format_version"] == 8
     assert set(doc["provenance"]) == {
         "liquidtouch",
         "scikit_learn",

@@ -36,7 +36,7 @@ from liquidtouch.io.dataset import (
     read_trial_meta,
     trial_path,
 )
-from liquidtouch.io.tables import FEATURE_COLUMNS
+from liquidtouch.io.tables import FEATURE_COLUMNS, SETTINGS_COLUMN
 from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
 from liquidtouch.signal.tactile import DEFAULT_N_MARKERS, check_signal_options
 from liquidtouch.tracking.gel import DEFAULT_TRACKING, check_tracking
@@ -50,6 +50,7 @@ __all__ = [
     "cache_trial_features",
     "extract_features",
     "feature_settings",
+    "settings_text",
     "trial_features",
 ]
 
@@ -84,7 +85,7 @@ FEATURE_ROW_COLUMNS = (
 )
 #: Columns after ``error``: the liquidtouch version that computed the row and the
 #: settings of the run (compact JSON, :func:`feature_settings`).
-PROVENANCE_COLUMNS = ("liquidtouch_version", "extraction_settings")
+PROVENANCE_COLUMNS = ("liquidtouch_version", SETTINGS_COLUMN)
 CACHE_DIR = Path(".cache") / "features"
 
 
@@ -130,6 +131,12 @@ def feature_settings(
         "fit": fit.to_dict(),
         **({} if check_tracking(tracking) == DEFAULT_TRACKING else {"tracking": tracking}),
     }
+
+
+def settings_text(settings: dict[str, object]) -> str:
+    """``settings`` (:func:`feature_settings`'s) as a table's ``extraction_settings`` cell:
+    compact JSON, keys sorted."""
+    return json.dumps(settings, sort_keys=True, separators=(",", ":"))
 
 
 def _fit_settings(settings: dict[str, object]):
@@ -322,7 +329,7 @@ def extract_features(
         fit_settings=fit_settings,
         tracking=tracking,
     )
-    settings_json = json.dumps(settings, sort_keys=True, separators=(",", ":"))
+    settings_json = settings_text(settings)
     root = Path(dataset)
     manifest = read_manifest(root)
     results: dict[str, dict[str, object]] = {}
@@ -371,7 +378,7 @@ def extract_features(
         row.update({name: features.get(name, math.nan) for name in FEATURE_ROW_COLUMNS})
         row["error"] = result.get("error") or ""
         row["liquidtouch_version"] = result.get("liquidtouch_version") or __version__
-        row["extraction_settings"] = settings_json
+        row[SETTINGS_COLUMN] = settings_json
         rows.append(row)
     table = pd.DataFrame(rows)
     table.attrs.update(

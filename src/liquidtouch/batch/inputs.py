@@ -12,13 +12,13 @@ from pathlib import Path
 
 import pandas as pd
 
-from liquidtouch.batch.features import extract_features, feature_settings
+from liquidtouch.batch.features import extract_features, feature_settings, settings_text
 from liquidtouch.errors import TableError
 from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.extraction.pipeline import extract
 from liquidtouch.io.dataset import MANIFEST_NAME, META_NAME
 from liquidtouch.io.frames import VIDEO_SUFFIXES
-from liquidtouch.io.tables import feature_matrix, read_table
+from liquidtouch.io.tables import SETTINGS_COLUMN, feature_matrix, read_table
 from liquidtouch.models.feature_rows import error_messages, failed_rows
 from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
 from liquidtouch.signal.tactile import DEFAULT_N_MARKERS
@@ -58,7 +58,7 @@ def read_prediction_input(
         "sensors": None if sensors is None else list(sensors),
         "fit_settings": fit_settings,
     }
-    feature_settings("gelsight", **settings)  # bad settings fail before any work
+    chosen = feature_settings("gelsight", **settings)  # bad settings fail before any work
     path = Path(path)
     if path.is_dir() and (path / MANIFEST_NAME).is_file():
         table = extract_features(
@@ -73,7 +73,8 @@ def read_prediction_input(
         if failed is not None and failed.all():
             raise TableError(f"no trial of {path} could be extracted: {error_messages(table)[0]}")
     elif (path.is_dir() and (path / META_NAME).is_file()) or path.suffix.lower() in VIDEO_SUFFIXES:
-        table = pd.DataFrame([{"trial": str(path), **extract(path, **settings).to_dict()}])
+        row = {"trial": str(path), **extract(path, **settings).to_dict()}
+        table = pd.DataFrame([{**row, SETTINGS_COLUMN: settings_text(chosen)}])
     elif path.is_dir():
         raise TableError(
             f"{path} is neither a dataset ({MANIFEST_NAME}) nor a trial directory ({META_NAME})"

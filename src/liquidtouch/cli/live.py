@@ -118,7 +118,7 @@ def live(
 
     limits = parse_until_std(until_std)
     address = parse_serve(serve) if serve else None
-    model, unreachable = live_model(model_file, limits)
+    model, unreachable = live_model(model_file, limits, lowpass_hz, n_markers)
     hub = server = on_frame = None
     if address is not None:
         hub, server, on_frame = _start_serving(*address)
@@ -138,22 +138,26 @@ def live(
             hub.close()
 
 
-def live_model(model_file: Path | None, limits: dict[str, float]):
+def live_model(model_file: Path | None, limits: dict[str, float], lowpass_hz, n_markers):
     """The ``--model`` (or None) and the ``--until-std`` targets it can never meet, checked
-    (a warning says which); without a model before the heavy imports (a typo is answered
-    at once)."""
+    (a warning says which, and another if the model was trained on features made
+    otherwise than the live signal, ``lowpass_hz`` and ``n_markers``); without a model
+    before the heavy imports (a typo is answered at once)."""
     from liquidtouch.live.stopping import EVERYWHERE, check_until_std, unreachable_message
 
     if model_file is None:
         check_until_std(limits)
         return None, {}
-    from liquidtouch.live.properties import check_live_request
+    from liquidtouch.live.properties import check_live_request, settings_warning
     from liquidtouch.models.modelfile import load_model
 
     model = load_model(model_file)
     unreachable = check_live_request(model, limits)
     if unreachable:
         warn(unreachable_message(unreachable, limits, EVERYWHERE))
+    other = settings_warning(model, lowpass_hz=lowpass_hz, n_markers=n_markers)
+    if other:
+        warn(other)
     return model, unreachable
 
 

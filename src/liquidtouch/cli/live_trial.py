@@ -39,6 +39,7 @@ class LiveTrial:
         """Check everything (model file, targets, serve address, --max-pushes, --tracking,
         --markers) before a robot moves."""
         from liquidtouch.live.stopping import parse_until_std
+        from liquidtouch.signal.lowpass import DEFAULT_LOWPASS_HZ
         from liquidtouch.signal.tactile import DEFAULT_N_MARKERS, check_signal_options
         from liquidtouch.tracking.gel import DEFAULT_TRACKING, check_tracking
 
@@ -50,7 +51,9 @@ class LiveTrial:
         self.limits = parse_until_std(list(until_std))
         self.address = parse_serve(serve) if serve else None
         #: the model, and the --until-std targets it can never meet {target: its std floor}
-        self.model, self.unreachable = live_model(model_file, self.limits)
+        self.model, self.unreachable = live_model(
+            model_file, self.limits, DEFAULT_LOWPASS_HZ, self.n_markers
+        )
         self.max_pushes = int(max_pushes)
         if self.max_pushes > 1 and (getattr(self.model, "kind", "") != "regression"
                                     or not self.limits):  # fmt: skip

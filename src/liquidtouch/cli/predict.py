@@ -120,8 +120,9 @@ def _check_paths(model_file: Path, input_path: Path) -> None:
 
 
 def _warn_rows(result, fitted) -> None:
-    """One warning per failed row, one for the rows out of domain, one for a classifier
-    that cannot say "unknown"."""
+    """One warning per failed row, one for the rows out of domain, one for the rows
+    extracted otherwise than the model's training features, one for a classifier that
+    cannot say "unknown"."""
     from liquidtouch.models.feature_rows import row_list
     from liquidtouch.models.predictions import unknown_rule
 
@@ -137,6 +138,12 @@ def _warn_rows(result, fitted) -> None:
         warn(
             f"{int(alone.sum())} row(s) far from every trained class (named unknown; "
             f"out_of_domain): rows {row_list(alone)}"
+        )
+    if result.other_settings.any():
+        warn(
+            f"{int(result.other_settings.sum())} row(s) extracted otherwise than the model's "
+            f"training features ({'; '.join(result.settings_differences)}): their std may not "
+            f"hold; rows {row_list(result.other_settings)}"
         )
     rule = unknown_rule(fitted)
     if rule is not None and rule != "available":
@@ -156,6 +163,8 @@ def _summary(result, fitted, model_file: Path, out: Path | None, level) -> dict[
         "n_predicted": int((~result.failed).sum()),
         "n_failed": int(result.failed.sum()),
         "n_out_of_domain": int(result.outside.sum()),
+        "n_other_settings": int(result.other_settings.sum()),
+        "settings_differences": result.settings_differences,
         "level": level,
         "calibrated": fitted.kind == "regression" and fitted.calibrated,
         "unknown_rule": unknown_rule(fitted),

@@ -19,6 +19,8 @@ from liquidtouch.errors import TableError
 from liquidtouch.io.signal_csv import check_csv_bounds, shorten
 
 FEATURE_COLUMNS: tuple[str, str] = ("decay_rate", "angular_frequency")
+#: The column of the settings a row's features were extracted with (compact JSON).
+SETTINGS_COLUMN = "extraction_settings"
 
 
 def read_table(path: str | os.PathLike[str]) -> pd.DataFrame:

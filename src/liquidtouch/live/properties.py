@@ -35,6 +35,7 @@ import numpy as np
 from liquidtouch.live.stopping import check_live_model, check_until_std, unreachable_targets
 from liquidtouch.models import predictions
 from liquidtouch.models.classifier import UNKNOWN
+from liquidtouch.models.extraction_match import settings_differences
 from liquidtouch.models.propagation import MIN_DECAY_RATE
 
 #: weights of the five points (centre, λ ± σλ, ω ± σω) in a classifier's mean probabilities
@@ -49,6 +50,27 @@ def check_live_request(model: object | None, until_std: Mapping[str, float]) -> 
     targets = list(model.targets) if kind == "regression" else []
     check_until_std(until_std, targets, kind)
     return unreachable_targets(model, until_std)
+
+
+def settings_warning(model: object, *, lowpass_hz: float | None, n_markers: int) -> str | None:
+    """A warning when the live signal, u(t) of ``n_markers`` markers low-passed at
+    ``lowpass_hz`` [Hz] (None: not), is made otherwise than ``model``'s training features
+    (:mod:`~liquidtouch.models.extraction_match`); None when it is not, or not known."""
+    trained = getattr(model, "extraction_settings", None)
+    if trained is None:
+        return None
+    used = {
+        "source": "gelsight",
+        "lowpass_hz": None if lowpass_hz is None else float(lowpass_hz),
+        "n_markers": int(n_markers),
+    }
+    differ = settings_differences(trained, used)
+    if not differ:
+        return None
+    return (
+        f"the live signal is made otherwise than the model's training features "
+        f"({'; '.join(differ)}): its std may not hold"
+    )
 
 
 def _five_rows(lam: float, d_lam: float, omega: float, d_omega: float) -> np.ndarray:

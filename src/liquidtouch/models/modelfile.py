@@ -105,6 +105,7 @@ def model_to_dict(model: PropertyModel) -> dict[str, Any]:
         "regressors": states["regressors"],
         "classifier": states["classifier"],
         "calibration": {t: c.to_state() for t, c in model.calibration.items()},
+        "extraction_settings": model.extraction_settings,
     }
     try:
         # plain JSON types (numpy scalars, tuples -> lists), as a reader will see them
@@ -198,6 +199,7 @@ def model_from_dict(doc: Any, where: str = "model") -> PropertyModel:
             f"{where} is a corrupt model file: {exc} (retrain the model)"
         ) from None
     model.provenance = data.provenance.model_dump() if data.provenance is not None else None
+    model.extraction_settings = data.extraction_settings
     return model
 
 

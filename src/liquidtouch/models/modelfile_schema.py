@@ -3,7 +3,7 @@
 A model file is one JSON document (small arrays — training data, scaling —
 are embedded as lists; JSON floats round-trip exactly)::
 
-    {"format": "liquidtouch-model", "format_version": 7,
+    {"format": "liquidtouch-model", "format_version": 8,
      "kind": "regression" | "classification", "created_by": "liquidtouch 0.1.0",
      "provenance": {"liquidtouch": ..., "scikit_learn": ..., "numpy": ..., "python": ...,
                     "training_sha256": ...},
@@ -16,6 +16,7 @@ are embedded as lists; JSON floats round-trip exactly)::
                               "random_state": 0, "scores": [...],
                               "local": {"points": [...], "z2": [...], "bandwidth": h, ...},
                               "normalised_by": "model-std" | "total-std"}},
+     "extraction_settings": {"source": "gelsight", "n_markers": 16, ...} | null,
      "sha256": ...}
 
 Each estimator stores its hyperparameters (GP kernel: constant, RBF length
@@ -47,10 +48,12 @@ FORMAT_NAME = "liquidtouch-model"
 #: version 5 a calibration's ``local`` scale (:mod:`liquidtouch.models.local_scale`);
 #: version 6 its ``normalised_by`` (scores of the total std,
 #: :mod:`~liquidtouch.models.conformal`); version 7 a GP's ``row_noise`` (each training
-#: row's own noise, :mod:`~liquidtouch.models.regressors`).
+#: row's own noise, :mod:`~liquidtouch.models.regressors`); version 8 the
+#: ``extraction_settings`` of the training features
+#: (:mod:`~liquidtouch.models.extraction_match`).
 #: Versions 1-4 still load (uncalibrated; a classifier without ``unknown`` gets the
 #: rule at its default false-alarm rate from its training rows).
-FORMAT_VERSION = 7
+FORMAT_VERSION = 8
 
 PositiveFloat = Annotated[float, Field(gt=0)]
 Sha256 = Annotated[str, Field(pattern=r"^[0-9a-f]{64}$")]
@@ -241,6 +244,7 @@ class ModelFile(_Strict):
     regressors: dict[str, RegressorState] = {}
     classifier: SVMState | None = None
     calibration: dict[str, CalibrationState] = {}
+    extraction_settings: dict[str, Any] | None = None
     sha256: Sha256 | None = None
 
     @model_validator(mode="after")
@@ -275,6 +279,8 @@ class ModelFile(_Strict):
             getattr(r, "row_noise", None) is not None for r in self.regressors.values()
         ):
             raise ValueError("a GP's row_noise needs format version 7")
+        if self.format_version < 8 and self.extraction_settings is not None:
+            raise ValueError("extraction_settings need format version 8")
         if self.format_version >= 4 and self.classifier is not None:
             if self.classifier.unknown is None:
                 raise ValueError(f"format version {self.format_version} needs classifier.unknown")

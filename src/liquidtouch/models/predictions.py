@@ -13,7 +13,9 @@ One definition of what a prediction row says, whoever asks:
   to ever answer "unknown".
 
 :func:`predict_rows` gives them for a features table: rows whose feature extraction
-failed are kept with empty predictions (and their error), the rest predicted.
+failed are kept with empty predictions (and their error), the rest predicted, and the
+rows extracted with other settings than the model's training features are named
+(:mod:`liquidtouch.models.extraction_match`).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from liquidtouch.errors import TableError
 from liquidtouch.io.tables import feature_matrix
 from liquidtouch.models.classifier import UNKNOWN
 from liquidtouch.models.conformal import min_rows_for_level
+from liquidtouch.models.extraction_match import row_settings, settings_differences
 from liquidtouch.models.feature_rows import error_messages, failed_rows
 
 __all__ = [
@@ -92,7 +95,10 @@ class Predictions:
     """``predict_rows``'s result: the table with its predicted columns, and per row whether its
     features failed (``failed``, with ``errors``: the reason, "" for a good row) and whether it
     lies out of domain (``outside``: outside the training domain, ``outside_domain``, or
-    named unknown by a classifier, ``unknown``)."""
+    named unknown by a classifier, ``unknown``). ``other_settings`` marks the rows
+    extracted otherwise than the model's training features, ``settings_differences``
+    says how (``"n_markers: 16 -> 1000"``; empty when every row matches or either side's
+    settings are not known)."""
 
     table: pd.DataFrame
     failed: np.ndarray
@@ -100,6 +106,8 @@ class Predictions:
     errors: list[str] = field(default_factory=list)
     outside_domain: np.ndarray | None = None
     unknown: np.ndarray | None = None
+    other_settings: np.ndarray | None = None
+    settings_differences: list[str] = field(default_factory=list)
 
     def who(self, i: int) -> str:
         """Row ``i`` in words: ``trial <name>``, else ``row <i + 1>``."""
@@ -145,4 +153,22 @@ def predict_rows(model: object, table: pd.DataFrame, level: float | None = None)
     if rule is not None:
         result["unknown_rule"] = rule
     result["out_of_domain"] = outside  # the last column, as it always was
-    return Predictions(result, failed, outside, errors, outside_domain, unknown)
+    other, differ = _other_settings(model, table, failed)
+    return Predictions(result, failed, outside, errors, outside_domain, unknown, other, differ)
+
+
+def _other_settings(
+    model: object, table: pd.DataFrame, failed: np.ndarray
+) -> tuple[np.ndarray, list[str]]:
+    """The rows of ``table`` with features (not ``failed``) extracted otherwise than
+    ``model``'s training features, and every difference (in order of first appearance)."""
+    trained = getattr(model, "extraction_settings", None)
+    other = np.zeros(len(table), dtype=bool)
+    differ: dict[str, None] = {}
+    if trained is None:
+        return other, []
+    for i, used in enumerate(row_settings(table)):
+        found = [] if used is None or failed[i] else settings_differences(trained, used)
+        other[i] = bool(found)
+        differ.update(dict.fromkeys(found))
+    return other, list(differ)

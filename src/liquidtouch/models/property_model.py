@@ -133,6 +133,9 @@ class PropertyModel:
         self.domain = domain
         #: what made the model (versions, training-table hash), set by ``load_model``
         self.provenance: dict[str, str] | None = None
+        #: the settings its training features were extracted with (``train`` sets them
+        #: from the table; :mod:`liquidtouch.models.extraction_match`); None: not known
+        self.extraction_settings: dict[str, Any] | None = None
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
         """The constructor arguments: ``regressors``, ``classifier``, ``label``, ``feature_map``,
@@ -155,7 +158,7 @@ class PropertyModel:
         """Replace constructor arguments (checked as the constructor checks them); ``self``.
 
         Raises :class:`TableError` for an unknown parameter or an invalid combination.
-        The :attr:`provenance` is kept.
+        The :attr:`provenance` and :attr:`extraction_settings` are kept.
         """
         unknown = sorted(set(params) - set(self._PARAMS))
         if unknown:
@@ -164,10 +167,9 @@ class PropertyModel:
                 f"its parameters: {', '.join(self._PARAMS)}"
             )
         merged = {**self.get_params(), **params}
-        provenance = self.provenance
+        kept = {"provenance": self.provenance, "extraction_settings": self.extraction_settings}
         fresh = PropertyModel(**merged)  # validate before changing anything
-        self.__dict__.update(fresh.__dict__)
-        self.provenance = provenance
+        self.__dict__.update({**fresh.__dict__, **kept})
         return self
 
     def __repr__(self) -> str:

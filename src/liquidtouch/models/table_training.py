@@ -21,6 +21,7 @@ import pandas as pd
 from liquidtouch.errors import TableError
 from liquidtouch.io.tables import feature_matrix, label_column, numeric_column
 from liquidtouch.models.conformal import default_groups
+from liquidtouch.models.extraction_match import table_settings
 from liquidtouch.models.held_out import (
     classification_accuracy,
     regression_errors,
@@ -105,6 +106,7 @@ def train_on_table(
         calibration_groups=calibration_groups(table, calibration_group),
         calibration_std=feature_std_matrix(table),
     )
+    fitted.extraction_settings = table_settings(table)
     held_out = None if rest is None else regression_errors(fitted, rest, list(columns))
     return TableTraining(
         model=fitted,
@@ -130,6 +132,7 @@ def classify_on_table(
     """
     table, X, rest, chosen = split_rows(table, feature_matrix(table), split, where, source)
     fitted = train_classifier(X, label_column(table, label), label=label)
+    fitted.extraction_settings = table_settings(table)
     return TableTraining(
         model=fitted,
         n_rows=int(X.shape[0]),

@@ -147,6 +147,7 @@ def fit_transfer(
         domain=model.domain,
         calibration=model.calibration,  # the source container's: not re-measured here
     )
+    transferred.extraction_settings = model.extraction_settings
     return TransferResult(
         model=transferred,
         feature_map=new_map,
