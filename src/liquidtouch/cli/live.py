@@ -138,7 +138,9 @@ def live(
             hub.close()
 
 
-def live_model(model_file: Path | None, limits: dict[str, float], lowpass_hz, n_markers):
+def live_model(
+    model_file: Path | None, limits: dict[str, float], lowpass_hz: float | None, n_markers: int
+):
     """The ``--model`` (or None) and the ``--until-std`` targets it can never meet, checked
     (a warning says which, and another if the model was trained on features made
     otherwise than the live signal, ``lowpass_hz`` and ``n_markers``); without a model
