@@ -17,8 +17,13 @@ from liquidtouch.models.extraction_match import settings_differences, table_sett
 from liquidtouch.models.modelfile import load_model, model_from_dict, model_to_dict, save_model
 from liquidtouch.models.modelfile_checks import document_sha256
 from liquidtouch.models.predictions import predict_rows
-from liquidtouch.models.table_training import classify_on_table, train_on_table
+from liquidtouch.models.table_training import (
+    classify_on_table,
+    train_on_table,
+    transfer_on_table,
+)
 from liquidtouch.testing.synthetic_tables import (
+    CONTAINER_B,
     PAPER_CONCENTRATIONS,
     PAPER_HEIGHTS_MM,
     liquid_table,
@@ -89,6 +94,15 @@ def test_the_model_file_keeps_them_and_predictions_name_other_rows(tmp_path):
     assert not predict_rows(model, test.drop(columns="extraction_settings")).other_settings.any()
     model.extraction_settings = None
     assert not predict_rows(model, test).other_settings.any()
+
+
+def test_a_transferred_model_keeps_its_own():
+    """The transfer maps container B's (λ, ω) onto the model's own features: the model's
+    std is still the one calibrated on them."""
+    base = train_on_table(_table(3), ["height_mm"], model="quadratic", calibration_folds=0)
+    tune = sugar_table(PAPER_HEIGHTS_MM, PAPER_CONCENTRATIONS[::2], seed=7, container=CONTAINER_B)
+    tuned = transfer_on_table(base.model, tune)
+    assert tuned.model.extraction_settings == _settings()
 
 
 def test_a_classifier_keeps_them_and_older_files_may_not_hold_them():
