@@ -141,8 +141,8 @@ def test_predict_warns_once_and_counts_them_in_json(tmp_path, capsys):
     test.to_csv(tmp_path / "test.csv", index=False)
     model = tmp_path / "m.json"
     assert main(["train", str(tmp_path / "train.csv"), "-t", "height_mm", "--model",
-                 "quadratic", "--out", str(model)]) == 0  # fmt: skip
-    capsys.readouterr()
+                 "quadratic", "--out", str(model), "--json"]) == 0  # fmt: skip
+    assert json.loads(capsys.readouterr().out)["extraction_settings"] == _settings()
     assert main(["predict", str(model), str(tmp_path / "test.csv"), "--json"]) == 0
     captured = capsys.readouterr()
     doc = json.loads(captured.out)

@@ -196,6 +196,7 @@ def _training_summary(trained: Any, kind: str, out: Path, skipped: int) -> dict[
             t: {"n_folds": c.n_folds, "n_rows": c.n, "std_scale": c.std_scale}
             for t, c in fitted.calibration.items()
         },
+        "extraction_settings": fitted.extraction_settings,
     }
 
 
@@ -263,6 +264,7 @@ def _classification_summary(
         "C": clf.C_,
         "gamma": clf.gamma_,
         "unknown_rule": rule,
+        "extraction_settings": fitted.extraction_settings,
     }
 
 

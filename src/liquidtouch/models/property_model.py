@@ -12,6 +12,7 @@ picks a class at random with confidence).
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping
 from typing import Any
 
@@ -405,7 +406,8 @@ class PropertyModel:
         }
 
     def summary(self) -> list[str]:
-        """Human-readable lines: per target, training MAE and the fitted model."""
+        """Human-readable lines: per target, training MAE and the fitted model; the
+        settings its features were extracted with."""
         lines = []
         fit_quality = self.training_mae()
         if self.classifier is not None:
@@ -436,4 +438,11 @@ class PropertyModel:
             lines.append(
                 f"container transfer: α = ({a[0]:.4g}, {a[1]:+.4g}), β = ({b[0]:.4g}, {b[1]:+.4g})"
             )
+        settings = self.extraction_settings
+        if settings is not None:
+            shown = ", ".join(
+                f"{name} {json.dumps(settings[name], separators=(',', ':'))}"
+                for name in sorted(settings)
+            )
+            lines.append(f"features extracted with: {shown}")
         return lines
