@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from liquidtouch.batch.features import settings_text
 from liquidtouch.cli import main
 from liquidtouch.cli.live import live_model
 from liquidtouch.errors import ModelFileError, TableError
@@ -38,13 +39,9 @@ def _settings(**changed) -> dict:
             "fit": FIT, **changed}  # fmt: skip
 
 
-def _cell(settings: dict) -> str:
-    return json.dumps(settings, sort_keys=True, separators=(",", ":"))
-
-
 def _table(seed: int, **changed) -> pd.DataFrame:
     table = sugar_table(PAPER_HEIGHTS_MM[::2], PAPER_CONCENTRATIONS[::3], seed=seed)
-    return table.assign(extraction_settings=_cell(_settings(**changed)))
+    return table.assign(extraction_settings=settings_text(_settings(**changed)))
 
 
 def test_differences_are_named_setting_by_setting():
@@ -107,7 +104,7 @@ def test_a_transferred_model_keeps_its_own():
 
 def test_a_classifier_keeps_them_and_older_files_may_not_hold_them():
     table = liquid_table(["water", "mirin"], np.linspace(16, 40, 4), 3, seed=6)
-    fitted = classify_on_table(table.assign(extraction_settings=_cell(_settings()))).model
+    fitted = classify_on_table(table.assign(extraction_settings=settings_text(_settings()))).model
     doc = model_to_dict(fitted)
     assert model_from_dict(doc).extraction_settings == _settings()
     with pytest.raises(ModelFileError, match="extraction_settings need format version 8"):
