@@ -13,6 +13,7 @@ from liquidtouch.batch.features import settings_text
 from liquidtouch.cli import main
 from liquidtouch.cli.live import live_model
 from liquidtouch.errors import ModelFileError, TableError
+from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.live.properties import settings_warning
 from liquidtouch.models.extraction_match import settings_differences, table_settings
 from liquidtouch.models.modelfile import load_model, model_from_dict, model_to_dict, save_model
@@ -31,7 +32,7 @@ from liquidtouch.testing.synthetic_tables import (
     sugar_table,
 )
 
-FIT = {"band_hz": [0.5, 8.0], "loss": "paper", "model": "auto", "noise": "white", "start": None}
+FIT = FitSettings().to_dict()  # extract's, as the live estimate fits
 
 
 def _settings(**changed) -> dict:
@@ -53,8 +54,8 @@ def test_differences_are_named_setting_by_setting():
     ]
     other_fit = _settings(fit={**FIT, "model": "single", "band_hz": [0.5, 6.0]})
     assert settings_differences(_settings(), other_fit) == [
-        "fit.band_hz: [0.5,8.0] -> [0.5,6.0]",
-        'fit.model: "auto" -> "single"',
+        f"fit.band_hz: {json.dumps(FIT['band_hz'], separators=(',', ':'))} -> [0.5,6.0]",
+        f'fit.model: "{FIT["model"]}" -> "single"',
     ]
     # a setting only one side holds (a newer version's, at its default) is not compared
     assert settings_differences(_settings(), {**_settings(), "tracking": "dense"}) == []
@@ -128,6 +129,10 @@ def test_the_live_signal_is_compared_with_the_models_features():
         "the live signal is made otherwise than the model's training features "
         "(n_markers: 16 -> 1000): its std may not hold"
     )
+    # the live fit is extract's unless told: other fit options are named too
+    single = FitSettings(model="single-mode")
+    said = settings_warning(trained.model, lowpass_hz=4.0, n_markers=16, fit_settings=single)
+    assert f'(fit.model: "{FIT["model"]}" -> "single-mode")' in said
     trained.model.extraction_settings = None
     assert settings_warning(trained.model, lowpass_hz=4.0, n_markers=1000) is None
 

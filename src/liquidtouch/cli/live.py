@@ -143,8 +143,8 @@ def live_model(
 ):
     """The ``--model`` (or None) and the ``--until-std`` targets it can never meet, checked
     (a warning says which, and another if the model was trained on features made
-    otherwise than the live signal, ``lowpass_hz`` and ``n_markers``); without a model
-    before the heavy imports (a typo is answered at once)."""
+    otherwise than the live estimate: ``lowpass_hz``, ``n_markers``, ``extract``'s fit);
+    without a model before the heavy imports (a typo is answered at once)."""
     from liquidtouch.live.stopping import EVERYWHERE, check_until_std, unreachable_message
 
     if model_file is None:

@@ -32,6 +32,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.live.stopping import check_live_model, check_until_std, unreachable_targets
 from liquidtouch.models import predictions
 from liquidtouch.models.classifier import UNKNOWN
@@ -52,9 +53,16 @@ def check_live_request(model: object | None, until_std: Mapping[str, float]) -> 
     return unreachable_targets(model, until_std)
 
 
-def settings_warning(model: object, *, lowpass_hz: float | None, n_markers: int) -> str | None:
-    """A warning when the live signal, u(t) of ``n_markers`` markers low-passed at
-    ``lowpass_hz`` [Hz] (None: not), is made otherwise than ``model``'s training features
+def settings_warning(
+    model: object,
+    *,
+    lowpass_hz: float | None,
+    n_markers: int,
+    fit_settings: FitSettings | None = None,
+) -> str | None:
+    """A warning when the live estimate, u(t) of ``n_markers`` markers low-passed at
+    ``lowpass_hz`` [Hz] (None: not) fitted with ``fit_settings`` (default: ``extract``'s),
+    is made otherwise than ``model``'s training features
     (:mod:`~liquidtouch.models.extraction_match`); None when it is not, or not known."""
     trained = getattr(model, "extraction_settings", None)
     if trained is None:
@@ -63,6 +71,7 @@ def settings_warning(model: object, *, lowpass_hz: float | None, n_markers: int)
         "source": "gelsight",
         "lowpass_hz": None if lowpass_hz is None else float(lowpass_hz),
         "n_markers": int(n_markers),
+        "fit": (FitSettings() if fit_settings is None else fit_settings).to_dict(),
     }
     differ = settings_differences(trained, used)
     if not differ:
