@@ -32,6 +32,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from liquidtouch.batch.features import feature_settings
 from liquidtouch.extraction.fit_settings import FitSettings
 from liquidtouch.live.stopping import check_live_model, check_until_std, unreachable_targets
 from liquidtouch.models import predictions
@@ -60,19 +61,15 @@ def settings_warning(
     n_markers: int,
     fit_settings: FitSettings | None = None,
 ) -> str | None:
-    """A warning when the live estimate, u(t) of ``n_markers`` markers low-passed at
-    ``lowpass_hz`` [Hz] (None: not) fitted with ``fit_settings`` (default: ``extract``'s),
-    is made otherwise than ``model``'s training features
-    (:mod:`~liquidtouch.models.extraction_match`); None when it is not, or not known."""
+    """A warning when the live estimate, u(t) of ``n_markers`` markers (of every sensor)
+    low-passed at ``lowpass_hz`` [Hz] (None: not) fitted with ``fit_settings`` (default:
+    ``extract``'s), is made otherwise than ``model``'s training features (the settings
+    :func:`~liquidtouch.batch.features.feature_settings` gives them;
+    :mod:`~liquidtouch.models.extraction_match`); None when it is not, or not known."""
     trained = getattr(model, "extraction_settings", None)
     if trained is None:
         return None
-    used = {
-        "source": "gelsight",
-        "lowpass_hz": None if lowpass_hz is None else float(lowpass_hz),
-        "n_markers": int(n_markers),
-        "fit": (FitSettings() if fit_settings is None else fit_settings).to_dict(),
-    }
+    used = feature_settings(lowpass_hz=lowpass_hz, n_markers=n_markers, fit_settings=fit_settings)
     differ = settings_differences(trained, used)
     if not differ:
         return None

@@ -23,7 +23,7 @@ import pandas as pd
 from liquidtouch.errors import TableError
 from liquidtouch.io.tables import SETTINGS_COLUMN
 
-__all__ = ["parse_settings", "row_settings", "settings_differences", "table_settings"]
+__all__ = ["parse_settings", "row_differences", "settings_differences", "table_settings"]
 
 
 def parse_settings(text: object, where: str) -> dict[str, Any] | None:
@@ -31,7 +31,7 @@ def parse_settings(text: object, where: str) -> dict[str, Any] | None:
 
     Raises :class:`TableError` for a cell that is not a JSON object.
     """
-    if text is None or (isinstance(text, float) and np.isnan(text)) or text == "":
+    if _empty(text):
         return None
     try:
         settings = json.loads(str(text))
@@ -42,12 +42,29 @@ def parse_settings(text: object, where: str) -> dict[str, Any] | None:
     return settings
 
 
-def row_settings(table: pd.DataFrame) -> list[dict[str, Any] | None]:
-    """Each row's settings (``None`` where the table has no such column or the cell is
-    empty)."""
+def _empty(text: object) -> bool:
+    return text is None or (isinstance(text, float) and np.isnan(text)) or text == ""
+
+
+def _cells(table: pd.DataFrame) -> tuple[list[str | None], dict[str, dict[str, Any]]]:
+    """Each row's cell (``None``: empty, or no such column) and every distinct cell's
+    settings, each parsed once (a table's rows mostly share one)."""
     if SETTINGS_COLUMN not in table.columns:
-        return [None] * len(table)
-    return [parse_settings(v, f"row {i + 1}") for i, v in enumerate(table[SETTINGS_COLUMN])]
+        return [None] * len(table), {}
+    cells = [None if _empty(v) else str(v) for v in table[SETTINGS_COLUMN]]
+    parsed: dict[str, dict[str, Any]] = {}
+    for i, cell in enumerate(cells):
+        if cell is not None and cell not in parsed:
+            parsed[cell] = parse_settings(cell, f"row {i + 1}")
+    return cells, parsed
+
+
+def row_differences(trained: Mapping[str, Any], table: pd.DataFrame) -> list[list[str]]:
+    """Per row of ``table``, how its settings differ from ``trained``
+    (:func:`settings_differences`; empty where they match or the row has none)."""
+    cells, parsed = _cells(table)
+    differ = {cell: settings_differences(trained, used) for cell, used in parsed.items()}
+    return [[] if cell is None else differ[cell] for cell in cells]
 
 
 def table_settings(table: pd.DataFrame) -> dict[str, Any] | None:
@@ -57,7 +74,7 @@ def table_settings(table: pd.DataFrame) -> dict[str, Any] | None:
     Raises :class:`TableError` when rows were extracted with different settings: a model
     of such rows would hold no one way to extract the features it is given.
     """
-    found = [s for s in row_settings(table) if s is not None]
+    found = list(_cells(table)[1].values())
     if not found:
         return None
     first = found[0]

@@ -29,7 +29,7 @@ from liquidtouch.errors import TableError
 from liquidtouch.io.tables import feature_matrix
 from liquidtouch.models.classifier import UNKNOWN
 from liquidtouch.models.conformal import min_rows_for_level
-from liquidtouch.models.extraction_match import row_settings, settings_differences
+from liquidtouch.models.extraction_match import row_differences
 from liquidtouch.models.feature_rows import error_messages, failed_rows
 
 __all__ = [
@@ -163,12 +163,9 @@ def _other_settings(
     """The rows of ``table`` with features (not ``failed``) extracted otherwise than
     ``model``'s training features, and every difference (in order of first appearance)."""
     trained = getattr(model, "extraction_settings", None)
-    other = np.zeros(len(table), dtype=bool)
-    differ: dict[str, None] = {}
     if trained is None:
-        return other, []
-    for i, used in enumerate(row_settings(table)):
-        found = [] if used is None or failed[i] else settings_differences(trained, used)
-        other[i] = bool(found)
-        differ.update(dict.fromkeys(found))
-    return other, list(differ)
+        return np.zeros(len(table), dtype=bool), []
+    rows = row_differences(trained, table)
+    found = [[] if bad else differ for differ, bad in zip(rows, failed, strict=True)]
+    other = np.array([bool(differ) for differ in found], dtype=bool)
+    return other, list(dict.fromkeys(name for differ in found for name in differ))
